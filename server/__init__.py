@@ -1,0 +1,3 @@
+"""ViESTac tactile server."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Idempotent setup on Debian 12 (Python 3.11, Node 20): system packages, the Python venv in
+# .venv, and the browser client's npm packages. `--test` adds what the tests need (Chromium for
+# the browser tests, the test extras). Safe to run again: it skips what is already there.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+want_test=0
+[ "${1:-}" = "--test" ] && want_test=1
+
+apt_packages=()
+python3 -c 'import venv, ensurepip' 2>/dev/null || apt_packages+=(python3-venv)
+command -v npm >/dev/null || apt_packages+=(npm)
+if [ "$want_test" = 1 ]; then
+  command -v chromium >/dev/null || apt_packages+=(chromium)
+  command -v gcc >/dev/null || apt_packages+=(gcc)
+fi
+if [ "${#apt_packages[@]}" -gt 0 ]; then
+  echo "setup: installing Debian packages: ${apt_packages[*]}"
+  sudo_cmd=""
+  [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "${apt_packages[@]}" >/dev/null
+fi
+
+if [ ! -x .venv/bin/python ]; then
+  echo "setup: creating .venv"
+  python3 -m venv .venv
+fi
+extras=""
+[ "$want_test" = 1 ] && extras="[test]"
+stamp=".venv/.installed${extras}"
+if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
+  echo "setup: installing Python packages"
+  .venv/bin/python -m pip install -q --upgrade pip
+  .venv/bin/python -m pip install -q -e ".${extras}"
+  touch "$stamp"
+fi
+
+if [ ! -d clients/web/node_modules ] || [ clients/web/package-lock.json -nt clients/web/node_modules ]; then
+  echo "setup: installing the browser client's npm packages"
+  (cd clients/web && npm ci --no-audit --no-fund --loglevel=error)
+  touch clients/web/node_modules
+fi

@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# Set up (if needed) and run every test: JS unit tests (node), then the Python suite (pytest),
+# which includes the real-server integration tests and the headless-Chromium browser tests.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh --test
+echo "== browser client unit tests (node --test)"
+(cd clients/web && node --test test/)
+echo "== Python tests (pytest)"
+exec .venv/bin/python -m pytest -q "$@"

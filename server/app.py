@@ -1,0 +1,42 @@
+"""Composition root: settings → hub + loop supervisor → FastAPI app. No logic lives here."""
+
+from __future__ import annotations
+
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI, WebSocket
+from fastapi.staticfiles import StaticFiles
+
+from server import __version__
+from server.api.routes import router
+from server.config import Settings
+from server.hub.hub import Hub
+from server.hub.supervisor import LoopSupervisor
+
+
+def create_app(settings: Settings) -> FastAPI:
+    hub = Hub(server_name=f"viestac/{__version__}", tick_hz=settings.tick_hz, state_hz=settings.state_hz)
+    supervisor = LoopSupervisor(settings.loop_config(), hub.on_loop_record)
+    hub.send_to_loop = supervisor.send
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI):
+        supervisor.start()
+        yield
+        await supervisor.stop()
+
+    app = FastAPI(title="ViESTac", version=__version__, lifespan=lifespan,
+                  description="Networked evaluation suite for wearable tactile displays. "
+                              "WebSocket protocol: /ws (docs/protocol.md).")
+    app.state.settings = settings
+    app.state.hub = hub
+    app.state.supervisor = supervisor
+    app.include_router(router, prefix="/api")
+
+    @app.websocket("/ws")
+    async def websocket(ws: WebSocket) -> None:
+        await hub.serve(ws)
+
+    if settings.web_root.is_dir():
+        app.mount("/", StaticFiles(directory=settings.web_root, html=True), name="web")
+    return app

@@ -1,0 +1,114 @@
+"""`viestac bench loop`: the real server, real WebSocket clients, loop timing and memory.
+
+Starts `viestac serve` as its own process tree (hub + loop), runs the load generator in a third
+process, resets the loop's cumulative telemetry after the warm-up, and samples the resident
+memory of every server process together. The numbers come from the server's own telemetry
+(the loop's measured periods and tick costs), not from the client side.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+import threading
+import time
+import urllib.request
+
+import psutil
+
+
+def _get(url: str, method: str = "GET") -> dict:
+    request = urllib.request.Request(url, method=method)
+    with urllib.request.urlopen(request, timeout=5) as response:
+        return json.loads(response.read())
+
+
+def start_server(scenario: str = "contact-angle", extra: list[str] | None = None,
+                 timeout_s: float = 30.0) -> tuple[subprocess.Popen, str]:
+    """Start `viestac serve --port 0`; return the process and its base URL once healthy."""
+    proc = subprocess.Popen([sys.executable, "-m", "server.cli", "serve", "--port", "0", "--scenario", scenario,
+                             "--log-level", "warning", *(extra or [])],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    deadline = time.monotonic() + timeout_s
+    base = None
+    assert proc.stdout is not None
+    while base is None:
+        line = proc.stdout.readline()
+        if not line:
+            raise RuntimeError(f"server exited early with code {proc.wait()}")
+        match = re.search(r"on (http://\S+?)/ ", line)
+        if match:
+            base = match.group(1)
+        if time.monotonic() > deadline:
+            proc.kill()
+            raise RuntimeError("server did not print its URL in time")
+    # Keep draining the server's output so it never blocks on a full pipe.
+    threading.Thread(target=lambda: [None for _ in proc.stdout], daemon=True).start()
+    while True:
+        try:
+            if _get(base + "/api/health")["status"] == "ok":
+                return proc, base
+        except OSError:
+            pass
+        if time.monotonic() > deadline:
+            proc.kill()
+            raise RuntimeError("server did not become healthy in time")
+        time.sleep(0.1)
+
+
+def stop_server(proc: subprocess.Popen) -> None:
+    proc.terminate()
+    try:
+        proc.wait(10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+
+
+def _tree_rss_mb(pid: int) -> float:
+    try:
+        root = psutil.Process(pid)
+        procs = [root, *root.children(recursive=True)]
+    except psutil.NoSuchProcess:
+        return 0.0
+    total = 0
+    for p in procs:
+        try:
+            total += p.memory_info().rss
+        except psutil.NoSuchProcess:
+            pass
+    return total / 2**20
+
+
+def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, warmup_s: float = 3.0,
+                   scenario: str = "contact-angle") -> dict:
+    proc, base = start_server(scenario)
+    try:
+        ws_url = base.replace("http://", "ws://") + "/ws"
+        load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers", str(viewers),
+                                 "--trackers", str(trackers), "--warmup", str(warmup_s), "--seconds", str(seconds)],
+                                stdout=subprocess.PIPE, text=True)
+        time.sleep(warmup_s)
+        _get(base + "/api/telemetry/reset", "POST")
+        end = time.monotonic() + seconds
+        peak_rss = 0.0
+        while time.monotonic() < end:
+            peak_rss = max(peak_rss, _tree_rss_mb(proc.pid))
+            time.sleep(0.25)
+        telemetry = _get(base + "/api/telemetry")
+        out, _ = load.communicate(timeout=60)
+        load_result = json.loads(out.strip().splitlines()[-1])
+    finally:
+        stop_server(proc)
+    return {
+        "period_p50_us": telemetry["period_p50_us"], "period_p99_us": telemetry["period_p99_us"],
+        "period_p999_us": telemetry["period_p999_us"], "period_max_us": telemetry["period_max_us"],
+        "overruns": telemetry["overruns"], "ticks": telemetry["ticks"],
+        "tick_cost_p50_us": telemetry["tick_cost_p50_us"], "tick_cost_p99_us": telemetry["tick_cost_p99_us"],
+        "clients": viewers, "trackers": trackers,
+        "frames_received_per_client_hz": load_result["frames_received_per_client_hz"]["mean"],
+        "frames_received_per_client_hz_min": load_result["frames_received_per_client_hz"]["min"],
+        "tracker_messages": load_result["tracker_messages"],
+        "rss_mb": round(peak_rss, 1), "rt": telemetry["rt"], "seconds": seconds, "resyncs": telemetry["resyncs"],
+    }

@@ -1,0 +1,40 @@
+"""Server settings: one validated object, built once at startup and passed explicitly."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from scenarios import registry
+from server.loop.process import LoopConfig
+from server.scene import Scene
+
+WEB_ROOT = Path(__file__).resolve().parents[1] / "clients" / "web"
+
+
+@dataclass(frozen=True)
+class Settings:
+    host: str = "127.0.0.1"
+    port: int = 8000
+    scenario: str = "contact-angle"
+    scene_file: str | None = None
+    tick_hz: int = 1000
+    state_hz: float = 60.0
+    realtime: bool = True
+    web_root: Path = field(default=WEB_ROOT)
+    max_frame_bytes: int = 1 << 20  # frames above this close the connection (1009); 64 KiB+ get an error
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.port <= 65535:
+            raise ValueError("port must be in 0..65535")
+        if not 100 <= self.tick_hz <= 10_000:
+            raise ValueError("tick_hz must be in 100..10000")
+        if not 1 <= self.state_hz <= min(self.tick_hz, 1000):
+            raise ValueError("state_hz must be in 1..tick_hz")
+        object.__setattr__(self, "scenario", registry.resolve(self.scenario).id)  # fails early, with a hint
+        if self.scene_file is not None:
+            Scene.load(self.scene_file)  # fails early with the offending field
+
+    def loop_config(self) -> LoopConfig:
+        return LoopConfig(scenario=self.scenario, scene_file=self.scene_file, tick_hz=self.tick_hz,
+                          state_hz=self.state_hz, realtime=self.realtime)

@@ -1,0 +1,138 @@
+"""The loop process: a thin adapter that runs LoopCore at 1 kHz on a real clock.
+
+Why a separate process at SCHED_FIFO (docs/architecture.md, shared/reference/loop-probe.md):
+a 1 kHz thread beside the asyncio server shares the GIL with the broadcasts and misses
+deadlines (period p99 2-5 ms from 8 viewers on); a separate process at real-time priority held
+p99 1.03 ms with 64 viewers. Without CAP_SYS_NICE/root it falls back to normal priority with a
+clear warning, reported in telemetry as `rt: false`.
+
+It owns: the clock, the deadline scheduler, the simulation and the device sinks. It talks to the
+hub only through the non-blocking mailbox (ipc.py) and exits when the hub goes away.
+Run as `python -m server.loop.process --fd N --config JSON` by the hub (server/hub/supervisor.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import os
+import socket
+import sys
+import traceback
+from dataclasses import asdict, dataclass
+
+from devices.simulated import SimulatedFerroVibe
+from scenarios import registry
+from server.haptics.contact_gate import ContactGate
+from server.loop import ipc
+from server.loop.clock import Clock, MonotonicClock
+from server.loop.core import LoopCore
+from server.loop.scheduler import DeadlineScheduler
+from server.loop.simulation import Simulation
+from server.scene import Scene
+
+
+@dataclass(frozen=True)
+class LoopConfig:
+    scenario: str = "contact-angle"
+    scene_file: str | None = None  # a custom scene (docs/protocol.md format) instead of the scenario's
+    tick_hz: int = 1000
+    state_hz: float = 60.0
+    realtime: bool = True
+    rt_priority: int = 50
+    gate_band: float = 0.002
+    gate_min_on_s: float = 0.030
+    gate_min_off_s: float = 0.030
+    seed: int = 0
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self))
+
+    @classmethod
+    def from_json(cls, text: str) -> LoopConfig:
+        return cls(**json.loads(text))
+
+
+def build_core(config: LoopConfig) -> LoopCore:
+    scenario = registry.create(config.scenario)
+    scene = Scene.load(config.scene_file) if config.scene_file else None
+    gate = ContactGate(config.gate_band, config.gate_min_on_s, config.gate_min_off_s)
+    sim = Simulation(scenario, tick_hz=config.tick_hz, gate=gate, seed=config.seed, scene=scene)
+    return LoopCore(sim, [SimulatedFerroVibe()], state_hz=config.state_hz)
+
+
+def try_realtime(priority: int) -> str | None:
+    """Switch this process to SCHED_FIFO; return a warning when that is not allowed."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        return None
+    except (PermissionError, OSError, AttributeError) as exc:
+        return (f"loop runs WITHOUT real-time priority ({exc}); expect period p99 around 2 ms and "
+                "missed deadlines under load. Run as root or grant CAP_SYS_NICE (e.g. "
+                "`setcap cap_sys_nice+ep` on the python binary, or an rtprio limit) for 1 kHz.")
+
+
+def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None) -> None:
+    clock = clock or MonotonicClock()
+    core = build_core(config)
+    rt_warning = try_realtime(config.rt_priority) if config.realtime else "real-time priority disabled by configuration"
+    rt = rt_warning is None
+    parent = os.getppid()
+    ipc.send_record(sock, ["hello", {"pid": os.getpid(), "rt": rt, "tick_hz": config.tick_hz,
+                                     "state_hz": config.state_hz, "scenario": core.sim.scenario.id}])
+    if rt_warning:
+        ipc.send_record(sock, ["log", "warning", rt_warning])
+    scene = core.sim.scene
+    ipc.send_record(sock, ["scene", scene.to_dict(), scene.hash])
+    # Everything built so far lives for the whole run: keep it out of the collector's sight so
+    # a collection never walks it inside a tick.
+    gc.collect()
+    gc.freeze()
+    scheduler = DeadlineScheduler(clock, 1_000_000_000 // config.tick_hz)
+    failures = 0
+    while True:
+        start, period = scheduler.wait_next()
+        try:
+            records = ipc.drain(sock)
+        except ipc.PeerClosed:
+            return
+        for record in records:
+            if record[0] == "stop":
+                return
+            core.apply(record, start)
+        try:
+            _, state = core.step(start)
+        except Exception:  # noqa: BLE001 - a scenario bug must not kill the loop: fail safe, report
+            failures += 1
+            for sink in core.sinks:
+                sink.submit(core.sim.tick / core.sim.tick_hz, ())
+            core.sim.tick += 1
+            state = None
+            if failures <= 10 or failures % 1000 == 0:
+                ipc.send_record(sock, ["log", "error", f"tick failed ({failures}): {traceback.format_exc()}"])
+        if state is not None:
+            state["rt"] = rt
+            state["resyncs"] = scheduler.resyncs
+            ipc.send_record(sock, ["state", state])
+        core.record_sample(period, clock.now_ns() - start)
+        if core.sim.tick % 1000 == 0 and os.getppid() != parent:
+            return  # the hub died without closing the mailbox
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="viestac-loop")
+    parser.add_argument("--fd", type=int, required=True)
+    parser.add_argument("--config", required=True)
+    args = parser.parse_args(argv)
+    sock = socket.socket(fileno=args.fd)
+    sock.setblocking(False)
+    try:
+        run(sock, LoopConfig.from_json(args.config))
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

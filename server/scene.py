@@ -1,0 +1,213 @@
+"""Scene: the static description of a virtual environment (MuJoCo's "model").
+
+A Scene is built once (by a scenario, or from a JSON file in the format of docs/protocol.md),
+frozen, sent to clients once, and named in every state frame by its hash. Everything that changes
+per tick (HIP, proxy, moving object poses, cues) lives in the simulation's state instead.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from server.haptics.primitives import Body, Pose, shape_from_dict
+
+_COLOR = re.compile(r"^#[0-9a-fA-F]{6}$")
+_ID = re.compile(r"^[A-Za-z0-9_.:-]{1,64}$")
+PROJECTIONS = ("orthographic", "perspective")
+
+
+class SceneError(ValueError):
+    """A scene description that cannot be used; the message names the offending field."""
+
+
+def _vec(d: dict, key: str, where: str, size: int = 3, default=None) -> tuple[float, ...]:
+    value = d.get(key, default)
+    if (not isinstance(value, (list, tuple)) or len(value) != size
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)):
+        raise SceneError(f"{where}.{key} must be an array of {size} finite numbers")
+    return tuple(float(v) for v in value)
+
+
+def _num(d: dict, key: str, where: str, default=None, minimum: float | None = None) -> float:
+    value = d.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise SceneError(f"{where}.{key} must be a finite number")
+    if minimum is not None and value < minimum:
+        raise SceneError(f"{where}.{key} must be >= {minimum}")
+    return float(value)
+
+
+def _color(d: dict, key: str, where: str, default: str) -> str:
+    value = d.get(key, default)
+    if not isinstance(value, str) or not _COLOR.match(value):
+        raise SceneError(f"{where}.{key} must be a colour like '#3a7bd5'")
+    return value
+
+
+def _known(d: dict, allowed: set[str], where: str) -> None:
+    unknown = sorted(set(d) - allowed)
+    if unknown:
+        raise SceneError(f"{where}: unknown field(s) {', '.join(unknown)}; allowed: {', '.join(sorted(allowed))}")
+
+
+@dataclass(frozen=True)
+class Material:
+    color: str = "#8c8c8c"
+    opacity: float = 1.0
+    stiffness_n_per_m: float = 1000.0  # god-object spring k; notional for trackers (no force device)
+    static_friction: float = 0.0
+    dynamic_friction: float = 0.0
+
+    @classmethod
+    def from_dict(cls, d: dict, where: str) -> Material:
+        _known(d, {"color", "opacity", "stiffness_n_per_m", "static_friction", "dynamic_friction"}, where)
+        opacity = _num(d, "opacity", where, 1.0, 0.0)
+        if opacity > 1.0:
+            raise SceneError(f"{where}.opacity must be in [0, 1]")
+        return cls(_color(d, "color", where, cls.color), opacity,
+                   _num(d, "stiffness_n_per_m", where, 1000.0, 0.0),
+                   _num(d, "static_friction", where, 0.0, 0.0), _num(d, "dynamic_friction", where, 0.0, 0.0))
+
+    def to_dict(self) -> dict:
+        return {"color": self.color, "opacity": self.opacity, "stiffness_n_per_m": self.stiffness_n_per_m,
+                "static_friction": self.static_friction, "dynamic_friction": self.dynamic_friction}
+
+
+@dataclass(frozen=True)
+class SceneObject:
+    id: str
+    shape: Any  # a shape from server.haptics.primitives (local frame)
+    pose: Pose = Pose()
+    material: Material = Material()
+    haptic: bool = True   # False: drawn only (e.g. table legs)
+    visible: bool = True  # False: touched only
+
+    def body(self, pose: Pose | None = None) -> Body:
+        m = self.material
+        return Body(self.id, self.shape, pose or self.pose, m.stiffness_n_per_m, m.static_friction, m.dynamic_friction)
+
+    def to_dict(self) -> dict:
+        return {"id": self.id, "shape": self.shape.to_dict(), "pose": self.pose.to_dict(),
+                "material": self.material.to_dict(), "haptic": self.haptic, "visible": self.visible}
+
+
+@dataclass(frozen=True)
+class Camera:
+    projection: str = "orthographic"
+    position: tuple[float, float, float] = (5.0, 0.0, 0.0)
+    target: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    height: float = 2.0    # orthographic: visible height in scene units
+    fov_deg: float = 45.0  # perspective: vertical field of view
+
+    def to_dict(self) -> dict:
+        d: dict[str, Any] = {"projection": self.projection, "position": list(self.position),
+                             "target": list(self.target), "up": list(self.up)}
+        if self.projection == "orthographic":
+            d["height"] = self.height
+        else:
+            d["fov_deg"] = self.fov_deg
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Camera:
+        _known(d, {"projection", "position", "target", "up", "height", "fov_deg"}, "camera")
+        projection = d.get("projection", "orthographic")
+        if projection not in PROJECTIONS:
+            raise SceneError(f"camera.projection must be one of {', '.join(PROJECTIONS)}")
+        return cls(projection, _vec(d, "position", "camera", default=(5, 0, 0)), _vec(d, "target", "camera", default=(0, 0, 0)),
+                   _vec(d, "up", "camera", default=(0, 0, 1)), _num(d, "height", "camera", 2.0, 1e-6),
+                   _num(d, "fov_deg", "camera", 45.0, 1.0))
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    objects: tuple[SceneObject, ...]
+    camera: Camera = Camera()
+    hip_radius: float = 0.06    # drawn HIP sphere (spec.md "Frame and units")
+    proxy_radius: float = 0.06  # god-object contact radius; 0 = point proxy
+    hip_color: str = "#ffd400"
+    hud_text: str = ""
+    _hash: str = field(default="", init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        ids = [o.id for o in self.objects]
+        if len(set(ids)) != len(ids):
+            raise SceneError("object ids must be unique")
+        canonical = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+        object.__setattr__(self, "_hash", hashlib.sha256(canonical.encode()).hexdigest()[:16])
+
+    @property
+    def hash(self) -> str:
+        return self._hash
+
+    def bodies(self) -> tuple[Body, ...]:
+        """The haptic bodies at their scene poses (static scenes use these every tick)."""
+        return tuple(o.body() for o in self.objects if o.haptic)
+
+    def object(self, object_id: str) -> SceneObject:
+        for o in self.objects:
+            if o.id == object_id:
+                return o
+        raise KeyError(object_id)
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "camera": self.camera.to_dict(),
+                "hip": {"radius": self.hip_radius, "proxy_radius": self.proxy_radius, "color": self.hip_color},
+                "objects": [o.to_dict() for o in self.objects], "hud": {"text": self.hud_text}}
+
+    @classmethod
+    def from_dict(cls, d: Any) -> Scene:
+        if not isinstance(d, dict):
+            raise SceneError("a scene must be a JSON object")
+        _known(d, {"name", "camera", "hip", "objects", "hud"}, "scene")
+        name = d.get("name")
+        if not isinstance(name, str) or not name:
+            raise SceneError("scene.name must be a non-empty string")
+        hip = d.get("hip", {})
+        if not isinstance(hip, dict):
+            raise SceneError("scene.hip must be an object")
+        _known(hip, {"radius", "proxy_radius", "color"}, "hip")
+        raw_objects = d.get("objects")
+        if not isinstance(raw_objects, list) or not raw_objects:
+            raise SceneError("scene.objects must be a non-empty array")
+        objects = []
+        for i, o in enumerate(raw_objects):
+            where = f"objects[{i}]"
+            if not isinstance(o, dict):
+                raise SceneError(f"{where} must be an object")
+            _known(o, {"id", "shape", "pose", "material", "haptic", "visible"}, where)
+            oid = o.get("id")
+            if not isinstance(oid, str) or not _ID.match(oid):
+                raise SceneError(f"{where}.id must be 1-64 characters of letters, digits, _ . : -")
+            try:
+                shape = shape_from_dict(o.get("shape"))
+                pose = Pose.from_dict(o.get("pose", {"pos": [0, 0, 0], "quat": [1, 0, 0, 0]}))
+            except (ValueError, TypeError, KeyError) as exc:
+                raise SceneError(f"{where} ({oid}): {exc}") from None
+            for flag in ("haptic", "visible"):
+                if not isinstance(o.get(flag, True), bool):
+                    raise SceneError(f"{where}.{flag} must be true or false")
+            objects.append(SceneObject(oid, shape, pose, Material.from_dict(o.get("material", {}), f"{where}.material"),
+                                       o.get("haptic", True), o.get("visible", True)))
+        hud = d.get("hud", {})
+        if not isinstance(hud, dict) or not isinstance(hud.get("text", ""), str):
+            raise SceneError("scene.hud must be an object with a string 'text'")
+        return cls(name, tuple(objects), Camera.from_dict(d.get("camera", {})),
+                   _num(hip, "radius", "hip", 0.06, 0.0), _num(hip, "proxy_radius", "hip", 0.06, 0.0),
+                   _color(hip, "color", "hip", "#ffd400"), hud.get("text", ""))
+
+    @classmethod
+    def load(cls, path: str | Path) -> Scene:
+        try:
+            data = json.loads(Path(path).read_text())
+        except json.JSONDecodeError as exc:
+            raise SceneError(f"{path}: not valid JSON ({exc})") from None
+        return cls.from_dict(data)
