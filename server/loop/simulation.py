@@ -37,7 +37,7 @@ class TickResult:
 def home_position(scene: Scene) -> Vec3:
     """Where the HIP rests before the first tracker sample: high in the view, above the scene."""
     cam = scene.camera
-    lift = 0.4 * cam.height if cam.projection == "orthographic" else 0.5
+    lift = 0.3 * cam.height if cam.projection == "orthographic" else 0.5
     return (cam.target[0] + cam.up[0] * lift, cam.target[1] + cam.up[1] * lift, cam.target[2] + cam.up[2] * lift)
 
 

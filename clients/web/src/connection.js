@@ -1,0 +1,183 @@
+// WebSocket adapter: turns socket events into protocol messages and back. No rendering, no
+// scenario logic. Reconnects with capped exponential backoff; the tracker path drops samples
+// instead of queueing them when the link is slow (ws.bufferedAmount > 0).
+
+import * as protocol from './protocol.js';
+
+const noop = () => {};
+
+export class Connection {
+  /**
+   * @param {object} opts
+   * @param {string} opts.url            ws:// or wss:// URL of the server's /ws endpoint
+   * @param {string} [opts.role]         participant | operator | observer
+   * @param {string} [opts.client]       free-form client name sent in hello
+   * @param {string} [opts.format]       'msgpack' (default) or 'json'
+   * @param {Function} [opts.WebSocket]  WebSocket constructor (tests inject a fake)
+   * @param {Function} [opts.now]        clock in ms for tracker timestamps
+   * @param {number} [opts.backoffMinMs] first reconnect delay
+   * @param {number} [opts.backoffMaxMs] cap of the reconnect delay
+   */
+  constructor(opts) {
+    this.url = opts.url;
+    this.role = opts.role ?? 'participant';
+    this.client = opts.client ?? 'viestac-web/0.1';
+    this.format = opts.format ?? 'msgpack';
+    this.WebSocket = opts.WebSocket ?? globalThis.WebSocket;
+    this.now = opts.now ?? (() => performance.timeOrigin + performance.now());
+    this.backoffMinMs = opts.backoffMinMs ?? 250;
+    this.backoffMaxMs = opts.backoffMaxMs ?? 5000;
+
+    this.onWelcome = noop;
+    this.onScene = noop;
+    this.onState = noop;
+    this.onError = noop; // (ProtocolError-like {code, message}, source: 'server' | 'client')
+    this.onStatus = noop; // (status string, detail string)
+
+    this.ws = null;
+    this.welcome = null;
+    this.seq = 0; // sample counter: counts samples offered while open, so gaps = dropped samples
+    this.sent = 0;
+    this.dropped = 0;
+    this.attempt = 0;
+    this.retryTimer = null;
+    this.closedByUser = false;
+    this.status = 'idle';
+  }
+
+  connect() {
+    this.closedByUser = false;
+    clearTimeout(this.retryTimer);
+    this.retryTimer = null;
+    this._setStatus('connecting', this.url);
+    let ws;
+    try {
+      ws = new this.WebSocket(this.url, [protocol.SUBPROTOCOLS[this.format]]);
+    } catch (e) {
+      this._setStatus('failed', String(e.message || e));
+      this._scheduleReconnect();
+      return;
+    }
+    ws.binaryType = 'arraybuffer';
+    this.ws = ws;
+    ws.onopen = () => this._onOpen(ws);
+    ws.onmessage = (ev) => this._onMessage(ws, ev.data);
+    ws.onclose = (ev) => this._onClose(ws, ev);
+    ws.onerror = () => {}; // a close event always follows; handled there
+  }
+
+  close() {
+    this.closedByUser = true;
+    clearTimeout(this.retryTimer);
+    if (this.ws) this.ws.close(1000, 'client closing');
+    this.ws = null;
+    this._setStatus('closed', 'by client');
+  }
+
+  get isOpen() {
+    return this.ws !== null && this.ws.readyState === 1;
+  }
+
+  /** Whether this connection may send tracker/input (observers may not); the server's role wins. */
+  get canSend() {
+    return (this.welcome?.role ?? this.role) !== 'observer';
+  }
+
+  /**
+   * Send one HIP sample (scene frame). Returns true if sent. Skips the send (returns false) when
+   * the socket still has unsent bytes: a slow link drops samples rather than building a queue.
+   */
+  sendTracker(pos, quat = null) {
+    if (!this.isOpen || !this.canSend) return false;
+    const seq = this.seq++;
+    if (this.ws.bufferedAmount > 0) {
+      this.dropped++;
+      return false;
+    }
+    this._send(protocol.tracker(seq, this.now(), pos, quat));
+    this.sent++;
+    return true;
+  }
+
+  /** Send a key/command event. Returns true if sent. */
+  sendInput(key, action) {
+    if (!this.isOpen || !this.canSend) return false;
+    this._send(protocol.input(key, action));
+    return true;
+  }
+
+  // -- internals --------------------------------------------------------------------------------
+
+  _send(msg) {
+    const fmt = this.welcome?.format ?? this.format;
+    this.ws.send(protocol.encode(msg, fmt));
+  }
+
+  _setStatus(status, detail = '') {
+    this.status = status;
+    this.onStatus(status, detail);
+  }
+
+  _onOpen(ws) {
+    if (ws !== this.ws) return;
+    // A server that picked no subprotocol speaks the default (msgpack).
+    if (ws.protocol === protocol.SUBPROTOCOLS.json) this.format = 'json';
+    else if (ws.protocol === protocol.SUBPROTOCOLS.msgpack) this.format = 'msgpack';
+    this._setStatus('open', this.url);
+    // Observers may skip hello, but sending it states the protocol version explicitly.
+    this._send(protocol.hello(this.role, this.client));
+  }
+
+  _onMessage(ws, data) {
+    if (ws !== this.ws) return;
+    const fmt = this.welcome?.format ?? this.format;
+    const { msg, error } = protocol.parse(data, fmt);
+    if (error) {
+      if (error.code === 'unknown_type') return; // newer server, newer message: ignore
+      this.onError(error, 'client');
+      return;
+    }
+    switch (msg.type) {
+      case 'welcome':
+        this.welcome = msg;
+        this.attempt = 0;
+        this._setStatus('ready', `client ${msg.client_id} (${msg.role}, ${msg.format})`);
+        this.onWelcome(msg);
+        break;
+      case 'scene':
+        this.onScene(msg);
+        break;
+      case 'state':
+        this.onState(msg);
+        break;
+      case 'error':
+        this.onError(msg, 'server');
+        break;
+      default:
+        break; // client → server types echoed back, or anything else: ignore
+    }
+  }
+
+  _onClose(ws, ev) {
+    if (ws !== this.ws) return;
+    this.ws = null;
+    this.welcome = null;
+    if (this.closedByUser) return;
+    if (ev.code === 1002) {
+      // unsupported_version: retrying cannot help.
+      this._setStatus('failed', `server closed: protocol error (${ev.reason || 1002})`);
+      return;
+    }
+    this._setStatus('closed', `code ${ev.code}${ev.reason ? `: ${ev.reason}` : ''}`);
+    this._scheduleReconnect();
+  }
+
+  _scheduleReconnect() {
+    if (this.closedByUser) return;
+    const base = Math.min(this.backoffMaxMs, this.backoffMinMs * 2 ** this.attempt);
+    const delay = Math.round(base * (0.75 + 0.5 * Math.random()));
+    this.attempt++;
+    this._setStatus('reconnecting', `in ${(delay / 1000).toFixed(1)} s`);
+    this.retryTimer = setTimeout(() => this.connect(), delay);
+  }
+}

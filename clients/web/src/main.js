@@ -1,0 +1,145 @@
+// Entry point: wires the connection, the three.js view, input and the HUD together.
+// URL query: ?ws=ws://host:port/ws  ?role=participant|operator|observer  ?format=msgpack|json
+//            ?depth_step=0.02 (scene units per wheel notch / PageUp/PageDown)
+
+import { Connection } from './connection.js';
+import { SceneView } from './scene_view.js';
+import { PointerInput, KeyForwarder, DEPTH_KEYS } from './input.js';
+import { Hud } from './hud.js';
+import { ROLES } from './protocol.js';
+
+const CLIENT_NAME = 'viestac-web/0.1';
+
+function options(search) {
+  const q = new URLSearchParams(search);
+  const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
+  const role = q.get('role') || 'participant';
+  const depthStep = Number(q.get('depth_step'));
+  return {
+    url: q.get('ws') || `${scheme}//${location.host}/ws`,
+    role: ROLES.includes(role) ? role : 'participant',
+    format: q.get('format') === 'json' ? 'json' : 'msgpack',
+    depthStep: Number.isFinite(depthStep) && depthStep > 0 ? depthStep : 0.02,
+  };
+}
+
+function main() {
+  const opts = options(location.search);
+  const canvas = document.getElementById('view');
+  const hud = new Hud({
+    hud: document.getElementById('hud'),
+    status: document.getElementById('status'),
+    telemetry: document.getElementById('telemetry'),
+    values: document.getElementById('values'),
+  }, { showValues: opts.role !== 'participant' });
+
+  const stats = { framesReceived: 0, trackerSent: 0, trackerDropped: 0, lastStateFrame: null, lastError: null };
+  const view = new SceneView(canvas);
+  const conn = new Connection({ url: opts.url, role: opts.role, format: opts.format, client: CLIENT_NAME });
+  const pointer = new PointerInput({ element: canvas, view, depthStep: opts.depthStep });
+  const sends = opts.role !== 'observer'; // an observer page attaches no input at all
+  const keys = sends
+    ? new KeyForwarder(window, (key, action) => conn.sendInput(key, action), {
+      consume: Object.fromEntries(Object.entries(DEPTH_KEYS).map(([k, dir]) => [k, () => pointer.changeDepth(dir)])),
+    })
+    : null;
+
+  const hook = {
+    ready: false,
+    role: opts.role,
+    clientId: null,
+    sceneHash: null,
+    stats,
+    renderer: view.rendererInfo(),
+    sceneGraph: () => view.sceneGraph(),
+    screenPosition: (scenePos) => view.screenPosition(scenePos),
+    hipTarget: () => pointer.position(),
+    depth: () => pointer.depth,
+    connection: conn,
+    keys,
+  };
+  window.__viestac = hook;
+
+  let statusText = 'connecting';
+  const showStatus = () => {
+    const who = hook.clientId === null ? opts.role : `${opts.role} #${hook.clientId}`;
+    const kind = conn.status === 'ready' ? 'ok' : conn.status === 'failed' ? 'error' : 'warn';
+    const err = stats.lastError ? ` · error: ${stats.lastError.code}: ${stats.lastError.message}` : '';
+    hud.setStatus(`${who} · ${statusText}${err}`, kind);
+  };
+  conn.onStatus = (status, detail) => {
+    statusText = detail ? `${status} (${detail})` : status;
+    showStatus();
+  };
+  conn.onWelcome = (w) => {
+    hook.clientId = w.client_id;
+    showStatus();
+  };
+  conn.onScene = (m) => {
+    view.build(m.scene, m.hash);
+    view.resize();
+    pointer.reset();
+    hook.sceneHash = m.hash;
+    sceneHudText = m.scene.hud?.text ?? '';
+    hud.setText(sceneHudText);
+    sceneBuilt = true;
+  };
+  conn.onState = (s) => {
+    stats.framesReceived++;
+    stats.lastStateFrame = s.frame;
+    stateCount++;
+    if (view.built) view.applyState(s);
+    hud.setText(s.hud || sceneHudText); // an empty state hud shows the scene's hud text
+    hud.setValues(s.values);
+    lastTelemetry = s.telemetry;
+  };
+  conn.onError = (e, source) => {
+    stats.lastError = { code: e.code, message: e.message, source };
+    console.warn(`viestac ${source} error ${e.code}: ${e.message}`);
+    showStatus();
+  };
+
+  window.addEventListener('resize', () => view.resize());
+
+  let sceneBuilt = false;
+  let sceneHudText = '';
+  let stateCount = 0;
+  let lastTelemetry = {};
+  let frames = 0;
+  let windowStart = performance.now();
+  let fps = 0;
+  let stateHz = 0;
+
+  function frame(now) {
+    if (sends) {
+      const p = pointer.peek();
+      if (p !== null && conn.isOpen) {
+        if (conn.sendTracker(p)) {
+          pointer.commit(p);
+          stats.trackerSent++;
+        } else {
+          stats.trackerDropped++; // still pending: retried next frame
+        }
+      }
+    }
+    view.render();
+    if (sceneBuilt && !hook.ready) hook.ready = true; // built and drawn at least once
+
+    frames++;
+    const dt = now - windowStart;
+    if (dt >= 500) {
+      fps = (frames * 1000) / dt;
+      stateHz = (stateCount * 1000) / dt;
+      frames = 0;
+      stateCount = 0;
+      windowStart = now;
+      hud.setTelemetry({ telemetry: lastTelemetry, fps, stateHz });
+    }
+    requestAnimationFrame(frame);
+  }
+
+  conn.connect();
+  requestAnimationFrame(frame);
+}
+
+main();

@@ -1,0 +1,384 @@
+// ViESTac wire protocol v1: pure codec, message builders, validation and frame conversions.
+// No DOM, no WebSocket, no clock: everything here is a function of its arguments, so the same
+// module runs in the browser and under `node --test` against tests/vectors/ (docs/protocol.md).
+
+import { encode as msgpackEncode, decode as msgpackDecode } from '@msgpack/msgpack';
+
+export const PROTOCOL_VERSION = 1;
+export const SCENE_FORMAT_VERSION = 1;
+export const SUBPROTOCOLS = Object.freeze({ msgpack: 'viestac.v1.msgpack', json: 'viestac.v1.json' });
+export const FORMATS = Object.freeze(['msgpack', 'json']);
+export const ROLES = Object.freeze(['participant', 'operator', 'observer']);
+export const INPUT_ACTIONS = Object.freeze(['down', 'up', 'press']);
+export const MAX_CLIENT_NAME = 64;
+export const MAX_KEY_NAME = 32;
+export const ERROR_CODES = Object.freeze([
+  'bad_encoding', 'bad_message', 'non_finite', 'unknown_type',
+  'too_large', 'forbidden', 'unsupported_version', 'busy',
+]);
+export const SHAPE_TYPES = Object.freeze(['sphere', 'box', 'cylinder', 'cone', 'plane', 'hemisphere']);
+
+/** A problem with a frame or a message. `code` uses the protocol's error codes. */
+export class ProtocolError extends Error {
+  constructor(code, message) {
+    super(message);
+    this.name = 'ProtocolError';
+    this.code = code;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Encoding
+
+const textDecoder = new TextDecoder('utf-8', { fatal: true });
+
+/** Throws ProtocolError('non_finite') if any number in `value` is NaN or ±Infinity. */
+function assertFinite(value, path = 'message') {
+  if (typeof value === 'number') {
+    if (!Number.isFinite(value)) throw new ProtocolError('non_finite', `${path} is ${value}`);
+  } else if (Array.isArray(value)) {
+    value.forEach((v, i) => assertFinite(v, `${path}[${i}]`));
+  } else if (value !== null && typeof value === 'object' && !(value instanceof Uint8Array)) {
+    for (const [k, v] of Object.entries(value)) assertFinite(v, `${path}.${k}`);
+  }
+}
+
+/**
+ * Encode one message. "msgpack" → Uint8Array (one msgpack map), "json" → string.
+ * Field order is the object's insertion order; integral numbers are written as ints
+ * (msgpack's smallest int form), the protocol's canonical rule.
+ */
+export function encode(msg, format = 'msgpack') {
+  if (msg === null || typeof msg !== 'object' || Array.isArray(msg)) {
+    throw new ProtocolError('bad_message', 'a message must be a map');
+  }
+  if (typeof msg.type !== 'string') throw new ProtocolError('bad_message', 'a message needs a string "type"');
+  assertFinite(msg);
+  if (format === 'msgpack') return msgpackEncode(msg);
+  if (format === 'json') return JSON.stringify(msg);
+  throw new ProtocolError('bad_encoding', `unknown format ${JSON.stringify(format)}`);
+}
+
+function toBytes(data) {
+  if (data instanceof Uint8Array) return data;
+  if (data instanceof ArrayBuffer) return new Uint8Array(data);
+  if (ArrayBuffer.isView(data)) return new Uint8Array(data.buffer, data.byteOffset, data.byteLength);
+  return null;
+}
+
+/**
+ * Decode one frame into a message map. Throws ProtocolError('bad_encoding') when the frame is
+ * not of the connection's format (binary msgpack vs text JSON) or does not parse, and
+ * ProtocolError('bad_message') when it is not a map with a string `type`.
+ */
+export function decode(data, format = 'msgpack') {
+  let msg;
+  if (format === 'msgpack') {
+    const bytes = toBytes(data);
+    if (bytes === null) throw new ProtocolError('bad_encoding', 'expected a binary msgpack frame, got text');
+    try {
+      msg = msgpackDecode(bytes);
+    } catch (err) {
+      throw new ProtocolError('bad_encoding', `not msgpack: ${err.message}`);
+    }
+  } else if (format === 'json') {
+    let text = data;
+    if (typeof text !== 'string') {
+      const bytes = toBytes(data);
+      if (bytes === null) throw new ProtocolError('bad_encoding', 'expected a text JSON frame');
+      try {
+        text = textDecoder.decode(bytes);
+      } catch {
+        throw new ProtocolError('bad_encoding', 'JSON frame is not UTF-8');
+      }
+    }
+    try {
+      msg = JSON.parse(text);
+    } catch (err) {
+      throw new ProtocolError('bad_encoding', `not JSON: ${err.message}`);
+    }
+  } else {
+    throw new ProtocolError('bad_encoding', `unknown format ${JSON.stringify(format)}`);
+  }
+  if (msg === null || typeof msg !== 'object' || Array.isArray(msg) || msg instanceof Uint8Array) {
+    throw new ProtocolError('bad_message', 'a message must be a map');
+  }
+  if (typeof msg.type !== 'string') throw new ProtocolError('bad_message', 'a message needs a string "type"');
+  return msg;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Builders (client → server). Field order is exactly the order of docs/protocol.md.
+
+function vec(v, n, what) {
+  if (v == null || typeof v[Symbol.iterator] !== 'function') {
+    throw new ProtocolError('bad_message', `${what} must be an array of ${n} numbers`);
+  }
+  const out = Array.from(v, Number);
+  if (out.length !== n) throw new ProtocolError('bad_message', `${what} must have ${n} numbers, has ${out.length}`);
+  out.forEach((x, i) => {
+    if (!Number.isFinite(x)) throw new ProtocolError('non_finite', `${what}[${i}] is ${x}`);
+  });
+  return out;
+}
+
+/** `hello`: the first message of a participant/operator connection. */
+export function hello(role = 'participant', client = 'viestac-web/0.1') {
+  if (!ROLES.includes(role)) throw new ProtocolError('bad_message', `role must be one of ${ROLES.join(', ')}`);
+  if (typeof client !== 'string' || client.length > MAX_CLIENT_NAME) {
+    throw new ProtocolError('bad_message', `client must be a string of at most ${MAX_CLIENT_NAME} chars`);
+  }
+  return { type: 'hello', v: PROTOCOL_VERSION, role, client };
+}
+
+/** `tracker`: one HIP sample, scene frame. `quat` ([w,x,y,z]) is optional and omitted when null. */
+export function tracker(seq, tMs, pos, quat = null) {
+  if (!Number.isSafeInteger(seq) || seq < 0) throw new ProtocolError('bad_message', 'seq must be an int >= 0');
+  if (typeof tMs !== 'number' || !Number.isFinite(tMs)) throw new ProtocolError('non_finite', 't must be a finite number');
+  const msg = { type: 'tracker', seq, t: tMs, pos: vec(pos, 3, 'pos') };
+  if (quat != null) msg.quat = vec(quat, 4, 'quat');
+  return msg;
+}
+
+/** `input`: a key (DOM KeyboardEvent.key) or command name going down/up or pressed. */
+export function input(key, action) {
+  if (typeof key !== 'string' || key.length === 0 || key.length > MAX_KEY_NAME) {
+    throw new ProtocolError('bad_message', `key must be a non-empty string of at most ${MAX_KEY_NAME} chars`);
+  }
+  if (!INPUT_ACTIONS.includes(action)) {
+    throw new ProtocolError('bad_message', `action must be one of ${INPUT_ACTIONS.join(', ')}`);
+  }
+  return { type: 'input', key, action };
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation. A small schema language: each message type lists its fields with a checker;
+// fields not listed are ignored (minor protocol additions), `optional` fields may be absent.
+
+const isNum = (x) => typeof x === 'number' && Number.isFinite(x);
+const isInt = (x) => Number.isSafeInteger(x);
+const isStr = (x) => typeof x === 'string';
+const isBool = (x) => typeof x === 'boolean';
+const isMap = (x) => x !== null && typeof x === 'object' && !Array.isArray(x) && !(x instanceof Uint8Array);
+const isVec = (n) => (x) => Array.isArray(x) && x.length === n && x.every(isNum);
+const isVec3 = isVec(3);
+const isQuat = isVec(4);
+const oneOf = (values) => (x) => values.includes(x);
+const arrayOf = (check) => (x) => Array.isArray(x) && x.every(check);
+
+const check = (fn, expected, opts = {}) => ({ fn, expected, ...opts });
+
+const contactEntry = (x) => Array.isArray(x) && x.length === 3 && isStr(x[0]) && isVec3(x[1]) && isNum(x[2]);
+const objectPose = (x) => Array.isArray(x) && x.length === 3 && isStr(x[0]) && isVec3(x[1]) && isQuat(x[2]);
+
+const SCHEMAS = {
+  // client → server
+  hello: {
+    v: check(isInt, 'an int'),
+    role: check(oneOf(ROLES), `one of ${ROLES.join('|')}`),
+    client: check((x) => isStr(x) && x.length <= MAX_CLIENT_NAME, `a string of at most ${MAX_CLIENT_NAME} chars`),
+  },
+  tracker: {
+    seq: check((x) => isInt(x) && x >= 0, 'an int >= 0'),
+    t: check(isNum, 'a number'),
+    pos: check(isVec3, '[x, y, z]'),
+    quat: check(isQuat, '[w, x, y, z]', { optional: true }),
+  },
+  input: {
+    key: check((x) => isStr(x) && x.length > 0 && x.length <= MAX_KEY_NAME, `a string of 1..${MAX_KEY_NAME} chars`),
+    action: check(oneOf(INPUT_ACTIONS), `one of ${INPUT_ACTIONS.join('|')}`),
+  },
+  // server → client
+  welcome: {
+    v: check(isInt, 'an int'),
+    client_id: check(isInt, 'an int'),
+    role: check(isStr, 'a string'),
+    server: check(isStr, 'a string'),
+    tick_hz: check(isInt, 'an int'),
+    state_hz: check(isNum, 'a number'),
+    format: check(oneOf(FORMATS), `one of ${FORMATS.join('|')}`),
+  },
+  scene: {
+    v: check(isInt, 'an int'),
+    hash: check(isStr, 'a string'),
+    scene: check(isMap, 'a map'),
+  },
+  state: {
+    frame: check(isInt, 'an int'),
+    tick: check(isInt, 'an int'),
+    t: check(isNum, 'a number'),
+    scene: check(isStr, 'a string (scene hash)'),
+    hip: check(isVec3, '[x, y, z]'),
+    proxy: check(isVec3, '[x, y, z]'),
+    force: check(isVec3, '[x, y, z]'),
+    contact: check(isBool, 'a bool'),
+    contacts: check(arrayOf(contactEntry), 'an array of [object_id, [nx,ny,nz], depth]'),
+    objects: check(arrayOf(objectPose), 'an array of [object_id, [x,y,z], [w,x,y,z]]'),
+    cues: check(arrayOf(isMap), 'an array of maps'),
+    hud: check(isStr, 'a string'),
+    values: check(isMap, 'a map'),
+    telemetry: check(isMap, 'a map'),
+  },
+  error: {
+    code: check(isStr, 'a string'),
+    message: check(isStr, 'a string'),
+  },
+};
+
+export const MESSAGE_TYPES = Object.freeze(Object.keys(SCHEMAS));
+
+/** Is there any NaN/Infinity inside? (msgpack can carry them; JSON cannot.) */
+function findNonFinite(value, path) {
+  if (typeof value === 'number') return Number.isFinite(value) ? null : path;
+  if (Array.isArray(value)) {
+    for (let i = 0; i < value.length; i++) {
+      const p = findNonFinite(value[i], `${path}[${i}]`);
+      if (p) return p;
+    }
+  } else if (isMap(value)) {
+    for (const [k, v] of Object.entries(value)) {
+      const p = findNonFinite(v, `${path}.${k}`);
+      if (p) return p;
+    }
+  }
+  return null;
+}
+
+/**
+ * Check a decoded message against docs/protocol.md. Returns null when it is valid, otherwise a
+ * ProtocolError (not thrown) whose message names the field and what was expected.
+ * Unknown fields are ignored; an unknown `type` gives code 'unknown_type' (receivers may ignore
+ * such messages: new message types are a minor protocol addition).
+ */
+export function validate(msg) {
+  if (!isMap(msg)) return new ProtocolError('bad_message', 'a message must be a map');
+  if (!isStr(msg.type)) return new ProtocolError('bad_message', 'a message needs a string "type"');
+  const bad = findNonFinite(msg, msg.type);
+  if (bad) return new ProtocolError('non_finite', `${bad} is not a finite number`);
+  const schema = SCHEMAS[msg.type];
+  if (!schema) return new ProtocolError('unknown_type', `unknown message type ${JSON.stringify(msg.type)}`);
+  for (const [field, rule] of Object.entries(schema)) {
+    if (!(field in msg)) {
+      if (rule.optional) continue;
+      return new ProtocolError('bad_message', `${msg.type}.${field} is missing (expected ${rule.expected})`);
+    }
+    if (!rule.fn(msg[field])) {
+      return new ProtocolError('bad_message',
+        `${msg.type}.${field} must be ${rule.expected}, got ${describe(msg[field])}`);
+    }
+  }
+  if (msg.type === 'scene') return validateScene(msg.scene, 'scene.scene');
+  return null;
+}
+
+function describe(x) {
+  let s;
+  try {
+    s = JSON.stringify(x);
+  } catch {
+    s = String(x);
+  }
+  if (s === undefined) s = String(x);
+  return s.length > 60 ? `${s.slice(0, 57)}...` : s;
+}
+
+const SHAPE_FIELDS = {
+  sphere: { radius: 'pos' },
+  box: { size: 3 },
+  cylinder: { radius: 'pos', height: 'pos' },
+  cone: { radius: 'pos', height: 'pos' },
+  plane: { size: 2 },
+  hemisphere: { radius: 'pos' },
+};
+
+/**
+ * Check a scene description (the `scene` field of a `scene` message). Returns null or a
+ * ProtocolError. Shapes of a type this client does not know are allowed (a newer server may
+ * add some); the view skips them.
+ */
+export function validateScene(scene, path = 'scene') {
+  const err = (m) => new ProtocolError('bad_message', `${path}${m}`);
+  if (!isMap(scene)) return err(' must be a map');
+  const cam = scene.camera;
+  if (!isMap(cam)) return err('.camera must be a map');
+  for (const f of ['position', 'target', 'up']) {
+    if (!isVec3(cam[f])) return err(`.camera.${f} must be [x, y, z]`);
+  }
+  if (cam.projection === 'orthographic') {
+    if (!(isNum(cam.height) && cam.height > 0)) return err('.camera.height must be a number > 0');
+  } else if (cam.projection === 'perspective') {
+    if (!(isNum(cam.fov_deg) && cam.fov_deg > 0 && cam.fov_deg < 180)) return err('.camera.fov_deg must be in (0, 180)');
+  } else {
+    return err('.camera.projection must be "orthographic" or "perspective"');
+  }
+  if (scene.hip !== undefined) {
+    if (!isMap(scene.hip)) return err('.hip must be a map');
+    if (scene.hip.radius !== undefined && !(isNum(scene.hip.radius) && scene.hip.radius >= 0)) {
+      return err('.hip.radius must be a number >= 0');
+    }
+    if (scene.hip.color !== undefined && !isStr(scene.hip.color)) return err('.hip.color must be a string');
+  }
+  if (!Array.isArray(scene.objects)) return err('.objects must be an array');
+  const ids = new Set();
+  for (let i = 0; i < scene.objects.length; i++) {
+    const o = scene.objects[i];
+    const p = `.objects[${i}]`;
+    if (!isMap(o)) return err(`${p} must be a map`);
+    if (!isStr(o.id) || o.id === '') return err(`${p}.id must be a non-empty string`);
+    if (ids.has(o.id)) return err(`${p}.id ${JSON.stringify(o.id)} is not unique`);
+    ids.add(o.id);
+    if (!isMap(o.shape) || !isStr(o.shape.type)) return err(`${p}.shape.type must be a string`);
+    const fields = SHAPE_FIELDS[o.shape.type];
+    for (const [f, kind] of Object.entries(fields || {})) {
+      const v = o.shape[f];
+      if (kind === 'pos' && !(isNum(v) && v > 0)) return err(`${p}.shape.${f} must be a number > 0`);
+      if (typeof kind === 'number' && !(isVec(kind)(v) && v.every((x) => x > 0))) {
+        return err(`${p}.shape.${f} must be ${kind} numbers > 0`);
+      }
+    }
+    if (o.pose !== undefined) {
+      if (!isMap(o.pose) || !isVec3(o.pose.pos) || !isQuat(o.pose.quat)) {
+        return err(`${p}.pose must be {pos: [x,y,z], quat: [w,x,y,z]}`);
+      }
+    }
+    if (o.material !== undefined && !isMap(o.material)) return err(`${p}.material must be a map`);
+    if (o.visible !== undefined && !isBool(o.visible)) return err(`${p}.visible must be a bool`);
+  }
+  return null;
+}
+
+/** Decode and validate: returns {msg} or {error: ProtocolError}; never throws. */
+export function parse(data, format = 'msgpack') {
+  let msg;
+  try {
+    msg = decode(data, format);
+  } catch (e) {
+    return { error: e instanceof ProtocolError ? e : new ProtocolError('bad_encoding', String(e)) };
+  }
+  const error = validate(msg);
+  return error ? { msg, error } : { msg };
+}
+
+// ---------------------------------------------------------------------------------------------
+// Frames. Scene (CHAI3D): x toward the viewer, y right, z up. three.js: X right, Y up, Z toward
+// the viewer. A cyclic axis permutation, so handedness is kept and quaternions permute the same way.
+
+/** Scene position [x, y, z] → three.js [X, Y, Z] = [y, z, x]. */
+export function sceneToThree(p) {
+  return [p[1], p[2], p[0]];
+}
+
+/** three.js position [X, Y, Z] → scene [x, y, z] = [Z, X, Y]. */
+export function threeToScene(p) {
+  return [p[2], p[0], p[1]];
+}
+
+/** Scene quaternion [w, x, y, z] → three.js [w, X, Y, Z] = [w, y, z, x]. */
+export function quatSceneToThree(q) {
+  return [q[0], q[2], q[3], q[1]];
+}
+
+/** three.js quaternion [w, X, Y, Z] → scene [w, x, y, z] = [w, Z, X, Y]. */
+export function quatThreeToScene(q) {
+  return [q[0], q[3], q[1], q[2]];
+}

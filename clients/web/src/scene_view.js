@@ -1,0 +1,277 @@
+// three.js view of a ViESTac scene: builds meshes from a `scene` message and applies `state`
+// frames (HIP, proxy, moved objects). It draws what the server says and decides nothing.
+//
+// Frames: the wire is in the scene frame (x toward the viewer, y right, z up); three.js is
+// (X right, Y up, Z toward the viewer). Poses go through protocol.sceneToThree/quatSceneToThree.
+// Because that conversion is a rotation, each shape's local axes map the same way: a shape's
+// local +z (cylinder/cone axis, plane normal, dome) is three's local +Y, local x is +Z, y is +X.
+
+import * as THREE from 'three';
+import { sceneToThree, quatSceneToThree } from './protocol.js';
+
+const SEGMENTS = 64;
+const DEFAULT_HIP = { radius: 0.06, color: '#ffd400' };
+const PROXY_COLOR = '#ff2d55';
+const PROXY_SCALE = 0.5; // a point proxy (proxy_radius 0) is drawn at half the HIP radius
+const SAME_POINT = 1e-6; // proxy within this distance of the HIP is hidden
+
+/** Thickness of the slab drawn for a `plane` shape (its top face is at local z = 0). */
+export function planeThickness(size) {
+  return Math.min(0.05, 0.02 * Math.min(size[0], size[1]));
+}
+
+/**
+ * Mesh(es) for one shape, in the shape's local frame expressed in three.js axes.
+ * Returns null for a shape type this client does not know (a newer server may send some).
+ */
+export function buildShape(shape, material) {
+  switch (shape.type) {
+    case 'sphere':
+      return new THREE.Mesh(new THREE.SphereGeometry(shape.radius, SEGMENTS, SEGMENTS / 2), material);
+    case 'box': {
+      const [sx, sy, sz] = shape.size; // scene x,y,z → three Z,X,Y
+      return new THREE.Mesh(new THREE.BoxGeometry(sy, sz, sx), material);
+    }
+    case 'cylinder': {
+      const g = new THREE.CylinderGeometry(shape.radius, shape.radius, shape.height, SEGMENTS);
+      g.translate(0, shape.height / 2, 0); // base disc at local z = 0
+      return new THREE.Mesh(g, material);
+    }
+    case 'cone': {
+      const g = new THREE.ConeGeometry(shape.radius, shape.height, SEGMENTS);
+      g.translate(0, shape.height / 2, 0); // base at z = 0, apex at z = height
+      return new THREE.Mesh(g, material);
+    }
+    case 'plane': {
+      const [sx, sy] = shape.size;
+      const t = planeThickness(shape.size);
+      const g = new THREE.BoxGeometry(sy, t, sx);
+      g.translate(0, -t / 2, 0); // top face at z = 0, solid below
+      return new THREE.Mesh(g, material);
+    }
+    case 'hemisphere': {
+      const group = new THREE.Group();
+      const dome = new THREE.SphereGeometry(shape.radius, SEGMENTS, SEGMENTS / 2, 0, Math.PI * 2, 0, Math.PI / 2);
+      const base = new THREE.CircleGeometry(shape.radius, SEGMENTS);
+      base.rotateX(Math.PI / 2); // face down (-Y = scene -z)
+      group.add(new THREE.Mesh(dome, material), new THREE.Mesh(base, material));
+      return group;
+    }
+    default:
+      return null;
+  }
+}
+
+function makeMaterial(spec = {}) {
+  const opacity = typeof spec.opacity === 'number' ? Math.min(1, Math.max(0, spec.opacity)) : 1;
+  return new THREE.MeshStandardMaterial({
+    color: new THREE.Color(spec.color ?? '#b0b0b0'),
+    roughness: 0.75,
+    metalness: 0.0,
+    transparent: opacity < 1,
+    opacity,
+  });
+}
+
+/**
+ * A three.js camera from the scene's camera spec (scene frame) for a viewport aspect ratio.
+ * Orthographic: `height` is the visible height, left/right follow the aspect.
+ * Returns {camera, target} with target in three.js coordinates.
+ */
+export function makeCamera(cam, aspect) {
+  const pos = new THREE.Vector3(...sceneToThree(cam.position));
+  const target = new THREE.Vector3(...sceneToThree(cam.target));
+  const dist = Math.max(pos.distanceTo(target), 1e-3);
+  let camera;
+  if (cam.projection === 'perspective') {
+    camera = new THREE.PerspectiveCamera(cam.fov_deg, aspect, Math.min(0.01, dist / 100), dist * 100);
+  } else {
+    const h = cam.height / 2;
+    camera = new THREE.OrthographicCamera(-h * aspect, h * aspect, h, -h, 0.01, dist * 20 + 10);
+  }
+  camera.up.set(...sceneToThree(cam.up));
+  camera.position.copy(pos);
+  camera.lookAt(target);
+  camera.updateMatrixWorld();
+  return { camera, target };
+}
+
+function setPose(obj, pos, quat) {
+  obj.position.fromArray(sceneToThree(pos));
+  const [w, x, y, z] = quatSceneToThree(quat);
+  obj.quaternion.set(x, y, z, w).normalize();
+}
+
+export class SceneView {
+  /** @param {HTMLCanvasElement} canvas */
+  constructor(canvas) {
+    this.canvas = canvas;
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(globalThis.devicePixelRatio || 1);
+    this.renderer.setClearColor(new THREE.Color('#1e2228'));
+    this.scene = new THREE.Scene();
+    this.camera = new THREE.OrthographicCamera(-1, 1, 1, -1, 0.01, 100);
+    this.cameraSpec = null;
+    this.cameraTarget = new THREE.Vector3(); // three frame
+    this.objects = new Map(); // id → {object3d, spec}
+    this.world = new THREE.Group(); // scene objects; rebuilt on each scene message
+    this.hash = null;
+    this.sceneSpec = null;
+    this.built = false;
+
+    // Lights: soft fill from above plus a key light from the viewer's upper right.
+    this.scene.add(new THREE.HemisphereLight(0xffffff, 0x404040, 1.6));
+    this.keyLight = new THREE.DirectionalLight(0xffffff, 2.0);
+    this.scene.add(this.keyLight, this.keyLight.target);
+    this.scene.add(this.world);
+
+    // HIP and proxy. The HIP also gets a faint ghost drawn over everything, so the participant
+    // sees where the finger is while it is inside an object.
+    this.hip = new THREE.Mesh(new THREE.SphereGeometry(1, 32, 16), new THREE.MeshStandardMaterial({ roughness: 0.5 }));
+    this.hipGhost = new THREE.Mesh(this.hip.geometry,
+      new THREE.MeshBasicMaterial({ transparent: true, opacity: 0.4, depthTest: false, depthWrite: false }));
+    this.hipGhost.renderOrder = 10;
+    this.hip.add(this.hipGhost);
+    this.proxy = new THREE.Mesh(new THREE.SphereGeometry(1, 24, 12),
+      new THREE.MeshStandardMaterial({ color: new THREE.Color(PROXY_COLOR), roughness: 0.4 }));
+    this.hip.visible = false;
+    this.proxy.visible = false;
+    this.scene.add(this.hip, this.proxy);
+    this.hipSpec = { ...DEFAULT_HIP };
+    this.resize();
+  }
+
+  /** Build (or rebuild) everything from a `scene` message's `scene` map. */
+  build(spec, hash = null) {
+    for (const child of [...this.world.children]) {
+      this.world.remove(child);
+      child.traverse((o) => {
+        if (o.geometry) o.geometry.dispose();
+        if (o.material) o.material.dispose();
+      });
+    }
+    this.objects.clear();
+    this.sceneSpec = spec;
+    this.hash = hash;
+
+    for (const o of spec.objects) {
+      const material = makeMaterial(o.material);
+      const obj = buildShape(o.shape, material);
+      if (obj === null) {
+        console.warn(`viestac: shape type ${o.shape.type} of ${o.id} is not supported; not drawn`);
+        continue;
+      }
+      obj.name = o.id;
+      const pose = o.pose ?? { pos: [0, 0, 0], quat: [1, 0, 0, 0] };
+      setPose(obj, pose.pos, pose.quat);
+      obj.visible = o.visible !== false;
+      this.world.add(obj);
+      this.objects.set(o.id, { object3d: obj, spec: o });
+    }
+
+    this.hipSpec = { ...DEFAULT_HIP, ...(spec.hip ?? {}) };
+    const r = this.hipSpec.radius > 0 ? this.hipSpec.radius : DEFAULT_HIP.radius;
+    this.hip.scale.setScalar(r);
+    this.hip.material.color.set(this.hipSpec.color);
+    this.hipGhost.material.color.set(this.hipSpec.color);
+    // The proxy is the centre of a sphere of proxy_radius resting on the surface: drawn at that
+    // radius it touches the surface; a point proxy gets a small marker.
+    const pr = this.hipSpec.proxy_radius > 0 ? this.hipSpec.proxy_radius : r * PROXY_SCALE;
+    this.proxy.scale.setScalar(pr);
+
+    this._setCamera(spec.camera);
+    this.built = true;
+  }
+
+  _setCamera(cam) {
+    this.cameraSpec = cam;
+    const { camera, target } = makeCamera(cam, this._aspect());
+    this.camera = camera;
+    this.cameraTarget.copy(target);
+    const pos = camera.position;
+    // Key light from the viewer's upper right, whatever the camera direction.
+    const right = new THREE.Vector3(1, 0, 0).applyQuaternion(this.camera.quaternion);
+    const up = new THREE.Vector3(0, 1, 0).applyQuaternion(this.camera.quaternion);
+    const back = pos.clone().sub(target).normalize();
+    this.keyLight.position.copy(target).addScaledVector(back, 4).addScaledVector(right, 2.5).addScaledVector(up, 3);
+    this.keyLight.target.position.copy(target);
+    this.keyLight.target.updateMatrixWorld();
+  }
+
+  _aspect() {
+    const w = this.canvas.clientWidth || this.canvas.width || 1;
+    const h = this.canvas.clientHeight || this.canvas.height || 1;
+    return w / h;
+  }
+
+  /** Match the drawing buffer to the canvas's CSS size and the camera to its aspect. */
+  resize() {
+    const w = Math.max(1, this.canvas.clientWidth);
+    const h = Math.max(1, this.canvas.clientHeight);
+    this.renderer.setSize(w, h, false);
+    const aspect = w / h;
+    if (this.camera.isOrthographicCamera) {
+      const half = (this.cameraSpec?.height ?? 2) / 2;
+      this.camera.top = half;
+      this.camera.bottom = -half;
+      this.camera.left = -half * aspect;
+      this.camera.right = half * aspect;
+    } else {
+      this.camera.aspect = aspect;
+    }
+    this.camera.updateProjectionMatrix();
+  }
+
+  /** Apply one `state` frame: HIP, proxy, poses of moved objects. */
+  applyState(state) {
+    this.hip.position.fromArray(sceneToThree(state.hip));
+    this.proxy.position.fromArray(sceneToThree(state.proxy));
+    this.hip.visible = true;
+    const d = Math.hypot(state.proxy[0] - state.hip[0], state.proxy[1] - state.hip[1], state.proxy[2] - state.hip[2]);
+    this.proxy.visible = d > SAME_POINT;
+    for (const [id, pos, quat] of state.objects ?? []) {
+      const entry = this.objects.get(id);
+      if (entry) setPose(entry.object3d, pos, quat);
+    }
+  }
+
+  render() {
+    this.renderer.render(this.scene, this.camera);
+  }
+
+  /** Scene objects plus HIP and proxy: {id, type, visible, position (three), color, shape | radius}. */
+  sceneGraph() {
+    const out = [];
+    for (const [id, { object3d, spec }] of this.objects) {
+      out.push({
+        id,
+        type: spec.shape.type,
+        visible: object3d.visible,
+        position: object3d.position.toArray(),
+        color: spec.material?.color ?? null,
+        shape: spec.shape,
+      });
+    }
+    out.push({ id: 'hip', type: 'hip', visible: this.hip.visible, position: this.hip.position.toArray(),
+      color: this.hipSpec.color, radius: this.hip.scale.x });
+    out.push({ id: 'proxy', type: 'proxy', visible: this.proxy.visible, position: this.proxy.position.toArray(),
+      color: PROXY_COLOR, radius: this.proxy.scale.x });
+    return out;
+  }
+
+  /** CSS pixel position (relative to the viewport) of a scene-frame point. */
+  screenPosition(scenePos) {
+    const v = new THREE.Vector3(...sceneToThree(scenePos)).project(this.camera);
+    const rect = this.canvas.getBoundingClientRect();
+    return { x: rect.left + (v.x + 1) / 2 * rect.width, y: rect.top + (1 - v.y) / 2 * rect.height };
+  }
+
+  /** "vendor renderer" of the WebGL context, unmasked where the browser allows. */
+  rendererInfo() {
+    const gl = this.renderer.getContext();
+    const ext = gl.getExtension('WEBGL_debug_renderer_info');
+    const renderer = gl.getParameter(ext ? ext.UNMASKED_RENDERER_WEBGL : gl.RENDERER);
+    const version = gl.getParameter(gl.VERSION);
+    return `${renderer} | ${version}`;
+  }
+}

@@ -1,0 +1,203 @@
+// Codec, builders, validation and frame conversions (src/protocol.js), checked against the shared
+// vectors in tests/vectors/ (repo root) and a few hand-written cases.
+import { test, describe } from 'node:test';
+import assert from 'node:assert/strict';
+import { readFileSync } from 'node:fs';
+import { fileURLToPath } from 'node:url';
+import * as P from '../src/protocol.js';
+
+const VECTORS = new URL('../../../tests/vectors/', import.meta.url);
+
+function loadVectors(name) {
+  const path = fileURLToPath(new URL(name, VECTORS));
+  try {
+    return JSON.parse(readFileSync(path, 'utf8'));
+  } catch (e) {
+    throw new Error(`cannot read shared vectors ${path}: ${e.message}`);
+  }
+}
+
+const hex = (bytes) => Buffer.from(bytes).toString('hex');
+const unhex = (s) => new Uint8Array(Buffer.from(s, 'hex'));
+
+/** Build a client → server message with the builders, from a vector's message. */
+function build(msg) {
+  switch (msg.type) {
+    case 'hello': return P.hello(msg.role, msg.client);
+    case 'tracker': return P.tracker(msg.seq, msg.t, msg.pos, msg.quat ?? null);
+    case 'input': return P.input(msg.key, msg.action);
+    default: throw new Error(`no builder for ${msg.type}`);
+  }
+}
+
+describe('shared message vectors (tests/vectors/messages.json)', () => {
+  const file = loadVectors('messages.json');
+  test('file format', () => {
+    assert.equal(file.version, 1);
+    assert.ok(Array.isArray(file.vectors) && file.vectors.length > 0);
+  });
+  for (const v of file.vectors) {
+    if (v.direction === 'client_to_server') {
+      test(`${v.name}: builder encodes byte-exactly`, () => {
+        const built = build(v.message);
+        assert.deepStrictEqual(built, v.message);
+        assert.equal(hex(P.encode(built, 'msgpack')), v.msgpack_hex.toLowerCase());
+      });
+    }
+    test(`${v.name}: decodes to its message and validates`, () => {
+      const msg = P.decode(unhex(v.msgpack_hex), 'msgpack');
+      assert.deepStrictEqual(msg, v.message);
+      assert.equal(P.validate(msg), null);
+      // ArrayBuffer input, as a browser WebSocket delivers it
+      const bytes = unhex(v.msgpack_hex);
+      const ab = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
+      assert.deepStrictEqual(P.decode(ab, 'msgpack'), v.message);
+    });
+    test(`${v.name}: the JS encoder writes the same bytes from the message`, () => {
+      // Field order = the vector file's key order; integral numbers as ints (canonical rule).
+      assert.equal(hex(P.encode(v.message, 'msgpack')), v.msgpack_hex.toLowerCase());
+    });
+    test(`${v.name}: JSON round trip`, () => {
+      const text = P.encode(v.message, 'json');
+      assert.equal(typeof text, 'string');
+      assert.deepStrictEqual(P.decode(text, 'json'), v.message);
+    });
+  }
+});
+
+describe('shared coordinate vectors (tests/vectors/coordinates.json)', () => {
+  const file = loadVectors('coordinates.json');
+  const close = (got, want, what) => {
+    assert.equal(got.length, want.length, what);
+    got.forEach((g, i) => assert.ok(Math.abs(g - want[i]) <= 1e-12, `${what}: got ${got}, want ${want}`));
+  };
+  test('has points and rotations', () => {
+    assert.ok(file.points.length > 0);
+    assert.ok(file.rotations.length > 0);
+  });
+  test('points scene ↔ three', () => {
+    for (const p of file.points) {
+      close(P.sceneToThree(p.scene), p.three, `sceneToThree(${p.scene})`);
+      close(P.threeToScene(p.three), p.scene, `threeToScene(${p.three})`);
+    }
+  });
+  test('rotations scene → three', () => {
+    for (const r of file.rotations) {
+      close(P.quatSceneToThree(r.scene), r.three, `quatSceneToThree(${r.scene})`);
+      close(P.quatThreeToScene(r.three), r.scene, `quatThreeToScene(${r.three})`);
+    }
+  });
+});
+
+describe('builders', () => {
+  test('field order and canonical numbers', () => {
+    // {type:"tracker", seq:3, t:12.5, pos:[0, 0.25, 1]}: ints stay ints, 12.5 and 0.25 are float64
+    const bytes = P.encode(P.tracker(3, 12.5, [0, 0.25, 1]));
+    assert.equal(hex(bytes),
+      '84' + 'a474797065' + 'a7747261636b6572' + 'a3736571' + '03' + 'a174' + 'cb4029000000000000'
+      + 'a3706f73' + '93' + '00' + 'cb3fd0000000000000' + '01');
+    assert.deepStrictEqual(Object.keys(P.hello('observer', 'x')), ['type', 'v', 'role', 'client']);
+    assert.deepStrictEqual(Object.keys(P.tracker(0, 1, [1, 2, 3], [1, 0, 0, 0])), ['type', 'seq', 't', 'pos', 'quat']);
+    assert.deepStrictEqual(Object.keys(P.input('r', 'down')), ['type', 'key', 'action']);
+  });
+  test('quat is omitted when absent; typed arrays become plain arrays', () => {
+    const m = P.tracker(1, 2, new Float64Array([0.5, 1, 2]));
+    assert.ok(!('quat' in m));
+    assert.deepStrictEqual(m.pos, [0.5, 1, 2]);
+  });
+  test('rejects bad arguments with protocol codes', () => {
+    assert.throws(() => P.hello('admin', 'x'), { code: 'bad_message' });
+    assert.throws(() => P.hello('participant', 'x'.repeat(65)), { code: 'bad_message' });
+    assert.throws(() => P.tracker(-1, 0, [0, 0, 0]), { code: 'bad_message' });
+    assert.throws(() => P.tracker(1.5, 0, [0, 0, 0]), { code: 'bad_message' });
+    assert.throws(() => P.tracker(1, 0, [0, 0]), { code: 'bad_message' });
+    assert.throws(() => P.tracker(1, 0, [0, NaN, 0]), { code: 'non_finite' });
+    assert.throws(() => P.tracker(1, Infinity, [0, 0, 0]), { code: 'non_finite' });
+    assert.throws(() => P.input('x'.repeat(33), 'down'), { code: 'bad_message' });
+    assert.throws(() => P.input('r', 'hold'), { code: 'bad_message' });
+    assert.throws(() => P.encode({ type: 'tracker', pos: [Infinity, 0, 0] }), { code: 'non_finite' });
+  });
+});
+
+describe('decode and validate', () => {
+  const state = {
+    type: 'state', frame: 1, tick: 17, t: 0.017, scene: 'ab', hip: [0, 0, 1], proxy: [0, 0, 1],
+    force: [0, 0, 0], contact: false, contacts: [['hemi', [0, 0, 1], 0.001]], objects: [],
+    cues: [{ kind: 'tilt', direction_deg: 90, magnitude_pct: 100 }], hud: '', values: { angle_deg: -12.5 },
+    telemetry: { period_p99_us: 1040 },
+  };
+  test('a complete state is valid, extra fields are ignored', () => {
+    assert.equal(P.validate(state), null);
+    assert.equal(P.validate({ ...state, future_field: 1 }), null);
+  });
+  test('clear errors name the field', () => {
+    const { hip, ...noHip } = state;
+    assert.match(P.validate(noHip).message, /state\.hip is missing/);
+    const e = P.validate({ ...state, proxy: [0, 0] });
+    assert.equal(e.code, 'bad_message');
+    assert.match(e.message, /state\.proxy must be \[x, y, z\]/);
+    assert.equal(P.validate({ ...state, contact: 1 }).code, 'bad_message');
+    assert.equal(P.validate({ ...state, t: NaN }).code, 'non_finite');
+    assert.equal(P.validate({ type: 'nope' }).code, 'unknown_type');
+    assert.equal(P.validate([1, 2]).code, 'bad_message');
+    assert.equal(P.validate({ type: 3 }).code, 'bad_message');
+  });
+  test('frames of the wrong format are bad_encoding', () => {
+    assert.throws(() => P.decode('{"type":"state"}', 'msgpack'), { code: 'bad_encoding' });
+    assert.throws(() => P.decode(new Uint8Array([0xc1]), 'msgpack'), { code: 'bad_encoding' });
+    assert.throws(() => P.decode('{nope', 'json'), { code: 'bad_encoding' });
+    assert.throws(() => P.decode(P.encode({ type: 'x' }, 'msgpack'), 'json'), { code: 'bad_encoding' });
+    assert.throws(() => P.decode(P.encode([1]), 'msgpack'), { code: 'bad_message' });
+    assert.throws(() => P.decode('[1]', 'json'), { code: 'bad_message' });
+  });
+  test('parse never throws', () => {
+    assert.equal(P.parse('garbage', 'json').error.code, 'bad_encoding');
+    assert.equal(P.parse(P.encode(state), 'msgpack').error, undefined);
+    assert.deepStrictEqual(P.parse(P.encode(state), 'msgpack').msg, state);
+  });
+  test('scene validation', () => {
+    const scene = {
+      camera: { projection: 'orthographic', position: [5, 0, 0.35], target: [0, 0, 0.35], up: [0, 0, 1], height: 1.6 },
+      hip: { radius: 0.06, proxy_radius: 0.06, color: '#ffd400' },
+      objects: [
+        { id: 'ground', shape: { type: 'plane', size: [3, 3] }, pose: { pos: [0, 0, 0], quat: [1, 0, 0, 0] } },
+        { id: 'dome', shape: { type: 'hemisphere', radius: 0.6 } },
+        { id: 'future', shape: { type: 'torus', r: 1 } },
+      ],
+      hud: { text: '' },
+    };
+    const msg = { type: 'scene', v: 1, hash: 'ab', scene };
+    assert.equal(P.validate(msg), null);
+    const bad = structuredClone(msg);
+    bad.scene.objects[1].shape.radius = -1;
+    assert.match(P.validate(bad).message, /objects\[1\]\.shape\.radius/);
+    const dup = structuredClone(msg);
+    dup.scene.objects[1].id = 'ground';
+    assert.match(P.validate(dup).message, /not unique/);
+    const cam = structuredClone(msg);
+    cam.scene.camera.projection = 'fisheye';
+    assert.match(P.validate(cam).message, /camera\.projection/);
+  });
+});
+
+describe('frames', () => {
+  test('three ↔ scene are inverse permutations', () => {
+    const p = [0.1, -2, 3.5];
+    assert.deepStrictEqual(P.sceneToThree(p), [-2, 3.5, 0.1]);
+    assert.deepStrictEqual(P.threeToScene(P.sceneToThree(p)), p);
+    const q = [0.5, 0.1, 0.2, 0.3];
+    assert.deepStrictEqual(P.quatSceneToThree(q), [0.5, 0.2, 0.3, 0.1]);
+    assert.deepStrictEqual(P.quatThreeToScene(P.quatSceneToThree(q)), q);
+  });
+});
+
+describe('shared invalid frames (tests/vectors/invalid.json): the client classifies them as the server does', () => {
+  const file = loadVectors('invalid.json');
+  for (const f of file.frames) {
+    test(`${f.name} → ${f.code}`, () => {
+      const { error } = P.parse(unhex(f.msgpack_hex), 'msgpack');
+      assert.ok(error, 'expected an error');
+      assert.equal(error.code, f.code, error.message);
+    });
+  }
+});
