@@ -28,6 +28,7 @@ class LoopSupervisor:
         self.restarts = 0
         self.dropped_to_loop = 0
         self._sock = None
+        self._doorbell: ipc.Doorbell | None = None
         self._watch: asyncio.Task | None = None
         self._closing = False
 
@@ -38,9 +39,11 @@ class LoopSupervisor:
     def start(self) -> None:
         loop = asyncio.get_running_loop()
         ours, theirs = ipc.channel_pair()
+        self._doorbell = ipc.Doorbell()
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "server.loop.process", "--fd", str(theirs.fileno()), "--config", self.config.to_json()],
-            pass_fds=(theirs.fileno(),), cwd=os.getcwd())
+            [sys.executable, "-m", "server.loop.process", "--fd", str(theirs.fileno()),
+             "--doorbell", str(self._doorbell.fd), "--config", self.config.to_json()],
+            pass_fds=(theirs.fileno(), self._doorbell.fd), cwd=os.getcwd())
         theirs.close()
         self._sock = ours
         loop.add_reader(ours.fileno(), self._readable)
@@ -63,7 +66,9 @@ class LoopSupervisor:
         if self._sock is None:
             return False
         ok = ipc.send_record(self._sock, record)
-        if not ok:
+        if ok:
+            self._doorbell.ring()  # after the send: when the loop sees the bell, the record is there
+        else:
             self.dropped_to_loop += 1
         return ok
 
@@ -87,6 +92,9 @@ class LoopSupervisor:
                 pass
             self._sock.close()
             self._sock = None
+        if self._doorbell is not None:
+            self._doorbell.close()
+            self._doorbell = None
 
     async def stop(self) -> None:
         self._closing = True

@@ -6,6 +6,11 @@ start of a tick and never waits: a full socket means the record is dropped and c
 frames are latest-value anyway), never a blocked tick, and nothing spins on data written by a
 lower-priority process (shared/reference/loop-probe.md: that stalled the machine for 60 ms).
 
+A doorbell (an 8-byte counter in a shared memfd) saves the loop a `recv` syscall on the ~99 % of
+ticks where the hub wrote nothing: the hub bumps the counter after each send, the loop reads it
+once per tick (one memory read, never in a loop) and drains only when it changed. Measured on
+this machine, the empty non-blocking `recv` alone was p50 5 µs / p99 34 µs of a tick.
+
 Records, hub → loop: ["tracker", client_id, seq, t_ms, [x,y,z], quat|None, recv_ns],
 ["input", client_id, key, action], ["stop"].
 Records, loop → hub: ["hello", info], ["scene", scene_map, hash], ["state", state_map],
@@ -14,7 +19,10 @@ Records, loop → hub: ["hello", info], ["scene", scene_map, hash], ["state", st
 
 from __future__ import annotations
 
+import mmap
+import os
 import socket
+import struct
 
 import msgpack
 
@@ -56,3 +64,35 @@ def drain(sock: socket.socket, limit: int = 1024) -> list[list]:
             raise PeerClosed()
         records.append(msgpack.unpackb(data, raw=False))
     return records
+
+
+class Doorbell:
+    """A counter in shared memory: one writer (the hub) bumps it, one reader polls it per tick.
+
+    A torn or stale read only causes one extra or one later drain; nothing ever waits on it.
+    """
+
+    _FMT = struct.Struct("=Q")
+
+    def __init__(self, fd: int | None = None):
+        if fd is None:
+            fd = os.memfd_create("viestac-doorbell", 0)
+            os.ftruncate(fd, self._FMT.size)
+        self.fd = fd
+        self._map = mmap.mmap(fd, self._FMT.size)
+        self._seen = 0
+
+    def ring(self) -> None:
+        self._FMT.pack_into(self._map, 0, (self._FMT.unpack_from(self._map, 0)[0] + 1) & 0xFFFFFFFFFFFFFFFF)
+
+    def rung(self) -> bool:
+        """True once per change of the counter since the last call."""
+        value = self._FMT.unpack_from(self._map, 0)[0]
+        if value == self._seen:
+            return False
+        self._seen = value
+        return True
+
+    def close(self) -> None:
+        self._map.close()
+        os.close(self.fd)

@@ -57,6 +57,8 @@ class Simulation:
         self.tick = 0
         self.hip: Vec3 = home_position(self.scene)
         self.cues: tuple[Cue, ...] = ()
+        self._settled = None  # (hip, ProxyStep) of a verified fixed point; reused while nothing moves
+        self._last_step = None
         scenario.reset(seed)
 
     def set_hip(self, position: Vec3) -> None:
@@ -78,7 +80,19 @@ class Simulation:
         tick = self.tick
         t_s = tick / self.tick_hz
         hip = self.hip
-        proxy_step = self.god.step(self.bodies, hip)
+        settled = self._settled
+        if settled is not None and settled[0] == hip:
+            # The HIP is held between tracker samples (~8 ticks per 120 Hz sample) and nothing
+            # moved; the last step reproduced the one before it for this HIP, so it is a fixed
+            # point of the (deterministic) god-object: reuse it instead of recomputing.
+            proxy_step = settled[1]
+        else:
+            proxy_step = self.god.step(self.bodies, hip)
+            last = self._last_step
+            fixed = (last is not None and last[0] == hip and last[1].proxy == proxy_step.proxy
+                     and last[1].contacts == proxy_step.contacts)
+            self._settled = (hip, proxy_step) if fixed else None
+            self._last_step = (hip, proxy_step)
         contacts = proxy_step.contacts
         contact = self.gate.update(t_s, bool(contacts), proxy_step.separation)
         touching = frozenset(c.body_id for c in contacts)
@@ -87,6 +101,7 @@ class Simulation:
         output = self.scenario.step(ctx)
         poses_changed = False
         for object_id, pose in output.poses.items():
+            self._settled = self._last_step = None
             slot = self._body_slot.get(object_id)
             if slot is not None:
                 self.bodies[slot] = self.scene.object(object_id).body(pose)

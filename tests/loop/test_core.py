@@ -72,3 +72,46 @@ def test_leaving_contact_stops_the_tilt_after_the_dwell():
         core.device_events = []
     sink = core.sinks[0]
     assert [c["command"] for c in sink.commands] == ["tilt", "flat"]
+
+
+def test_reusing_settled_steps_changes_nothing():
+    """The held-HIP shortcut gives exactly what stepping the god-object every tick gives."""
+    import math
+
+    from server.haptics.god_object import GodObject
+
+    sim = Simulation(ContactAngle())
+    reference = GodObject(sim.scene.proxy_radius)
+    reference_bodies = sim.scene.bodies()
+    reused = 0
+    for tick in range(3000):
+        if tick % 8 == 0:  # a 120 Hz tracker sweeping the dome, slightly inside, and the crease
+            a = math.radians(95 * math.sin(2 * math.pi * 0.5 * tick / 1000))
+            r = 0.66 - 0.004
+            sim.set_hip((0.0, r * math.sin(a), max(0.0, r * math.cos(a))))
+        before = sim._settled
+        result = sim.step()
+        reused += before is not None and before[0] == result.hip
+        expected = reference.step(reference_bodies, result.hip)
+        assert result.proxy == expected.proxy and result.contacts == expected.contacts, tick
+    assert reused > 1500  # most ticks hold the previous sample
+
+
+def test_mailbox_doorbell_rings_once_per_change_across_processes():
+    import subprocess
+    import sys
+
+    from server.loop import ipc
+
+    bell = ipc.Doorbell()
+    assert not bell.rung()
+    bell.ring()
+    assert bell.rung() and not bell.rung()
+    # Another process sees the same memory through the inherited fd.
+    code = ("import sys; from server.loop import ipc; b = ipc.Doorbell(int(sys.argv[1])); "
+            "print(b.rung()); b.ring(); b.ring()")
+    out = subprocess.run([sys.executable, "-c", code, str(bell.fd)], pass_fds=(bell.fd,),
+                         capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "True"
+    assert bell.rung() and not bell.rung()
+    bell.close()
