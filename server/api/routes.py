@@ -76,6 +76,13 @@ def telemetry(hub: HubDep) -> dict:
     return hub.telemetry.cumulative()
 
 
+@router.get("/trackers", summary="Recent tracker samples with when the hub received and the loop applied them")
+def trackers(hub: HubDep, limit: int = 1000) -> dict:
+    rows = list(hub.tracker_applied)[-max(1, min(limit, 4096)):]
+    return {"columns": ["client_id", "seq", "t_ms", "hub_recv_ns", "loop_applied_ns"], "rows": rows,
+            "clock": "hub_recv_ns and loop_applied_ns are CLOCK_MONOTONIC of the server machine"}
+
+
 @router.post("/telemetry/reset", summary="Start a new cumulative timing window")
 def telemetry_reset(hub: HubDep) -> dict:
     hub.telemetry.reset_cumulative()

@@ -97,10 +97,19 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
             peak_rss = max(peak_rss, _tree_rss_mb(proc.pid))
             time.sleep(0.25)
         telemetry = _get(base + "/api/telemetry")
+        tracker_rows = _get(base + "/api/trackers?limit=4096")["rows"]
         out, _ = load.communicate(timeout=60)
         load_result = json.loads(out.strip().splitlines()[-1])
     finally:
         stop_server(proc)
+    # The bench's trackers stamp `t` with CLOCK_MONOTONIC in ms (same machine, same clock), so
+    # applied - t is the whole path: WebSocket send, hub read and validation, mailbox, next tick.
+    send_to_tick = sorted((row[4] - row[2] * 1e6) / 1e6 for row in tracker_rows)
+    hub_to_tick = sorted((row[4] - row[3]) / 1e6 for row in tracker_rows)
+
+    def pct(values, q):
+        return round(values[min(len(values) - 1, int(q * len(values)))], 3) if values else None
+
     return {
         "period_p50_us": telemetry["period_p50_us"], "period_p99_us": telemetry["period_p99_us"],
         "period_p999_us": telemetry["period_p999_us"], "period_max_us": telemetry["period_max_us"],
@@ -110,5 +119,7 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         "frames_received_per_client_hz": load_result["frames_received_per_client_hz"]["mean"],
         "frames_received_per_client_hz_min": load_result["frames_received_per_client_hz"]["min"],
         "tracker_messages": load_result["tracker_messages"],
+        "tracker_to_tick_p50_ms": pct(send_to_tick, 0.5), "tracker_to_tick_p99_ms": pct(send_to_tick, 0.99),
+        "hub_to_tick_p99_ms": pct(hub_to_tick, 0.99), "tracker_samples": len(send_to_tick),
         "rss_mb": round(peak_rss, 1), "rt": telemetry["rt"], "seconds": seconds, "resyncs": telemetry["resyncs"],
     }
