@@ -30,8 +30,10 @@ class Client:
 
     @classmethod
     async def connect(cls, url: str, fmt: str = "msgpack", role: str = "participant", hello: bool = True):
+        # max_queue=None: a test that stops reading must still see the server's close frame
+        # (with a bounded queue, reading pauses and close() waits for its 10 s timeout).
         ws = await websockets.connect(url, subprotocols=[MSGPACK if fmt == "msgpack" else JSON],
-                                      compression=None, max_size=1 << 21)
+                                      compression=None, max_size=1 << 21, max_queue=None)
         client = cls(ws, fmt)
         if hello:
             await client.send({"type": "hello", "v": 1, "role": role, "client": "pytest"})
@@ -249,7 +251,8 @@ def test_client_without_hello_is_an_observer(live_server):
 def test_slow_client_does_not_hold_back_others(live_server):
     async def go():
         # A client that never reads: its frames are dropped (latest-wins), others keep 60 Hz.
-        slow = await websockets.connect(live_server.ws_url, subprotocols=[MSGPACK], compression=None, max_queue=1)
+        slow = await websockets.connect(live_server.ws_url, subprotocols=[MSGPACK], compression=None, max_queue=1,
+                                        close_timeout=0.2)
         _, _, rate = await _state_rate(live_server.ws_url, "msgpack", seconds=2.0)
         await slow.close()
         return rate
