@@ -3,33 +3,34 @@
 Theory of operation
 -------------------
 The proxy is a massless point (or sphere of ``radius``) that follows the haptic interaction point
-(HIP) but never enters a body; the rendered force is the spring F = k (proxy - HIP) (Zilles &
-Salisbury 1995; Ruspini, Kolarov & Khatib 1997; spec.md "Haptic rendering"). Each tick:
+(HIP) but never enters a body; the force is the spring F = k (proxy - HIP) (Zilles & Salisbury
+1995; Ruspini, Kolarov & Khatib 1997; spec.md "Haptic rendering"). Each tick:
 
-1. Carry: if a body moved into the proxy, push the proxy to that body's closest dilated surface
-   point (like CHAI3D's dynamic proxy, rendering-notes.md 1.4).
-2. Cast the segment proxy -> HIP against every body (``Body.cast``: exact, continuous, so thin or
-   fast-crossed objects cannot be tunnelled, unlike the nearest-face penalty rule that pops
-   through, rendering-notes.md 1.3). No hit: the proxy goes to the HIP (free or released).
-3. Hit: stop ON the surface (no epsilon back-off: CHAI3D keeps an epsilon gap which biases the
-   force, 1.4) and add the tangent plane there as a constraint. Slide: the sub-goal is
-   argmin |t - HIP| s.t. n_i.(t - q_i) >= 0 over the constraint planes (Zilles & Salisbury's
-   Lagrangian step; done here by closed-form active-set enumeration over <= 3 planes instead of a
-   6x6 solve, which costs ~25 us in numpy vs < 1 us, rendering-notes.md 1.1). Every slide move is
-   itself cast-checked; a new hit adds its plane (up to 4), so a concave crease (box on the
-   ground) gets both planes in the SAME tick and the proxy lands on the crease line (CHAI3D finds
-   one constraint per tick in static mode and needs up to 3 ticks).
-4. Repeat from the slid point toward the HIP. On flat faces the slide target lies on the face and
-   the next cast confirms it (2 iterations). On a curved convex surface the tangent plane lies
-   outside the body, so the slid point is in the air and the re-cast toward the HIP lands closer
-   to the HIP's closest point, converging geometrically at rate ~depth/R per iteration; with the
-   iteration cap hit, the proxy ends at the last hit point (on the surface) and keeps settling
-   over the next ticks.
+1. Carry: if a body moved into the proxy, push it out to the nearest outside point (like
+   CHAI3D's dynamic proxy, rendering-notes.md 1.4).
+2. Cast the segment proxy -> HIP against every body (``Body._cast``: exact and continuous, so a
+   thin or fast-crossed object cannot be tunnelled, unlike the nearest-face penalty rule that
+   pops through, rendering-notes.md 1.3). No hit: the proxy goes to the HIP (free/released).
+3. Hit: stop ON the surface (no epsilon back-off, which would bias the force: CHAI3D keeps one,
+   1.4) and make the tangent plane there a constraint. Slide to the sub-goal argmin |t - HIP|
+   s.t. n_i.(t - q_i) >= 0 (Zilles & Salisbury's Lagrangian step, solved in closed form by
+   ``vec.project_halfspaces``). Every slide move is itself cast-checked and a new hit adds its
+   plane, so a concave crease (box on the ground) gets both planes in the SAME tick and the
+   proxy lands on the crease line (CHAI3D's static mode finds one constraint per tick).
+4. Repeat from the slid point toward the HIP. On a flat face the slide target lies on the face
+   and the next cast confirms it. On a curved convex surface the tangent plane lies outside the
+   body, so the slid point is in the air and the re-cast lands closer to the local minimum, at
+   rate ~depth/R per iteration; at the iteration cap the proxy ends at the last hit point (on
+   the surface) and keeps settling over the next ticks. A closest-point shortcut (``_shortcut``)
+   usually finishes a smooth single contact in one iteration.
 
-Friction (optional, only with exactly one contact): Ruspini-style friction cone. The proxy sticks
-at its previous surface position while |f_t| <= mu_s |f_n|; when slipping it lags the
-frictionless point by mu_d * depth; slipping returns to sticking only inside the mu_d cone
-(hysteresis against stick/slip chatter, as CHAI3D does, rendering-notes.md 1.4).
+Point proxies can sit on edges, the cone apex and creases, so casts starting there use every
+surface feature's normal, and faces glued to another body's face (a box standing on the ground)
+are ignored: otherwise the point slides into the zero-thickness gap between the two bodies, the
+analytic twin of a point god-object falling between adjacent polygons (rendering-notes.md 1.3).
+Friction (optional, one contact only): Ruspini's friction cone. Stick at the previous surface
+position while |f_t| <= mu_s |f_n|; slipping lags the frictionless point by mu_d * depth; back
+to sticking only inside the mu_d cone (hysteresis against stick/slip chatter, as CHAI3D does).
 Pure floats, deterministic, no I/O, no clocks.
 """
 
@@ -40,20 +41,19 @@ from math import inf, isfinite, sqrt
 from typing import Sequence
 
 from .primitives import EPS_SURFACE, Body
-from .vec import Vec3
+from .vec import Vec3, project_halfspaces
 
 CONTACT_TOL = 1e-9  # |sd(proxy) - radius| <= this: the proxy touches that body
-FEAS_TOL = 1e-12  # slack of the plane constraints n.(t - q) >= 0 in the slide QP
-PARALLEL_TOL = 1e-10  # 1 - (n_i.n_j)^2 below this (angle < ~1e-5 rad): pair skipped
-TRIPLE_TOL = 1e-8  # |n1.(n2 x n3)| below this: triple skipped
 MAX_PLANES = 4  # constraint planes gathered per slide (3 independent ones fix a point)
-PUSH_PASSES = 3
 CULL_MARGIN = 1e-9  # Lipschitz culling slack (> EPS_SURFACE, so on-surface starts are kept)
 SHORTCUT_COS = 0.5  # closest-point shortcut only within 60 deg of the current normal
-SHORTCUT_MIN = 1e-10  # ... and only if the tangent planes are not (nearly) parallel
+SHORTCUT_MIN = 1e-10  # below this (relative) the tangent planes count as one plane
 PARALLEL = 1.0 - 1e-15  # cos^2 above which two directions count as parallel
-GLUE_DOT = -1.0 + 1e-9  # feature normals with n.m <= this are opposite (glued faces)
+GLUE_DOT = -1.0 + 1e-9  # feature normals with n.m <= this are opposite: glued faces
+EXIT_REACH = 1e3  # scene units: farther than any scene object, to cast back from
 ZERO: Vec3 = (0.0, 0.0, 0.0)
+_AXES = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0),
+         (0.0, 0.0, 1.0), (0.0, 0.0, -1.0))
 
 
 @dataclass(frozen=True)
@@ -73,13 +73,15 @@ class ProxyStep:
     iterations: int
 
 
+def _plane(ev, x):
+    return (ev[1], ev[2], ev[3], ev[1] * x[0] + ev[2] * x[1] + ev[3] * x[2])
+
+
 def _first_hit(bodies, phi0, start, a, b, radius, known=None, ki=-1, kev=None, skip=-1):
-    """Earliest hit of segment a -> b over all bodies: (t, point, body index, eval) or None;
-    ties go to the first body (deterministic). Bodies are culled with the 1-Lipschitz bound
-    sd(p) >= sd(start) - |p - start| (phi0[i] = sd_i(start) - radius): a body farther from the
-    tick's start than the segment reaches cannot be hit, which skips the ground while stroking
-    a dome. Evals at a: ``known`` (list for all bodies) or ``kev`` for body ``ki``; body
-    ``skip`` is not tested (the caller proved the segment cannot enter it)."""
+    """Earliest hit of segment a -> b: (t, point, body index, eval) or None; ties go to the
+    first body. Bodies are culled with the 1-Lipschitz bound sd(p) >= sd(start) - |p - start|
+    (phi0[i] = sd_i(start) - radius): the ground is skipped while stroking a dome. Evals at a:
+    ``known`` (list, all bodies) or ``kev`` for body ``ki``; body ``skip`` is not tested."""
     sx, sy, sz = start
     ra = (a[0] - sx) ** 2 + (a[1] - sy) ** 2 + (a[2] - sz) ** 2
     rb = (b[0] - sx) ** 2 + (b[1] - sy) ** 2 + (b[2] - sz) ** 2
@@ -91,10 +93,8 @@ def _first_hit(bodies, phi0, start, a, b, radius, known=None, ki=-1, kev=None, s
         evs = {i: known[i] for i in idx}
     else:
         evs = {i: (kev if i == ki else bodies[i]._eval(a)) for i in idx}
-    dx = b[0] - a[0]
-    dy = b[1] - a[1]
-    dz = b[2] - a[2]
-    feats = None
+    dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    feats = {}
     if radius == 0.0 and len(idx) > 1:
         on = [i for i in idx if -EPS_SURFACE < evs[i][0] <= EPS_SURFACE]
         if len(on) > 1:
@@ -103,8 +103,7 @@ def _first_hit(bodies, phi0, start, a, b, radius, known=None, ki=-1, kev=None, s
     best = None
     t_max = 1.0
     for i in idx:
-        h = bodies[i]._cast(a, dx, dy, dz, radius, t_max, evs[i],
-                            None if feats is None else feats.get(i))
+        h = bodies[i]._cast(a, dx, dy, dz, radius, t_max, evs[i], feats.get(i))
         if h is not None and (best is None or h[0] < best[0]):
             best = (h[0], h[1], i, h[2])
             t_max = h[0]
@@ -112,12 +111,9 @@ def _first_hit(bodies, phi0, start, a, b, radius, known=None, ki=-1, kev=None, s
 
 
 def _unglued_features(bodies, on, a, dx, dy, dz):
-    """Feature normals at a of the bodies whose surface a lies on, minus faces glued to another
-    body's face (opposite normals at the same point: a box standing on the ground, two boxes
-    side by side). A point proxy could otherwise slide into the zero-thickness gap between two
-    touching bodies, which is inside their union: the analytic twin of the point god-object's
-    fall-through between adjacent polygons (rendering-notes.md 1.3). A body keeps all its
-    features if all of them are glued (the ground under a box still blocks downward motion).
+    """Feature normals at a of the bodies in ``on`` (a lies on their surfaces) without the faces
+    glued to another body's face (opposite normals at the same point). A body whose features
+    are all glued keeps them (the ground under a box still blocks downward motion).
     Returns (all features, unglued features), both {body index: [normal, ...]}."""
     fs = {i: bodies[i]._features(a, dx, dy, dz) for i in on}
     out = {}
@@ -129,117 +125,70 @@ def _unglued_features(bodies, on, a, dx, dy, dz):
     return fs, out
 
 
-def _solve_qp(h, planes):
-    """argmin |t - h| s.t. n_i.t >= c_i for planes (nx, ny, nz, c): enumerate the closed-form
-    candidates (h itself, projection on one plane, on the line of two, the point of three),
-    keep the feasible one nearest h. The true minimiser is the projection of h onto the affine
-    hull of its active set, so it is among the candidates. None if every candidate is
-    degenerate or infeasible (the caller then keeps the proxy where it is)."""
-    hx, hy, hz = h
-    if len(planes) == 1:  # the common case, ~1 us
-        nx, ny, nz, c = planes[0]
-        s = nx * hx + ny * hy + nz * hz - c
-        if s >= 0.0:
-            return h
-        return (hx - s * nx, hy - s * ny, hz - s * nz)
-    viol = [nx * hx + ny * hy + nz * hz - c for nx, ny, nz, c in planes]
-    if min(viol) >= -FEAS_TOL:
-        return h
-
-    def feasible(t):
-        tx, ty, tz = t
-        return all(nx * tx + ny * ty + nz * tz - c >= -FEAS_TOL for nx, ny, nz, c in planes)
-
-    best = None
-    best_d2 = inf
-    m = len(planes)
-    for i in range(m):
-        s = viol[i]
-        if s < 0.0 and s * s < best_d2:
-            nx, ny, nz, _ = planes[i]
-            t = (hx - s * nx, hy - s * ny, hz - s * nz)
-            if feasible(t):
-                best, best_d2 = t, s * s
-    for i in range(m):
-        ax, ay, az, _ = planes[i]
-        for j in range(i + 1, m):
-            bx, by, bz, _ = planes[j]
-            g = ax * bx + ay * by + az * bz
-            det = 1.0 - g * g
-            if det < PARALLEL_TOL:
-                continue
-            p = (viol[i] - g * viol[j]) / det
-            q = (viol[j] - g * viol[i]) / det
-            ox, oy, oz = p * ax + q * bx, p * ay + q * by, p * az + q * bz
-            d2 = ox * ox + oy * oy + oz * oz
-            if d2 < best_d2:
-                t = (hx - ox, hy - oy, hz - oz)
-                if feasible(t):
-                    best, best_d2 = t, d2
-    for i in range(m):
-        for j in range(i + 1, m):
-            for k in range(j + 1, m):
-                t = _three_planes(planes[i], planes[j], planes[k])
-                if t is not None:
-                    d2 = (t[0] - hx) ** 2 + (t[1] - hy) ** 2 + (t[2] - hz) ** 2
-                    if d2 < best_d2 and feasible(t):
-                        best, best_d2 = t, d2
-    return best
-
-
-def _three_planes(p1, p2, p3):
-    """Intersection point of three planes n.t = c by Cramer's rule, None if near-degenerate."""
-    ax, ay, az, c1 = p1
-    bx, by, bz, c2 = p2
-    cx, cy, cz, c3 = p3
-    ux, uy, uz = by * cz - bz * cy, bz * cx - bx * cz, bx * cy - by * cx  # n2 x n3
-    vx, vy, vz = cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax  # n3 x n1
-    wx, wy, wz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx  # n1 x n2
-    det = ax * ux + ay * uy + az * uz
-    if abs(det) < TRIPLE_TOL:
-        return None
-    return ((c1 * ux + c2 * vx + c3 * wx) / det, (c1 * uy + c2 * vy + c3 * wy) / det,
-            (c1 * uz + c2 * vz + c3 * wz) / det)
-
-
 def _push_out(x, bodies, radius):
-    """Move x out of any (dilated) body it is inside of, deepest first, to that body's closest
-    dilated surface point; returns (x, evals of every body at x) for reuse by the first cast."""
+    """Move x out of every (dilated) body; returns (x, evals of every body at x) for the first
+    cast. Inside one body: its closest dilated surface point. Inside several (a HIP inside a
+    hemisphere standing on the ground): the nearest exit from their union along candidate rays
+    (each body's exit normal, the six axes)."""
     evs = [b._eval(x) for b in bodies]
-    for _ in range(PUSH_PASSES):
-        worst = -1
-        worst_f = -EPS_SURFACE
-        for i, ev in enumerate(evs):
-            f = ev[0] - radius
-            if f <= worst_f:
-                worst, worst_f = i, f
-        if worst < 0:
-            break
-        _, nx, ny, nz = evs[worst]
-        x = (x[0] - worst_f * nx, x[1] - worst_f * ny, x[2] - worst_f * nz)
-        evs = [b._eval(x) for b in bodies]
-    return x, evs
+    inside = [i for i, ev in enumerate(evs) if ev[0] - radius <= -EPS_SURFACE]
+    if not inside:
+        return x, evs
+    if len(inside) == 1:
+        f, nx, ny, nz = evs[inside[0]]
+        f -= radius
+        y = (x[0] - f * nx, x[1] - f * ny, x[2] - f * nz)
+        evy = [b._eval(y) for b in bodies]
+        if min(ev[0] for ev in evy) - radius > -EPS_SURFACE:
+            return y, evy
+    best, best_d = x, inf
+    for u in [ev[1:] for ev in evs] + list(_AXES):
+        y = _exit_along(x, u, bodies, radius)
+        if y is not None and (d := sum((y[k] - x[k]) ** 2 for k in range(3))) < best_d:
+            best, best_d = y, d
+    return best, [b._eval(best) for b in bodies]
+
+
+def _exit_along(x, u, bodies, radius):
+    """First point of the ray x + s u (s >= 0) outside every dilated body, or None. Each convex
+    body meets the ray in one interval, so jumping past the intervals containing the current
+    point terminates; a body's exit comes from a cast back from far along the ray (None if the
+    body is unbounded that way, like the ground straight down)."""
+    p = x
+    for _ in range(len(bodies) + 1):
+        far_s = 0.0
+        for b in bodies:
+            if b._eval(p)[0] - radius > -EPS_SURFACE:
+                continue
+            d = (-EXIT_REACH * u[0], -EXIT_REACH * u[1], -EXIT_REACH * u[2])
+            h = b._cast((p[0] - d[0], p[1] - d[1], p[2] - d[2]), *d, radius, 1.0, None)
+            if h is None or h[0] == 0.0:
+                return None
+            far_s = max(far_s, EXIT_REACH * (1.0 - h[0]))
+        if far_s == 0.0:
+            return p
+        p = (p[0] + far_s * u[0], p[1] + far_s * u[1], p[2] + far_s * u[2])
+    return None
 
 
 class GodObject:
-    """Stateful proxy for one HIP. ``step`` once per servo tick (1 kHz)."""
+    """Stateful proxy for one HIP; call ``step`` once per servo tick (1 kHz)."""
 
     def __init__(self, radius: float = 0.0, *, max_iterations: int = 16,
                  tolerance: float = 1e-12) -> None:
-        radius = float(radius)
+        radius, tolerance = float(radius), float(tolerance)
         if not (isfinite(radius) and radius >= 0.0):
             raise ValueError(f"proxy radius must be finite and >= 0, got {radius!r}")
         if isinstance(max_iterations, bool) or not isinstance(max_iterations, int) \
                 or max_iterations < 1:
             raise ValueError(f"max_iterations must be an int >= 1, got {max_iterations!r}")
-        tolerance = float(tolerance)
         if not (isfinite(tolerance) and tolerance > 0.0):
             raise ValueError(f"tolerance must be finite and > 0, got {tolerance!r}")
         self.radius = radius
         self.max_iterations = max_iterations
         self.tolerance = tolerance
         self._proxy: Vec3 | None = None
-        self._friction_body: str | None = None  # body the proxy touched last tick
+        self._friction_body: str | None = None  # id of the one body touched last tick
         self._sticking = False
 
     @property
@@ -247,8 +196,8 @@ class GodObject:
         return self._proxy
 
     def reset(self, position: Vec3, bodies: Sequence[Body] = ()) -> None:
-        """Place the proxy at ``position``, pushed out to the closest dilated surface point if
-        inside a body; forgets friction state."""
+        """Place the proxy at ``position``, pushed out of any body it is inside of; forgets the
+        friction state."""
         x = (float(position[0]), float(position[1]), float(position[2]))
         self._proxy = _push_out(x, bodies, self.radius)[0]
         self._friction_body = None
@@ -263,20 +212,17 @@ class GodObject:
         phi0 = [ev[0] - r for ev in pre]
         x = start
         tol2 = self.tolerance * self.tolerance
-        hit_ev = None  # eval of the body (index hit_i) at the last hit point last_hit
-        hit_i = -1
-        last_hit = None
+        hit_i, hit_ev, last_hit = -1, None, None  # body, its eval at the last hit point
         free = False
         iterations = 0
         shortcut = True  # one closest-point shortcut attempt per tick
-        hip_evs = {}  # body index -> eval at the HIP (shared with the separation below)
+        hip_evs: dict = {}  # body index -> eval at the HIP (shared with the separation)
         for _ in range(self.max_iterations):
             iterations += 1
             hit = _first_hit(bodies, phi0, start, x, hip, r, pre)
             pre = None
             if hit is None:  # nothing between proxy and HIP: free, or released from contact
-                x = hip
-                free = True
+                x, free = hip, True
                 break
             _, x, hit_i, hit_ev = hit
             if shortcut:
@@ -285,15 +231,13 @@ class GodObject:
                 if jump is not None:
                     x, hit_ev = jump
             last_hit = x
-            planes = [(hit_ev[1], hit_ev[2], hit_ev[3],
-                       hit_ev[1] * x[0] + hit_ev[2] * x[1] + hit_ev[3] * x[2])]
-            converged = False
-            slid = None
+            planes = [_plane(hit_ev, x)]
+            converged, slid = False, None
             while True:
-                target = _solve_qp(hip, planes)
+                target = project_halfspaces(hip, planes)
                 if target is None or ((target[0] - x[0]) ** 2 + (target[1] - x[1]) ** 2
                                       + (target[2] - x[2]) ** 2) <= tol2:
-                    converged = True  # x is the constrained minimum: on the surface
+                    converged = True  # x is the constrained minimum, on the surface
                     break
                 h2 = _first_hit(bodies, phi0, start, x, target, r, None, hit_i, hit_ev)
                 if h2 is None:
@@ -303,8 +247,7 @@ class GodObject:
                 last_hit = x
                 if len(planes) == MAX_PLANES:
                     break
-                planes.append((hit_ev[1], hit_ev[2], hit_ev[3],
-                               hit_ev[1] * x[0] + hit_ev[2] * x[1] + hit_ev[3] * x[2]))
+                planes.append(_plane(hit_ev, x))
             if converged:
                 break
             if slid is not None:  # in the air above a curved surface: re-cast toward the HIP
@@ -312,32 +255,22 @@ class GodObject:
         else:
             x = last_hit  # cap reached: end ON the surface, never at a slid point in the air
 
-        # separation: exact sd(hip) only for bodies whose Lipschitz bound could be the minimum
-        dh = sqrt((hip[0] - start[0]) ** 2 + (hip[1] - start[1]) ** 2
-                  + (hip[2] - start[2]) ** 2)
-        sep = inf
-        for f, i in sorted((f - dh, i) for i, f in enumerate(phi0)):
-            if f >= sep:
-                break
-            ev = hip_evs.get(i) or bodies[i]._eval(hip)
-            v = ev[0] - r
-            if v < sep:
-                sep = v
-
+        # separation: exact sd(hip) only for bodies whose Lipschitz bound can be the minimum
+        dh = sqrt((hip[0] - start[0]) ** 2 + (hip[1] - start[1]) ** 2 + (hip[2] - start[2]) ** 2)
+        sep = min((ev[0] for ev in hip_evs.values()), default=inf) - r
+        for i, f in enumerate(phi0):
+            if f - dh < sep and i not in hip_evs:
+                sep = min(sep, bodies[i]._eval(hip)[0] - r)
         if free:
-            self._proxy = x
-            self._friction_body = None
-            self._sticking = False
+            self._proxy, self._friction_body, self._sticking = x, None, False
             return ProxyStep(x, ZERO, (), sep, iterations)
 
-        dx_ = sqrt((x[0] - start[0]) ** 2 + (x[1] - start[1]) ** 2 + (x[2] - start[2]) ** 2)
-        near = [i for i, f in enumerate(phi0) if f - dx_ <= CONTACT_TOL + CULL_MARGIN]
-        known = {hit_i: hit_ev} if x is last_hit else {}
-        touched = self._touching(bodies, near, known, x, hip)
+        dx = sqrt((x[0] - start[0]) ** 2 + (x[1] - start[1]) ** 2 + (x[2] - start[2]) ** 2)
+        near = [i for i, f in enumerate(phi0) if f - dx <= CONTACT_TOL + CULL_MARGIN]
+        touched = self._touching(bodies, near, {hit_i: hit_ev} if x is last_hit else {}, x, hip)
         if not touched:  # numerically off every surface (should not happen): last hit body
             ev = bodies[hit_i]._eval(x)
-            touched = [(hit_i, ev, max(0.0, ev[1] * (x[0] - hip[0]) + ev[2] * (
-                x[1] - hip[1]) + ev[3] * (x[2] - hip[2])))]
+            touched = [(hit_i, ev, 0.0)]
         if len(touched) == 1:
             body = bodies[touched[0][0]]
             rough = body.static_friction > 0.0 or body.dynamic_friction > 0.0
@@ -350,48 +283,42 @@ class GodObject:
                 self._sticking = rough
             self._friction_body = body.id
         else:
-            self._friction_body = None
-            self._sticking = False
+            self._friction_body, self._sticking = None, False
 
-        k = 0.0
-        contacts = []
-        for i, ev, depth in touched:
-            k += bodies[i].stiffness_n_per_m
-            contacts.append(Contact(bodies[i].id, (ev[1], ev[2], ev[3]), depth,
-                                    (x[0] - r * ev[1], x[1] - r * ev[2], x[2] - r * ev[3])))
-        k /= len(touched)
+        k = bodies[touched[0][0]].stiffness_n_per_m if len(touched) == 1 else sum(
+            bodies[i].stiffness_n_per_m for i, _, _ in touched) / len(touched)
+        contacts = tuple(Contact(bodies[i].id, ev[1:], depth, (x[0] - r * ev[1], x[1] - r * ev[2],
+                                                              x[2] - r * ev[3]))
+                         for i, ev, depth in touched)
         self._proxy = x
         force = (k * (x[0] - hip[0]), k * (x[1] - hip[1]), k * (x[2] - hip[2]))
-        return ProxyStep(x, force, tuple(contacts), sep, iterations)
+        return ProxyStep(x, force, contacts, sep, iterations)
 
     def _shortcut(self, bodies, phi0, start, x, i, ev_x, hip, hip_evs):
-        """Closest-point shortcut for one smooth convex contact, an accelerator of the slide
-        iteration (which converges only at rate ~depth/R per iteration on curved surfaces).
-        c = the HIP's closest point on the dilated body i is where sliding ends when c lies on
-        the same smooth patch as x; the angle test n_x.n_c >= SHORTCUT_COS keeps c off other
-        faces (all adjacent patches of these primitives meet at >= 90 deg), so local minima
-        on the current face are kept (path dependence). The proxy moves over the tent x -> m
-        -> c, m on the line where the tangent planes at x and c meet: both planes support the
-        convex body, so neither segment enters it; both are cast-checked against the other
-        bodies. Returns (c, eval at c) or None (then the iteration runs as usual)."""
+        """Closest-point shortcut for a smooth convex contact, accelerating the slide iteration
+        (rate only ~depth/R per iteration on curved surfaces). The HIP's closest point c on the
+        dilated body i is where sliding ends when c lies on the same smooth patch as x; the
+        angle test n_x.n_c >= SHORTCUT_COS keeps c off other faces (adjacent patches of these
+        primitives meet at >= 90 deg), so local minima on the current face are kept (path
+        dependence). The proxy moves over the tent x -> m -> c, m on the line where the tangent
+        planes at x and c meet: both support the convex body, so neither segment enters it;
+        both are cast-checked against the other bodies. Returns (c, eval at c) or None."""
         r = self.radius
         ev = hip_evs.get(i)
         if ev is None:
             ev = hip_evs[i] = bodies[i]._eval(hip)
         f = ev[0] - r
-        if f >= 0.0:  # HIP not inside this body (the segment crossed it): no shortcut
-            return None
         _, ax, ay, az = ev_x
         _, bx, by, bz = ev
-        if ax * bx + ay * by + az * bz < SHORTCUT_COS:
-            return None
+        if f >= 0.0 or ax * bx + ay * by + az * bz < SHORTCUT_COS:
+            return None  # HIP not inside body i (the segment crossed it), or another face
         c = (hip[0] - f * bx, hip[1] - f * by, hip[2] - f * bz)
         vx, vy, vz = c[0] - x[0], c[1] - x[1], c[2] - x[2]
         va = ax * vx + ay * vy + az * vz
         wx, wy, wz = vx - va * ax, vy - va * ay, vz - va * az  # x -> c within plane x
         den = bx * wx + by * wy + bz * wz
         if den <= SHORTCUT_MIN * sqrt(wx * wx + wy * wy + wz * wz):
-            # same tangent plane (a flat face, or c within ~1e-10 of x): slide straight
+            # one tangent plane (a flat face, or c within ~1e-10 of x): slide straight
             if _first_hit(bodies, phi0, start, x, c, r, None, i, ev_x) is not None:
                 return None
             return c, (r, bx, by, bz)
@@ -403,8 +330,8 @@ class GodObject:
         return c, (r, bx, by, bz)
 
     def _touching(self, bodies, idx, known, x, hip):
-        """Bodies (among indices idx) whose dilated surface holds x, as (index, eval, depth);
-        only those the HIP pushes into (depth > 0) when there are any. known: {i: eval at x}."""
+        """Bodies (indices idx) whose dilated surface holds x, as (index, eval, depth); only
+        those the HIP pushes into (depth > 0) if there are any. known: {i: eval at x}."""
         r = self.radius
         ex, ey, ez = x[0] - hip[0], x[1] - hip[1], x[2] - hip[2]
         on = []
@@ -412,35 +339,27 @@ class GodObject:
             ev = known.get(i) or bodies[i]._eval(x)
             if abs(ev[0] - r) <= CONTACT_TOL:
                 on.append((i, ev))
-        e2 = ex * ex + ey * ey + ez * ez
-        if r == 0.0 and on and not (len(on) == 1 and (
-                on[0][1][1] * ex + on[0][1][2] * ey + on[0][1][3] * ez) ** 2 >= e2 * PARALLEL):
+        if r == 0.0 and on and not (len(on) == 1 and (on[0][1][1] * ex + on[0][1][2] * ey + on[
+                0][1][3] * ez) ** 2 >= (ex * ex + ey * ey + ez * ez) * PARALLEL):
             # A point proxy can rest on an edge, apex or crease: per body, report the (unglued)
             # feature normal the HIP pushes into most, or the body's own normal if better.
-            # (Skipped for one body whose normal is already parallel to proxy - HIP.)
             fs, feats = _unglued_features(bodies, [i for i, _ in on], x, -ex, -ey, -ez)
             picked = []
             for i, ev in on:
-                cands = list(feats[i])
                 n = ev[1:]
-                if n not in fs[i] or n in feats[i]:  # own normal unless it is a glued face
-                    cands.append(n)
-                n = max(cands, key=lambda m: m[0] * ex + m[1] * ey + m[2] * ez)
-                picked.append((i, (ev[0],) + n))
+                cands = feats[i] + ([n] if n not in fs[i] or n in feats[i] else [])
+                picked.append((i, (ev[0],) + max(cands, key=lambda m: m[0] * ex + m[1] * ey
+                                                 + m[2] * ez)))
             on = picked
-        out = []
-        for i, ev in on:
-            depth = ev[1] * ex + ev[2] * ey + ev[3] * ez
-            out.append((i, ev, depth if depth > 0.0 else 0.0))
-        pushed = [c for c in out if c[2] > 0.0]
-        return pushed or out
+        out = [(i, ev, max(0.0, ev[1] * ex + ev[2] * ey + ev[3] * ez)) for i, ev in on]
+        return [c for c in out if c[2] > 0.0] or out
 
     def _friction(self, bodies, phi0, body, ev_x, x, hip, start):
         """Friction cone (Ruspini et al. 1997; CHAI3D testFrictionAndMoveProxy): returns the
         sticking position ``start`` (last tick's proxy), a lagging slip position, or x."""
         r = self.radius
         ev_s = body._eval(start)
-        if abs(ev_s[0] - r) <= CONTACT_TOL:  # previous proxy still on this surface: may stick
+        if abs(ev_s[0] - r) <= CONTACT_TOL:  # the previous proxy is still on this surface
             fx, fy, fz = start[0] - hip[0], start[1] - hip[1], start[2] - hip[2]
             fn = ev_s[1] * fx + ev_s[2] * fy + ev_s[3] * fz
             ft2 = fx * fx + fy * fy + fz * fz - fn * fn
@@ -464,7 +383,6 @@ class GodObject:
         s = min(lag, lt) / lt
         cand = (x[0] + s * vx, x[1] + s * vy, x[2] + s * vz)
         h = _first_hit(bodies, phi0, start, x, cand, r)
-        if h is not None:
-            return h[1]
-        h = _first_hit(bodies, phi0, start, cand, hip, r)
+        if h is None:
+            h = _first_hit(bodies, phi0, start, cand, hip, r)
         return x if h is None else h[1]

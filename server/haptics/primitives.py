@@ -18,10 +18,14 @@ collides). Ties between faces prefer z (the "up" face), then x, then y.
 detection against the shape dilated by the proxy radius: phi(t) = sd(a + t(b - a)) - radius is
 convex in t for convex shapes (the SDF of a convex set is convex), so Newton's method started at
 t = 0 from outside with the exact derivative normal(p).(b - a) approaches the FIRST root from the
-left and never overshoots (the tangent of a convex function lies below its graph). This is the
-segment test of the god-object / virtual proxy (Zilles & Salisbury 1995; Ruspini et al. 1997) on
-analytic surfaces; flat faces converge in one step. Pure floats, no numpy, no I/O: the 1 kHz loop
-calls this many times per tick (numpy 3-vectors cost ~5x, rendering-notes.md section 3.1).
+left and never overshoots (the tangent of a convex function lies below its graph); iterates stay
+outside, flat faces converge in one step. A start ON the surface (|phi| <= EPS_SURFACE) is a hit
+only if the one-sided derivative says "inward": for a point proxy that is the max of n.d over
+the normals of every face/edge/apex feature the point lies on, so sliding along a face or over
+an edge is not a hit (a start slightly outside is finished by Newton, landing exactly on the
+surface). This is the segment test of the god-object / virtual proxy (Zilles & Salisbury 1995;
+Ruspini et al. 1997) on analytic surfaces. Pure floats, no numpy, no I/O: the 1 kHz loop calls
+this many times per tick (numpy 3-vectors cost ~5x, rendering-notes.md section 3.1).
 """
 
 from __future__ import annotations
@@ -133,6 +137,20 @@ class _Shape:
 
     type: ClassVar[str] = ""
 
+    def __post_init__(self) -> None:
+        """Validate (positive, finite) and coerce the dimensions, then precompute constants."""
+        for f in fields(self):
+            v, what = getattr(self, f.name), f"{self.type} {f.name}"
+            if f.name == "size":
+                v = _floats(v, 3 if self.type == "box" else 2, what, positive=True)
+            else:
+                v = _dimension(v, what)
+            object.__setattr__(self, f.name, v)
+        self._prepare()
+
+    def _prepare(self) -> None:
+        pass
+
     def signed_distance(self, p: Vec3) -> float:
         return self._eval(p[0], p[1], p[2])[0]
 
@@ -177,9 +195,6 @@ class Sphere(_Shape):
     radius: float
     type: ClassVar[str] = "sphere"
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "radius", _dimension(self.radius, "sphere radius"))
-
     def _eval(self, x, y, z):
         r2 = x * x + y * y + z * z
         if r2 > 0.0:
@@ -188,89 +203,73 @@ class Sphere(_Shape):
         return (-self.radius, 0.0, 0.0, 1.0)
 
 
-_AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+def _box_eval(qx, qy, qz, x, y, z):
+    """Box SDF from q = |p| - half extents (Box and Plane); face signs from x, y, z. Inside, the
+    nearest face wins, ties prefer z, then x, then y; a coordinate of 0 picks the + face."""
+    if qx > 0.0 or qy > 0.0 or qz > 0.0:
+        dx = qx if qx > 0.0 else 0.0
+        dy = qy if qy > 0.0 else 0.0
+        dz = qz if qz > 0.0 else 0.0
+        d = sqrt(dx * dx + dy * dy + dz * dz)
+        if d > 0.0:  # else: underflow, treat as on the surface (below)
+            return (d, (dx if x >= 0.0 else -dx) / d, (dy if y >= 0.0 else -dy) / d,
+                    (dz if z >= 0.0 else -dz) / d)
+    if qz >= qx and qz >= qy:
+        return (qz, 0.0, 0.0, 1.0 if z >= 0.0 else -1.0)
+    if qx >= qy:
+        return (qx, 1.0 if x >= 0.0 else -1.0, 0.0, 0.0)
+    return (qy, 0.0, 1.0 if y >= 0.0 else -1.0, 0.0)
 
 
-def _box_features(qs, signs) -> list:
-    """Normals sign_i * e_i of the faces with q_i within FEATURE_TOL of the nearest one."""
-    m = max(qs)
+def _box_features(qx, qy, qz, x, y, z) -> list:
+    """Normals of the faces whose q is within FEATURE_TOL of the nearest face's."""
+    m = max(qx, qy, qz)
     thr = (m if m < 0.0 else 0.0) - FEATURE_TOL
-    return [(s * e[0], s * e[1], s * e[2]) for q, s, e in zip(qs, signs, _AXES) if q >= thr]
+    out = [(1.0 if x >= 0.0 else -1.0, 0.0, 0.0)] if qx >= thr else []
+    if qy >= thr:
+        out.append((0.0, 1.0 if y >= 0.0 else -1.0, 0.0))
+    if qz >= thr:
+        out.append((0.0, 0.0, 1.0 if z >= 0.0 else -1.0))
+    return out
 
 
 @dataclass(frozen=True)
 class Box(_Shape):
-    """Axis-aligned box of edge lengths ``size`` centred at the origin. Inside, the nearest face
-    wins; ties prefer z, then x, then y; on a mid-plane (coordinate 0) the + face is chosen."""
+    """Axis-aligned box of edge lengths ``size`` centred at the origin (ties: ``_box_eval``)."""
 
     size: Vec3
     type: ClassVar[str] = "box"
 
-    def __post_init__(self) -> None:
-        s = _floats(self.size, 3, "box size", positive=True)
-        object.__setattr__(self, "size", s)
-        object.__setattr__(self, "_h", (0.5 * s[0], 0.5 * s[1], 0.5 * s[2]))
+    def _prepare(self) -> None:
+        object.__setattr__(self, "_h", tuple(0.5 * c for c in self.size))
 
     def _eval(self, x, y, z):
         hx, hy, hz = self._h
-        qx = abs(x) - hx
-        qy = abs(y) - hy
-        qz = abs(z) - hz
-        if qx > 0.0 or qy > 0.0 or qz > 0.0:
-            dx = qx if qx > 0.0 else 0.0
-            dy = qy if qy > 0.0 else 0.0
-            dz = qz if qz > 0.0 else 0.0
-            d = sqrt(dx * dx + dy * dy + dz * dz)
-            if d > 0.0:  # else: underflow, treat as on the surface (below)
-                return (d, (dx if x >= 0.0 else -dx) / d, (dy if y >= 0.0 else -dy) / d,
-                        (dz if z >= 0.0 else -dz) / d)
-        if qz >= qx and qz >= qy:
-            return (qz, 0.0, 0.0, 1.0 if z >= 0.0 else -1.0)
-        if qx >= qy:
-            return (qx, 1.0 if x >= 0.0 else -1.0, 0.0, 0.0)
-        return (qy, 0.0, 1.0 if y >= 0.0 else -1.0, 0.0)
+        return _box_eval(abs(x) - hx, abs(y) - hy, abs(z) - hz, x, y, z)
 
     def _features(self, x, y, z, dx, dy, dz):
         hx, hy, hz = self._h
-        return _box_features((abs(x) - hx, abs(y) - hy, abs(z) - hz),
-                             (1.0 if x >= 0.0 else -1.0, 1.0 if y >= 0.0 else -1.0,
-                              1.0 if z >= 0.0 else -1.0))
+        return _box_features(abs(x) - hx, abs(y) - hy, abs(z) - hz, x, y, z)
 
 
 @dataclass(frozen=True)
 class Plane(_Shape):
     """Finite ground: solid {|x| <= sx/2, |y| <= sy/2, z <= 0}, top face z = 0, semi-infinite
-    downward (box SDF with q = (|x| - sx/2, |y| - sy/2, z)). Ties prefer the top face."""
+    downward: the box SDF with q = (|x| - sx/2, |y| - sy/2, z). Ties prefer the top face."""
 
     size: tuple[float, float]
     type: ClassVar[str] = "plane"
 
-    def __post_init__(self) -> None:
-        s = _floats(self.size, 2, "plane size", positive=True)
-        object.__setattr__(self, "size", s)
-        object.__setattr__(self, "_h", (0.5 * s[0], 0.5 * s[1]))
+    def _prepare(self) -> None:
+        object.__setattr__(self, "_h", tuple(0.5 * c for c in self.size))
 
     def _eval(self, x, y, z):
         hx, hy = self._h
-        qx = abs(x) - hx
-        qy = abs(y) - hy
-        if qx > 0.0 or qy > 0.0 or z > 0.0:
-            dx = qx if qx > 0.0 else 0.0
-            dy = qy if qy > 0.0 else 0.0
-            dz = z if z > 0.0 else 0.0
-            d = sqrt(dx * dx + dy * dy + dz * dz)
-            if d > 0.0:
-                return (d, (dx if x >= 0.0 else -dx) / d, (dy if y >= 0.0 else -dy) / d, dz / d)
-        if z >= qx and z >= qy:
-            return (z, 0.0, 0.0, 1.0)
-        if qx >= qy:
-            return (qx, 1.0 if x >= 0.0 else -1.0, 0.0, 0.0)
-        return (qy, 0.0, 1.0 if y >= 0.0 else -1.0, 0.0)
+        return _box_eval(abs(x) - hx, abs(y) - hy, z, x, y, 1.0)
 
     def _features(self, x, y, z, dx, dy, dz):
         hx, hy = self._h
-        return _box_features((abs(x) - hx, abs(y) - hy, z),
-                             (1.0 if x >= 0.0 else -1.0, 1.0 if y >= 0.0 else -1.0, 1.0))
+        return _box_features(abs(x) - hx, abs(y) - hy, z, x, y, 1.0)
 
 
 @dataclass(frozen=True)
@@ -283,9 +282,7 @@ class Cylinder(_Shape):
     height: float
     type: ClassVar[str] = "cylinder"
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "radius", _dimension(self.radius, "cylinder radius"))
-        object.__setattr__(self, "height", _dimension(self.height, "cylinder height"))
+    def _prepare(self) -> None:
         object.__setattr__(self, "_hh", 0.5 * self.height)
 
     def _eval(self, x, y, z):
@@ -331,11 +328,8 @@ class Cone(_Shape):
     height: float
     type: ClassVar[str] = "cone"
 
-    def __post_init__(self) -> None:
-        r = _dimension(self.radius, "cone radius")
-        h = _dimension(self.height, "cone height")
-        object.__setattr__(self, "radius", r)
-        object.__setattr__(self, "height", h)
+    def _prepare(self) -> None:
+        r, h = self.radius, self.height
         length = hypot(r, h)
         # side outward normal in (rho, z) = (H, R) / L; L2 = squared side length
         object.__setattr__(self, "_k", (length, r * r + h * h, h / length, r / length))
@@ -397,9 +391,6 @@ class Hemisphere(_Shape):
 
     radius: float
     type: ClassVar[str] = "hemisphere"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "radius", _dimension(self.radius, "hemisphere radius"))
 
     def _eval(self, x, y, z):
         R = self.radius
@@ -507,17 +498,11 @@ class Body:
 
     def _features(self, a: Vec3, dx: float, dy: float, dz: float) -> list:
         """World normals of the surface features at world point a (see _Shape._features)."""
-        o = self._o
-        m = self._m
-        x, y, z = a[0] - o[0], a[1] - o[1], a[2] - o[2]
-        if m is None:
-            return self.shape._features(x, y, z, dx, dy, dz)
-        fs = self.shape._features(
-            m[0] * x + m[3] * y + m[6] * z, m[1] * x + m[4] * y + m[7] * z,
-            m[2] * x + m[5] * y + m[8] * z, m[0] * dx + m[3] * dy + m[6] * dz,
-            m[1] * dx + m[4] * dy + m[7] * dz, m[2] * dx + m[5] * dy + m[8] * dz)
-        return [(m[0] * a + m[1] * b + m[2] * c, m[3] * a + m[4] * b + m[5] * c,
-                 m[6] * a + m[7] * b + m[8] * c) for a, b, c in fs]
+        o, pose = self._o, self.pose
+        if self._m is None:
+            return self.shape._features(a[0] - o[0], a[1] - o[1], a[2] - o[2], dx, dy, dz)
+        fs = self.shape._features(*pose.to_local(a), *pose.unrotate((dx, dy, dz)))
+        return [pose.rotate(n) for n in fs]
 
     def _cast(self, a, dx, dy, dz, radius, t_max, ev0, feats=None):
         """Newton-from-the-left cast of a + t d, t in [0, t_max]. ev0 = cached _eval(a) or None;
