@@ -31,9 +31,10 @@ this many times per tick (numpy 3-vectors cost ~5x, rendering-notes.md section 3
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from math import hypot, isfinite, sqrt
+from math import hypot, sqrt
 from typing import Any, ClassVar, Union
 
+from .pose import Pose, _dimension, _floats, _number  # noqa: F401 (Pose re-exported)
 from .vec import Vec3
 
 EPS_SURFACE = 1e-10  # |phi| below this = "on the (dilated) surface" (cast start classification)
@@ -43,93 +44,6 @@ SLOPE_TOL = 1e-12  # moving inward means phi'(0) < -(SLOPE_TOL * |b - a| + NEWTO
 FEATURE_TOL = 1e-12  # a face/feature counts as active at a surface point within this distance
 APEX_TOL = 1e-9  # points this close to the cone apex use the apex's whole normal cone
 MAX_NEWTON = 40
-
-
-def _number(value: Any, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{what} must be a number, got {value!r}")
-    v = float(value)
-    if not isfinite(v):
-        raise ValueError(f"{what} must be finite, got {value!r}")
-    return v
-
-
-def _dimension(value: Any, what: str) -> float:
-    v = _number(value, what)
-    if v <= 0.0:
-        raise ValueError(f"{what} must be > 0, got {value!r}")
-    return v
-
-
-def _floats(value: Any, n: int, what: str, positive: bool = False) -> tuple:
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != n:
-        raise ValueError(f"{what} must be a list of {n} numbers, got {value!r}")
-    conv = _dimension if positive else _number
-    return tuple(conv(c, f"{what}[{i}]") for i, c in enumerate(value))
-
-
-@dataclass(frozen=True)
-class Pose:
-    """Rigid transform local -> scene: p_scene = R(quat) p_local + pos; quat = (w, x, y, z)."""
-
-    pos: Vec3 = (0.0, 0.0, 0.0)
-    quat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
-
-    def __post_init__(self) -> None:
-        pos = _floats(self.pos, 3, "pose.pos")
-        q = _floats(self.quat, 4, "pose.quat")
-        n = hypot(*q)
-        if not n > 0.0:
-            raise ValueError(f"pose.quat must be non-zero, got {self.quat!r}")
-        if abs(n - 1.0) > 1e-12:  # leave unit quats bit-exact so dict round trips are exact
-            q = (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
-        object.__setattr__(self, "pos", pos)
-        object.__setattr__(self, "quat", q)
-        w, x, y, z = q
-        # Rotation matrix computed once (row-major); None = identity rotation: the fast path used
-        # by almost every scene object (only translation per query).
-        m = None
-        if not (x == 0.0 and y == 0.0 and z == 0.0):
-            k = 2.0 / (w * w + x * x + y * y + z * z)  # exact for not-quite-unit quats too
-            m = (1 - k * (y * y + z * z), k * (x * y - w * z), k * (x * z + w * y),
-                 k * (x * y + w * z), 1 - k * (x * x + z * z), k * (y * z - w * x),
-                 k * (x * z - w * y), k * (y * z + w * x), 1 - k * (x * x + y * y))
-        object.__setattr__(self, "_m", m)
-
-    def rotate(self, v: Vec3) -> Vec3:
-        """Local direction -> scene direction."""
-        m = self._m
-        if m is None:
-            return (v[0], v[1], v[2])
-        x, y, z = v
-        return (m[0] * x + m[1] * y + m[2] * z, m[3] * x + m[4] * y + m[5] * z,
-                m[6] * x + m[7] * y + m[8] * z)
-
-    def unrotate(self, v: Vec3) -> Vec3:
-        """Scene direction -> local direction (R transposed)."""
-        m = self._m
-        if m is None:
-            return (v[0], v[1], v[2])
-        x, y, z = v
-        return (m[0] * x + m[3] * y + m[6] * z, m[1] * x + m[4] * y + m[7] * z,
-                m[2] * x + m[5] * y + m[8] * z)
-
-    def to_world(self, p: Vec3) -> Vec3:
-        r = self.rotate(p)
-        return (r[0] + self.pos[0], r[1] + self.pos[1], r[2] + self.pos[2])
-
-    def to_local(self, p: Vec3) -> Vec3:
-        return self.unrotate((p[0] - self.pos[0], p[1] - self.pos[1], p[2] - self.pos[2]))
-
-    def to_dict(self) -> dict:
-        return {"pos": list(self.pos), "quat": list(self.quat)}
-
-    @classmethod
-    def from_dict(cls, d: Any) -> "Pose":
-        """Missing "pos"/"quat" take the defaults (origin, identity)."""
-        if not isinstance(d, dict):
-            raise ValueError(f"pose must be an object, got {d!r}")
-        return cls(d.get("pos", (0.0, 0.0, 0.0)), d.get("quat", (1.0, 0.0, 0.0, 0.0)))
 
 
 class _Shape:
