@@ -5,6 +5,6 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh --test
 echo "== browser client unit tests (node --test)"
-(cd clients/web && node --test test/)
+(cd clients/web && node --test --test-reporter=dot test/)
 echo "== Python tests (pytest)"
 exec .venv/bin/python -m pytest -q "$@"

@@ -19,7 +19,8 @@ def _serve(args: argparse.Namespace) -> int:
     from server.config import Settings
 
     settings = Settings(host=args.host, port=args.port, scenario=args.scenario, scene_file=args.scene,
-                        state_hz=args.state_hz, realtime=not args.no_realtime)
+                        state_hz=args.state_hz, realtime=not args.no_realtime, gate_band=args.gate_band,
+                        gate_dwell_s=args.gate_dwell_ms / 1000.0)
     app = create_app(settings)
     family = socket.AF_INET6 if ":" in settings.host else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_STREAM)
@@ -72,6 +73,10 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--scenario", default="contact-angle")
     serve.add_argument("--scene", default=None, help="a scene JSON file to explore instead of the scenario's scene")
     serve.add_argument("--state-hz", type=float, default=60.0)
+    serve.add_argument("--gate-band", type=float, default=0.002,
+                       help="contact hysteresis band in scene units (default 0.002)")
+    serve.add_argument("--gate-dwell-ms", type=float, default=30.0,
+                       help="minimum on/off time of the debounced contact (default 30 ms)")
     serve.add_argument("--no-realtime", action="store_true", help="do not ask for SCHED_FIFO for the loop")
     serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     serve.set_defaults(func=_serve)

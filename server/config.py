@@ -21,6 +21,8 @@ class Settings:
     tick_hz: int = 1000
     state_hz: float = 60.0
     realtime: bool = True
+    gate_band: float = 0.002       # contact hysteresis band, scene units (docs/haptics.md)
+    gate_dwell_s: float = 0.030    # minimum on and off time of the debounced contact
     web_root: Path = field(default=WEB_ROOT)
     max_frame_bytes: int = 1 << 20  # frames above this close the connection (1009); 64 KiB+ get an error
 
@@ -31,10 +33,13 @@ class Settings:
             raise ValueError("tick_hz must be in 100..10000")
         if not 1 <= self.state_hz <= min(self.tick_hz, 1000):
             raise ValueError("state_hz must be in 1..tick_hz")
+        if not (0.0 <= self.gate_band <= 0.1 and 0.0 <= self.gate_dwell_s <= 1.0):
+            raise ValueError("gate band must be in [0, 0.1] scene units and dwell in [0, 1] s")
         object.__setattr__(self, "scenario", registry.resolve(self.scenario).id)  # fails early, with a hint
         if self.scene_file is not None:
             Scene.load(self.scene_file)  # fails early with the offending field
 
     def loop_config(self) -> LoopConfig:
         return LoopConfig(scenario=self.scenario, scene_file=self.scene_file, tick_hz=self.tick_hz,
-                          state_hz=self.state_hz, realtime=self.realtime)
+                          state_hz=self.state_hz, realtime=self.realtime, gate_band=self.gate_band,
+                          gate_min_on_s=self.gate_dwell_s, gate_min_off_s=self.gate_dwell_s)
