@@ -3,7 +3,8 @@
 Scenarios never produce bytes or device commands: they say "tilt toward 90 degrees at 100 %" or
 "pulse 50 ms on / 200 ms off", and a device profile decides how (or whether) to show it.
 Cues are frozen, comparable values, so the loop detects a change with `!=`. Units are in the
-field names. Ranges are checked on construction (a bad cue is a bug in a scenario).
+field names. Each cue class declares the valid range of every field in `RANGES`, checked on
+construction (a bad cue is a bug in a scenario); None means "not given" for optional fields.
 """
 
 from __future__ import annotations
@@ -13,88 +14,73 @@ from dataclasses import dataclass, fields
 from typing import ClassVar
 
 
-def _check(name: str, value: float, low: float, high: float) -> None:
-    if not (math.isfinite(value) and low <= value <= high):
-        raise ValueError(f"{name} must be in [{low}, {high}], got {value!r}")
+class _Ranged:
+    RANGES: ClassVar[dict[str, tuple[float, float]]] = {}
+
+    def __post_init__(self) -> None:
+        for name, (low, high) in self.RANGES.items():
+            value = getattr(self, name)
+            if value is None:
+                continue
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and low <= value <= high):
+                raise ValueError(f"{type(self).__name__}.{name} must be in [{low}, {high}], got {value!r}")
 
 
 @dataclass(frozen=True)
-class PulseTrain:
+class PulseTrain(_Ranged):
     """Bursts of vibration: t_on ms on, t_off ms off (spec.md PWM; FingerTac LRAs at 235 Hz)."""
     kind: ClassVar[str] = "pulse_train"
+    RANGES: ClassVar = {"t_on_ms": (0.0, 60_000.0), "t_off_ms": (0.0, 60_000.0), "intensity_pct": (0.0, 100.0),
+                        "carrier_hz": (1.0, 2_000.0)}
     t_on_ms: float = 50.0
     t_off_ms: float = 200.0
     intensity_pct: float = 100.0
     carrier_hz: float | None = None
 
-    def __post_init__(self) -> None:
-        _check("t_on_ms", self.t_on_ms, 0.0, 60_000.0)
-        _check("t_off_ms", self.t_off_ms, 0.0, 60_000.0)
-        _check("intensity_pct", self.intensity_pct, 0.0, 100.0)
-        if self.carrier_hz is not None:
-            _check("carrier_hz", self.carrier_hz, 1.0, 2_000.0)
-
 
 @dataclass(frozen=True)
-class Vibration:
+class Vibration(_Ranged):
     """Continuous vibration."""
     kind: ClassVar[str] = "vibration"
+    RANGES: ClassVar = {"intensity_pct": (0.0, 100.0), "carrier_hz": (1.0, 2_000.0)}
     intensity_pct: float = 100.0
     carrier_hz: float | None = None
 
-    def __post_init__(self) -> None:
-        _check("intensity_pct", self.intensity_pct, 0.0, 100.0)
-        if self.carrier_hz is not None:
-            _check("carrier_hz", self.carrier_hz, 1.0, 2_000.0)
-
 
 @dataclass(frozen=True)
-class Texture:
+class Texture(_Ranged):
     """Fine roughness as a periodic signal: period in µs, duty cycle (spec.md Scenario 2)."""
     kind: ClassVar[str] = "texture"
+    RANGES: ClassVar = {"period_us": (100.0, 1_000_000.0), "duty": (0.0, 1.0), "intensity_pct": (0.0, 100.0)}
     period_us: float = 4000.0
     duty: float = 0.5
     intensity_pct: float = 100.0
 
-    def __post_init__(self) -> None:
-        _check("period_us", self.period_us, 100.0, 1_000_000.0)
-        _check("duty", self.duty, 0.0, 1.0)
-        _check("intensity_pct", self.intensity_pct, 0.0, 100.0)
-
 
 @dataclass(frozen=True)
-class Tilt:
+class Tilt(_Ranged):
     """FerroVibe-style tilt: 0 = front of the fingerpad, 90 = right, 180 = back, 270 = left."""
     kind: ClassVar[str] = "tilt"
+    RANGES: ClassVar = {"direction_deg": (0.0, 360.0), "magnitude_pct": (0.0, 100.0)}
     direction_deg: float = 0.0
     magnitude_pct: float = 100.0
 
-    def __post_init__(self) -> None:
-        _check("direction_deg", self.direction_deg, 0.0, 360.0)
-        _check("magnitude_pct", self.magnitude_pct, 0.0, 100.0)
-
 
 @dataclass(frozen=True)
-class Temperature:
+class Temperature(_Ranged):
     kind: ClassVar[str] = "temperature"
+    RANGES: ClassVar = {"celsius": (0.0, 50.0)}
     celsius: float = 32.0
 
-    def __post_init__(self) -> None:
-        _check("celsius", self.celsius, 0.0, 50.0)
-
 
 @dataclass(frozen=True)
-class Friction:
+class Friction(_Ranged):
     kind: ClassVar[str] = "friction"
+    RANGES: ClassVar = {"coefficient": (0.0, 5.0)}
     coefficient: float = 0.5
-
-    def __post_init__(self) -> None:
-        _check("coefficient", self.coefficient, 0.0, 5.0)
 
 
 Cue = PulseTrain | Vibration | Texture | Tilt | Temperature | Friction
-
-
 _FIELDS = {cls: tuple(f.name for f in fields(cls)) for cls in (PulseTrain, Vibration, Texture, Tilt, Temperature, Friction)}
 
 
