@@ -170,8 +170,9 @@ class Hub:
             while s.close_code is None:
                 message = await ws.receive()
                 if message["type"] == "websocket.disconnect":
-                    break
+                    return
                 self._on_frame(s, message)
+            # We are closing (e.g. unsupported version): let the sender flush the error first.
             await asyncio.wait_for(asyncio.shield(sender), 2.0)
         except (WebSocketDisconnect, RuntimeError, asyncio.TimeoutError):
             pass

@@ -270,3 +270,15 @@ def test_rest_endpoints(live_server):
     assert "/api/health" in openapi["paths"]
     telemetry = live_server.get("/api/telemetry")
     assert telemetry["ticks"] > 0
+
+
+def test_departed_clients_leave_the_table_at_once(live_server):
+    async def go():
+        client = await Client.connect(live_server.ws_url, role="observer")
+        welcome = await client.recv_type("welcome")
+        await client.close()
+        await asyncio.sleep(0.3)
+        return welcome["client_id"], live_server.get("/api/clients")
+
+    client_id, clients = run(go())
+    assert client_id not in {c["client_id"] for c in clients}
