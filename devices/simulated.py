@@ -15,7 +15,6 @@ from devices.cues import Cue, Tilt
 
 class SimulatedFerroVibe:
     name = "ferrovibe-sim"
-    model = "FerroVibe (simulated)"
 
     def __init__(self, history: int = 10_000):
         self.commands: deque[dict] = deque(maxlen=history)  # newest last

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import json
-import urllib.request
 from dataclasses import dataclass
 
 import pytest
 
-from server.bench.loop_bench import start_server, stop_server
+from server.bench.loop_bench import get_json, start_server, stop_server
 
 
 @dataclass
@@ -17,13 +15,10 @@ class LiveServer:
     ws_url: str
 
     def get(self, path: str):
-        with urllib.request.urlopen(self.http_url + path, timeout=5) as response:
-            return json.loads(response.read())
+        return get_json(self.http_url + path)
 
     def post(self, path: str):
-        request = urllib.request.Request(self.http_url + path, method="POST")
-        with urllib.request.urlopen(request, timeout=5) as response:
-            return json.loads(response.read())
+        return get_json(self.http_url + path, "POST")
 
 
 @pytest.fixture(scope="session")

@@ -19,7 +19,8 @@ import urllib.request
 import psutil
 
 
-def _get(url: str, method: str = "GET") -> dict:
+def get_json(url: str, method: str = "GET") -> dict:
+    """GET (or POST) a URL of the server and decode its JSON body."""
     request = urllib.request.Request(url, method=method)
     with urllib.request.urlopen(request, timeout=5) as response:
         return json.loads(response.read())
@@ -48,7 +49,7 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
     threading.Thread(target=lambda: [None for _ in proc.stdout], daemon=True).start()
     while True:
         try:
-            if _get(base + "/api/health")["status"] == "ok":
+            if get_json(base + "/api/health")["status"] == "ok":
                 return proc, base
         except OSError:
             pass
@@ -90,14 +91,14 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
                                  "--trackers", str(trackers), "--warmup", str(warmup_s), "--seconds", str(seconds)],
                                 stdout=subprocess.PIPE, text=True)
         time.sleep(warmup_s)
-        _get(base + "/api/telemetry/reset", "POST")
+        get_json(base + "/api/telemetry/reset", "POST")
         end = time.monotonic() + seconds
         peak_rss = 0.0
         while time.monotonic() < end:
             peak_rss = max(peak_rss, _tree_rss_mb(proc.pid))
             time.sleep(0.25)
-        telemetry = _get(base + "/api/telemetry")
-        tracker_rows = _get(base + "/api/trackers?limit=4096")["rows"]
+        telemetry = get_json(base + "/api/telemetry")
+        tracker_rows = get_json(base + "/api/trackers?limit=4096")["rows"]
         out, _ = load.communicate(timeout=60)
         load_result = json.loads(out.strip().splitlines()[-1])
     finally:

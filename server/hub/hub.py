@@ -50,7 +50,6 @@ class ClientSession:
         self.tracker_count = 0
         self.last_tracker: dict | None = None
         self.errors = 0
-        self.connected_at = time.time()
 
     def info(self) -> dict:
         return {"client_id": self.id, "role": self.role, "client": self.client_name, "format": self.fmt,

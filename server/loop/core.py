@@ -34,7 +34,6 @@ class LoopCore:
         self.samples = array("q")    # (period_ns, cost_ns) pairs since the last state record
         self.device_events: list[dict] = []
         self.tracker_applied: list[list] = []  # [client_id, seq, t_ms, recv_ns, applied_ns]
-        self.last_tracker_client: int | None = None
         self.frames = 0
 
     def apply(self, record: list, now_ns: int) -> None:
@@ -43,7 +42,6 @@ class LoopCore:
         if kind == "tracker":
             _, client_id, seq, t_ms, pos, _quat, recv_ns = record
             self.sim.set_hip((float(pos[0]), float(pos[1]), float(pos[2])))
-            self.last_tracker_client = client_id
             self.tracker_applied.append([client_id, seq, t_ms, recv_ns, now_ns])
         elif kind == "input":
             _, _client_id, key, action = record

@@ -117,7 +117,6 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
             if failures <= 10 or failures % 1000 == 0:
                 ipc.send_record(sock, ["log", "error", f"tick failed ({failures}): {traceback.format_exc()}"])
         if state is not None:
-            state["rt"] = rt
             state["resyncs"] = scheduler.resyncs
             ipc.send_record(sock, ["state", state])
         core.record_sample(period, clock.now_ns() - start)

@@ -1,27 +1,20 @@
 """A dead loop process is restarted by the hub; connected clients keep their connection."""
 
 import asyncio
-import json
 import os
 import signal
 import time
-import urllib.request
 
 import msgpack
 import websockets
 
-from server.bench.loop_bench import start_server, stop_server
-
-
-def _health(base):
-    with urllib.request.urlopen(base + "/api/health", timeout=5) as response:
-        return json.loads(response.read())
+from server.bench.loop_bench import get_json, start_server, stop_server
 
 
 def test_killed_loop_is_restarted_and_clients_get_the_scene_again():
     proc, base = start_server("contact-angle")
     try:
-        before = _health(base)
+        before = get_json(base + "/api/health")
         loop_pid = before["loop"]["pid"]
 
         async def go():
@@ -44,7 +37,7 @@ def test_killed_loop_is_restarted_and_clients_get_the_scene_again():
         kinds, scenes_after_kill, states_after_scene = asyncio.run(go())
         assert kinds[:2] == ["welcome", "scene"]
         assert scenes_after_kill == 1 and states_after_scene == 10
-        after = _health(base)
+        after = get_json(base + "/api/health")
         assert after["loop"]["alive"] and after["loop"]["restarts"] == 1
         assert after["loop"]["pid"] != loop_pid
     finally:
