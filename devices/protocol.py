@@ -1,0 +1,284 @@
+"""HostProtocol: the host side of a device session (docs/device-protocol.md §4), sans-I/O.
+
+Theory of operation (the websockets/h11 shape). The adapter (devices/serial_port.py) owns the
+port and the clock and calls, with the current time in seconds:
+
+    connection_made(now)          port opened: a lone 0x00 (flush) + HELLO get queued
+    receive_data(data, now)       bytes read; never raises
+    set(command, now)             the newest value of one layer (SET_* or STOP)
+    poll(now) -> (data, wake_at)  at most one frame to write now, and when to poll again
+    connection_lost(now, reason)  read/write error or port closed
+    events_received()             facts since the last call (StatusChanged, Acked, ...)
+
+Status: disconnected → handshaking (HELLO every hello_interval_s until IDENTIFY) → connected
+(PING every ping_interval_s) ⇄ unresponsive (no frame for silence_timeout_s; back at the next
+good frame). IDENTIFY with a version ≠ 1, or ERROR bad_version, → bad_version (§6), which only
+a new connection_made leaves.
+
+Commands wait in latest-wins slots (devices.link.CommandBook) and leave oldest-first within the
+LinkBudget, which HELLO and PING frames share (§5). A command value the device already has
+(written, as far as the host knows) is not written again. Every layer is made pending again
+after connection_made and after unresponsive → connected (the device may have been
+power-cycled, §4.4). A command the device did not acknowledge within ack_timeout_s, or the
+commands in flight when the device reports a frame it could not read (ERROR with ref_seq 0xFF,
+§3), are made pending again: without that, one lost frame on a Bluetooth link could leave a
+vibration running. A command answered with any other ERROR is not resent (it would fail
+again); the error is reported with the command it refers to.
+
+STOP is a command with the layer_key (channel, "stop"): it replaces the waiting values of every
+layer of its channel(s), and a later SET on one of them goes after it (devices.messages.overrides).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from devices import messages as m
+from devices.framing import Frame, FrameDecoder, FrameError, encode_frame
+from devices.link import CommandBook, LinkBudget
+
+DISCONNECTED, HANDSHAKING, CONNECTED, UNRESPONSIVE, BAD_VERSION = (
+    "disconnected", "handshaking", "connected", "unresponsive", "bad_version")
+REJECT_KINDS = ("framing", "too_long", "bad_length", "bad_crc", "unknown_type", "bad_value")
+_PING_TOKENS_KEPT = 8
+
+
+# ---- events: facts, in the order they happened ----------------------------------------------
+
+@dataclass(frozen=True)
+class StatusChanged:
+    old: str
+    new: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class Identified:
+    identity: m.Identify  # a version-1 IDENTIFY (first one, or one that differs from the last)
+
+
+@dataclass(frozen=True)
+class Acked:
+    ref_seq: int
+    latency_s: float | None  # from the frame's write to its ACK; None if the seq is unknown
+    message: object = None   # the command it acknowledges, if known
+
+
+@dataclass(frozen=True)
+class DeviceErrorReported:
+    ref_seq: int
+    code: int                 # messages.ErrorCode (or a plain int for codes newer than v1)
+    message_repr: str | None  # the command it refers to; None if ref_seq names none (§3)
+
+
+@dataclass(frozen=True)
+class FrameRejected:
+    error: FrameError  # kind: framing | too_long | bad_length | bad_crc | unknown_type | bad_value
+
+
+@dataclass(frozen=True)
+class Pong:
+    rtt_s: float  # PING write → PONG receipt
+
+
+class HostProtocol:
+    def __init__(self, *, share: float = 0.5, byte_time_s: float = 86.8e-6, hello_interval_s: float = 0.25,
+                 ping_interval_s: float = 0.5, silence_timeout_s: float = 1.5, ack_timeout_s: float = 0.5):
+        self.hello_interval_s = hello_interval_s
+        self.ping_interval_s = ping_interval_s
+        self.silence_timeout_s = silence_timeout_s
+        self.ack_timeout_s = ack_timeout_s
+        self.status = DISCONNECTED
+        self.identity: m.Identify | None = None  # the last version-1 IDENTIFY
+        self.rtt_s: float | None = None
+        self.counters: dict[str, int] = dict.fromkeys(
+            ("frames_in", "frames_out", "bytes_out", "acks", "device_errors", "resent", *REJECT_KINDS), 0)
+        self.budget = LinkBudget(share, byte_time_s)
+        self.book = CommandBook()
+        self._decoder = FrameDecoder()
+        self._events: list = []
+        self._seq = 0
+        self._frames: dict[int, tuple[object, float]] = {}  # seq -> (message, written at): the last 256
+        self._flush = False
+        self._hello_due: float | None = None
+        self._ping_due: float | None = None
+        self._ping_tokens: dict[int, float] = {}  # token -> written at
+        self._next_token = 1
+        self._last_rx = 0.0
+
+    # ---- connection ------------------------------------------------------------------------
+
+    def connection_made(self, now_s: float) -> None:
+        self._decoder.reset()
+        self._frames.clear()
+        self._ping_tokens.clear()
+        self._flush = True  # §4.1: one 0x00 flushes the device's partial frame, then HELLO
+        self._hello_due = self._ping_due = None
+        self._last_rx = now_s
+        self.book.requeue_all()  # §4.4: after a (re)connect every layer is sent again
+        self._set_status(HANDSHAKING, "port opened")
+
+    def connection_lost(self, now_s: float, reason: str) -> None:
+        self._decoder.reset()
+        self._flush = False
+        self._hello_due = self._ping_due = None
+        self._set_status(DISCONNECTED, reason)
+
+    # ---- input -----------------------------------------------------------------------------
+
+    def receive_data(self, data: bytes, now_s: float) -> None:
+        if self.status == DISCONNECTED:
+            return  # bytes of a port already given up
+        for item in self._decoder.feed(data):
+            if isinstance(item, FrameError):
+                self._reject(item)
+            else:
+                self._receive_frame(item, now_s)
+
+    def _receive_frame(self, frame: Frame, now_s: float) -> None:
+        self._last_rx = now_s  # §4.3: any good frame shows the device is alive
+        if self.status == UNRESPONSIVE:
+            # it may have been power-cycled behind an open port: resend every layer (§4.4)
+            self.counters["resent"] += self.book.requeue_all()
+            self._set_status(CONNECTED, "device answers again")
+        if frame.type == m.Identify.TYPE and frame.payload and frame.payload[0] != m.PROTOCOL_VERSION:
+            # checked before parsing: another version's IDENTIFY may have another layout (§6)
+            self._hello_due = None
+            self._set_status(BAD_VERSION, f"device speaks protocol version {frame.payload[0]}")
+            return
+        try:
+            message = m.unpack(frame.type, frame.payload)
+        except m.MessageError as exc:
+            self._reject(FrameError(exc.kind, frame.payload, f"type {frame.type:#04x} seq {frame.seq}: {exc}"))
+            return
+        if message.FROM_HOST:
+            self._reject(FrameError("unknown_type", frame.payload, f"{type(message).__name__} is not a device message"))
+            return
+        self.counters["frames_in"] += 1
+        if isinstance(message, m.Identify):
+            self._hello_due = None
+            if message != self.identity:
+                self.identity = message
+                self._events.append(Identified(message))
+            if self.status in (HANDSHAKING, BAD_VERSION):
+                self._ping_due = now_s  # first PING at once: an RTT right away
+                self._set_status(CONNECTED, f"{message.model} firmware {message.firmware}")
+        elif isinstance(message, m.Pong):
+            sent_at = self._ping_tokens.pop(message.token, None)
+            if sent_at is not None:
+                self.rtt_s = now_s - sent_at
+                self._events.append(Pong(self.rtt_s))
+        elif isinstance(message, m.Ack):
+            self.counters["acks"] += 1
+            self.book.mark_acked(message.ref_seq)
+            sent = self._frames.get(message.ref_seq)
+            self._events.append(Acked(message.ref_seq, None if sent is None else now_s - sent[1],
+                                      None if sent is None else sent[0]))
+        elif isinstance(message, m.Error):
+            self._device_error(message)
+
+    def _device_error(self, error: m.Error) -> None:
+        self.counters["device_errors"] += 1
+        if error.code in m.UNTRUSTED_SEQ_CODES:
+            # the device could not read a frame, so some command may be lost: resend what is
+            # not acknowledged yet (§3: ref_seq is 0xFF and names nothing)
+            self.counters["resent"] += self.book.requeue_unacked()
+            self._events.append(DeviceErrorReported(error.ref_seq, error.code, None))
+            return
+        self.book.mark_acked(error.ref_seq)  # answered: not lost, and resending would fail again
+        sent = self._frames.get(error.ref_seq)
+        self._events.append(DeviceErrorReported(error.ref_seq, error.code, None if sent is None else repr(sent[0])))
+        if error.code == m.ErrorCode.BAD_VERSION:
+            self._hello_due = None
+            self._set_status(BAD_VERSION, "device refused HELLO version 1")
+
+    def _reject(self, error: FrameError) -> None:
+        self.counters[error.kind] = self.counters.get(error.kind, 0) + 1
+        self._events.append(FrameRejected(error))
+
+    # ---- commands and output ---------------------------------------------------------------
+
+    def set(self, message, now_s: float) -> None:
+        """The newest value of one layer (a SET_* or STOP message); latest wins per layer_key."""
+        self.book.set(message, now_s)
+
+    def poll(self, now_s: float) -> tuple[bytes, float | None]:
+        if self.status == DISCONNECTED:
+            return b"", None
+        self._check_timers(now_s)
+        data = b""
+        if self.budget.ready(now_s):
+            data = self._next_write(now_s)
+            if data:
+                self.budget.spend(len(data), now_s)
+                self.counters["bytes_out"] += len(data)
+        return data, self._wake_at(now_s)
+
+    def events_received(self) -> list:
+        events, self._events = self._events, []
+        return events
+
+    def _check_timers(self, now_s: float) -> None:
+        if self.status == CONNECTED and now_s - self._last_rx >= self.silence_timeout_s:
+            self._set_status(UNRESPONSIVE, f"no frame from the device for {self.silence_timeout_s:g} s")
+        if self.status == CONNECTED:
+            oldest = self.book.oldest_unacked_at()
+            if oldest is not None and now_s - oldest >= self.ack_timeout_s:
+                self.counters["resent"] += self.book.requeue_unacked()
+
+    def _due_sends(self) -> list[float]:
+        """When each kind of frame wants to go out (s), ignoring the budget."""
+        due = []
+        if self._flush:
+            due.append(-float("inf"))
+        if self._hello_due is not None:
+            due.append(self._hello_due)
+        if self._ping_due is not None:
+            due.append(self._ping_due)
+        if self.book.pending:
+            due.append(-float("inf"))
+        return due
+
+    def _next_write(self, now_s: float) -> bytes:
+        if self._flush:
+            self._flush = False
+            self._hello_due = now_s + self.hello_interval_s
+            return b"\x00" + self._frame(m.Hello(), now_s)
+        if self._hello_due is not None and self._hello_due <= now_s:
+            self._hello_due = now_s + self.hello_interval_s  # §4.2: again, for ever, ≤ 4/s
+            return self._frame(m.Hello(), now_s)
+        if self._ping_due is not None and self._ping_due <= now_s:
+            self._ping_due = now_s + self.ping_interval_s
+            token, self._next_token = self._next_token, (self._next_token + 1) & 0xFFFF_FFFF
+            self._ping_tokens[token] = now_s
+            while len(self._ping_tokens) > _PING_TOKENS_KEPT:
+                del self._ping_tokens[next(iter(self._ping_tokens))]
+            return self._frame(m.Ping(token), now_s)
+        nxt = self.book.pop_next()
+        if nxt is None:
+            return b""
+        key, message, since = nxt
+        seq = self._seq
+        data = self._frame(message, now_s)
+        self.book.mark_written(key, message, since, now_s, seq)
+        return data
+
+    def _frame(self, message, now_s: float) -> bytes:
+        seq, self._seq = self._seq, (self._seq + 1) & 0xFF
+        self._frames[seq] = (message, now_s)  # seq wraps at 256, so this keeps the last 256
+        self.counters["frames_out"] += 1
+        return encode_frame(message.TYPE, seq, message.pack())
+
+    def _wake_at(self, now_s: float) -> float | None:
+        times = [max(t, self.budget.ready_at) for t in self._due_sends()]
+        if self.status == CONNECTED:
+            times.append(self._last_rx + self.silence_timeout_s)
+            oldest = self.book.oldest_unacked_at()
+            if oldest is not None:
+                times.append(oldest + self.ack_timeout_s)
+        return max(min(times), now_s) if times else None
+
+    def _set_status(self, new: str, reason: str) -> None:
+        if new != self.status:
+            old, self.status = self.status, new
+            self._events.append(StatusChanged(old, new, reason))
