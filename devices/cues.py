@@ -80,8 +80,17 @@ class Friction(_Ranged):
     coefficient: float = 0.5
 
 
-Cue = PulseTrain | Vibration | Texture | Tilt | Temperature | Friction
-_FIELDS = {cls: tuple(f.name for f in fields(cls)) for cls in (PulseTrain, Vibration, Texture, Tilt, Temperature, Friction)}
+@dataclass(frozen=True)
+class Stop(_Ranged):
+    """Every actuator off now, whatever else the tick asks for (same as emitting no cue at all,
+    but explicit, so a scenario can say "silence" next to cues it still reports)."""
+    kind: ClassVar[str] = "stop"
+
+
+Cue = PulseTrain | Vibration | Texture | Tilt | Temperature | Friction | Stop
+CUE_CLASSES = (PulseTrain, Vibration, Texture, Tilt, Temperature, Friction, Stop)
+CUE_KINDS = {cls.kind: cls for cls in CUE_CLASSES}
+_FIELDS = {cls: tuple(f.name for f in fields(cls)) for cls in CUE_CLASSES}
 
 
 def cue_to_wire(cue: Cue) -> dict:
@@ -95,6 +104,19 @@ def cue_to_wire(cue: Cue) -> dict:
         if value is not None:
             body[name] = value
     return body
+
+
+def cue_from_wire(body: dict) -> Cue:
+    """The inverse of cue_to_wire; ValueError (naming the problem) for an unknown kind or field."""
+    if not isinstance(body, dict) or body.get("kind") not in CUE_KINDS:
+        raise ValueError(f"unknown cue kind {body.get('kind') if isinstance(body, dict) else body!r}; "
+                         f"known: {', '.join(CUE_KINDS)}")
+    cls = CUE_KINDS[body["kind"]]
+    params = {k: v for k, v in body.items() if k != "kind"}
+    unknown = set(params) - set(_FIELDS[cls])
+    if unknown:
+        raise ValueError(f"{cls.kind} cue has no field(s) {', '.join(sorted(unknown))}")
+    return cls(**params)
 
 
 def tilt_direction(angle_deg: float) -> float:

@@ -26,6 +26,7 @@ class TickContext:
     contact: bool          # debounced contact (hysteresis gate)
     touching: frozenset[str]  # bodies the proxy touches this tick (raw)
     nearest: str | None    # haptic body nearest to the HIP
+    refusals: tuple[str, ...] = ()  # cues a connected device refused, with reasons (devices.encoder)
 
 
 @dataclass(frozen=True)

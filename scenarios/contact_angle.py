@@ -59,7 +59,9 @@ class ContactAngle:
             return ScenarioOutput()
         angle = contact_angle_deg(ctx.hip)
         tilt = Tilt(tilt_direction(-angle), self.magnitude_pct)
-        return ScenarioOutput(cues=(tilt,), values={"angle_deg": angle})
+        # A device that cannot show tilt says so; the participant must not just feel nothing.
+        hud = "; ".join(ctx.refusals)
+        return ScenarioOutput(cues=(tilt,), hud=hud, values={"angle_deg": angle})
 
     def on_input(self, key: str, action: str) -> None:
         """No keys in the free-exploration slice; the study controls come with the scenario issue."""

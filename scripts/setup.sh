@@ -11,9 +11,12 @@ want_test=0
 apt_packages=()
 python3 -c 'import venv, ensurepip' 2>/dev/null || apt_packages+=(python3-venv)
 command -v npm >/dev/null || apt_packages+=(npm)
+# gcc/make build the device firmware core that the emulators of the simulated rig run.
+command -v gcc >/dev/null || apt_packages+=(gcc)
+command -v make >/dev/null || apt_packages+=(make)
 if [ "$want_test" = 1 ]; then
   command -v chromium >/dev/null || apt_packages+=(chromium)
-  command -v gcc >/dev/null || apt_packages+=(gcc)
+  command -v g++ >/dev/null || apt_packages+=(g++)  # compile-checks the ESP32 sketches
 fi
 if [ "${#apt_packages[@]}" -gt 0 ]; then
   echo "setup: installing Debian packages: ${apt_packages[*]}"
@@ -36,6 +39,9 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   .venv/bin/python -m pip install -q -e ".${extras}"
   touch "$stamp"
 fi
+
+# The firmware core the emulators run (rebuilt only when its C sources change).
+.venv/bin/python -c "from devices.fwcore import ensure_library; ensure_library()"
 
 if [ ! -d clients/web/node_modules ] || [ clients/web/package-lock.json -nt clients/web/node_modules ]; then
   echo "setup: installing the browser client's npm packages"

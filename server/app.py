@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import asyncio
+import gc
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, WebSocket
 from fastapi.staticfiles import StaticFiles
 
+from devices.manager import DeviceManager
+from devices.rig import SimulatedRig, default_rig_dir
 from server import __version__
 from server.api.routes import router
 from server.config import Settings
@@ -19,11 +23,26 @@ def create_app(settings: Settings) -> FastAPI:
     supervisor = LoopSupervisor(settings.loop_config(), hub.on_loop_record)
     hub.send_to_loop = supervisor.send
 
+    rig = SimulatedRig(directory=default_rig_dir()) if settings.simulated_rig and not settings.devices else None
+
     @asynccontextmanager
     async def lifespan(app: FastAPI):
+        configs = list(settings.devices) + (await asyncio.to_thread(rig.start) if rig else [])
+        manager = DeviceManager(configs)
+        manager.start()
+        hub.attach_devices(manager)
+        app.state.devices = manager
         supervisor.start()
+        # The device threads share this process: a full collection over FastAPI's start-up heap
+        # paused them for 10-20 ms (measured in tests/devices/test_serial_path.py); freeze it.
+        gc.collect()
+        gc.freeze()
         yield
         await supervisor.stop()
+        manager.submit(())  # leave every actuator off
+        await asyncio.to_thread(manager.stop)
+        if rig:
+            await asyncio.to_thread(rig.stop)
 
     app = FastAPI(title="ViESTac", version=__version__, lifespan=lifespan,
                   description="Networked evaluation suite for wearable tactile displays. "
@@ -31,6 +50,7 @@ def create_app(settings: Settings) -> FastAPI:
     app.state.settings = settings
     app.state.hub = hub
     app.state.supervisor = supervisor
+    app.state.rig = rig
     app.include_router(router, prefix="/api")
 
     @app.websocket("/ws")

@@ -1,4 +1,4 @@
-"""`viestac` command line: serve, render, bench."""
+"""`viestac` command line: serve, devices, emulate, render, bench."""
 
 from __future__ import annotations
 
@@ -18,9 +18,19 @@ def _serve(args: argparse.Namespace) -> int:
     from server.app import create_app
     from server.config import Settings
 
+    from devices.manager import DeviceConfig, DeviceConfigError, load_device_file
+
+    try:
+        devices = [DeviceConfig.parse(text) for text in args.device]
+        if args.devices:
+            devices += load_device_file(args.devices)
+    except DeviceConfigError as exc:
+        print(f"viestac serve: {exc}", file=sys.stderr)
+        return 2
     settings = Settings(host=args.host, port=args.port, scenario=args.scenario, scene_file=args.scene,
                         state_hz=args.state_hz, realtime=not args.no_realtime, gate_band=args.gate_band,
-                        gate_dwell_s=args.gate_dwell_ms / 1000.0)
+                        gate_dwell_s=args.gate_dwell_ms / 1000.0, devices=tuple(devices),
+                        simulated_rig=not args.no_rig)
     app = create_app(settings)
     family = socket.AF_INET6 if ":" in settings.host else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_STREAM)
@@ -34,6 +44,67 @@ def _serve(args: argparse.Namespace) -> int:
                             ws_per_message_deflate=False, log_level=args.log_level, access_log=False)
     uvicorn.Server(config).run(sockets=[sock])
     return 0
+
+
+def _devices(args: argparse.Namespace) -> int:
+    """Serial ports the OS reports, devices configured in a file, and a running server's devices."""
+    from devices.manager import DeviceConfigError, load_device_file
+    from devices.ports import list_ports, resolve
+    from server.bench.loop_bench import get_json
+
+    report: dict = {"ports": list_ports(), "configured": [], "server": None}
+    if args.devices:
+        try:
+            configs = load_device_file(args.devices)
+        except DeviceConfigError as exc:
+            print(f"viestac devices: {exc}", file=sys.stderr)
+            return 2
+        report["configured"] = [{"name": c.name, "model": c.profile.model, "port": str(c.port),
+                                 "resolves_to": resolve(c.port), "table_2_2": c.profile.table_row()} for c in configs]
+    try:
+        report["server"] = get_json(f"{args.server.rstrip('/')}/api/devices", timeout=2.0)
+    except OSError as exc:
+        report["server_error"] = f"no server at {args.server} ({exc})"
+    if args.json:
+        print(json.dumps(report, indent=2))
+        return 0
+    print("Serial ports:" if report["ports"] else "Serial ports: none")
+    for p in report["ports"]:
+        line = f"  {p['device']:24s} {p.get('description') or ''}"
+        if p.get("vid"):
+            line += f"  [usb:{p['vid']}:{p['pid']}{':' + p['serial_number'] if p.get('serial_number') else ''}]"
+        if p.get("latency_timer_ms") is not None:
+            line += f"  latency timer {p['latency_timer_ms']} ms"
+        print(line)
+        if p.get("warning"):
+            print(f"    warning: {p['warning']}")
+    for c in report["configured"]:
+        print(f"Configured {c['name']} ({c['model']}) on {c['port']}: "
+              f"{'present at ' + c['resolves_to'] if c['resolves_to'] else 'not present'}")
+    if report["server"] is None:
+        print(report["server_error"])
+        return 0
+    print(f"Devices of the server at {args.server}:")
+    for d in report["server"]["devices"]:
+        ident = d.get("identity") or {}
+        fw = f" firmware {ident['fw_major']}.{ident['fw_minor']}.{ident['fw_patch']}" if ident else ""
+        rtt = f", rtt {d['rtt_ms']} ms" if d.get("rtt_ms") is not None else ""
+        c = d.get("counters", {})
+        rejected = sum(v for k, v in c.items() if k in ("framing", "too_long", "bad_length", "bad_crc", "unknown_type"))
+        print(f"  {d['name']:12s} {d['status']:13s} {d['profile']['model']}{fw} on {d.get('path') or d['port']}{rtt}, "
+              f"{c.get('frames_out', 0)} frames out, {c.get('frames_in', 0)} in, {rejected} rejected, "
+              f"{d.get('disconnects', 0)} disconnects")
+        if d.get("warning"):
+            print(f"    warning: {d['warning']}")
+    for r in report["server"]["refusals"]:
+        print(f"  refused: {r['reason']}")
+    return 0
+
+
+def _emulate(args: argparse.Namespace) -> int:
+    from devices.emulator import main as emulate_main
+
+    return emulate_main(args.rest)
 
 
 def _render(args: argparse.Namespace) -> int:
@@ -63,6 +134,18 @@ def _bench_loop(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bench_link(args: argparse.Namespace) -> int:
+    from server.bench.link_bench import run_link_bench
+
+    result = run_link_bench(seconds=args.seconds, rate_hz=args.rate, share=args.share)
+    if args.json:
+        print(json.dumps(result))
+    else:
+        for key, value in result.items():
+            print(f"{key:24s} {value}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="viestac", description="ViESTac tactile evaluation server")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -78,8 +161,24 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--gate-dwell-ms", type=float, default=30.0,
                        help="minimum on/off time of the debounced contact (default 30 ms)")
     serve.add_argument("--no-realtime", action="store_true", help="do not ask for SCHED_FIFO for the loop")
+    serve.add_argument("--device", action="append", default=[], metavar="[NAME=]MODEL@PORT",
+                       help="a tactile device, e.g. ferrovibe@/dev/ttyUSB0 or left=fingertac@usb:303a:1001 "
+                            "(repeatable; replaces the simulated rig)")
+    serve.add_argument("--devices", metavar="FILE", help="a TOML file of [[device]] tables (docs/devices.md)")
+    serve.add_argument("--no-rig", action="store_true", help="no simulated rig (emulated FingerTac + FerroVibe)")
     serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     serve.set_defaults(func=_serve)
+
+    devices = sub.add_parser("devices", help="list serial ports, configured devices and a running server's devices")
+    devices.add_argument("--devices", metavar="FILE", help="also check the devices of this TOML file")
+    devices.add_argument("--server", default="http://127.0.0.1:8000", help="a running server to ask for status")
+    devices.add_argument("--json", action="store_true")
+    devices.set_defaults(func=_devices)
+
+    emulate = sub.add_parser("emulate", help="emulate fingertac|ferrovibe on a pseudo-terminal",
+                             add_help=False)
+    emulate.add_argument("rest", nargs=argparse.REMAINDER)
+    emulate.set_defaults(func=_emulate)
 
     render = sub.add_parser("render", help="run a recorded HIP trajectory through a scene (virtual clock)")
     render.add_argument("--scene", required=True, help="a scenario name (e.g. contact-angle) or a scene JSON file")
@@ -97,6 +196,13 @@ def build_parser() -> argparse.ArgumentParser:
     loop.add_argument("--scenario", default="contact-angle")
     loop.add_argument("--json", action="store_true", help="print one JSON object")
     loop.set_defaults(func=_bench_loop)
+    link = bench_sub.add_parser("link", help="a cue changing every tick through pyserial to an emulated FerroVibe: "
+                                             "link share and latency of the newest value")
+    link.add_argument("--seconds", type=float, default=10.0)
+    link.add_argument("--rate", type=float, default=1000.0, help="cue changes per second (default: every 1 kHz tick)")
+    link.add_argument("--share", type=float, default=0.5, help="the host's share of the link (default 0.5)")
+    link.add_argument("--json", action="store_true", help="print one JSON object")
+    link.set_defaults(func=_bench_link)
     return parser
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from devices.manager import DeviceConfig, check_unique
 from scenarios import registry
 from server.loop.process import LoopConfig
 from server.scene import Scene
@@ -25,6 +26,8 @@ class Settings:
     gate_dwell_s: float = 0.030    # minimum on and off time of the debounced contact
     web_root: Path = field(default=WEB_ROOT)
     max_frame_bytes: int = 1 << 20  # frames above this close the connection (1009); 64 KiB+ get an error
+    devices: tuple[DeviceConfig, ...] = ()  # real devices (docs/devices.md)
+    simulated_rig: bool = True      # FingerTac + FerroVibe emulators on ptys, when no device is configured
 
     def __post_init__(self) -> None:
         if not 0 <= self.port <= 65535:
@@ -36,6 +39,7 @@ class Settings:
         if not (0.0 <= self.gate_band <= 0.1 and 0.0 <= self.gate_dwell_s <= 1.0):
             raise ValueError("gate band must be in [0, 0.1] scene units and dwell in [0, 1] s")
         object.__setattr__(self, "scenario", registry.resolve(self.scenario).id)  # fails early, with a hint
+        check_unique(list(self.devices))
         if self.scene_file is not None:
             Scene.load(self.scene_file)  # fails early with the offending field
 

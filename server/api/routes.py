@@ -65,10 +65,12 @@ def clients(hub: HubDep) -> list[dict]:
     return hub.clients()
 
 
-@router.get("/devices", summary="Device sinks and their most recent commands")
-def devices(hub: HubDep, limit: int = 200) -> dict:
-    limit = max(1, min(limit, len(hub.device_log) or 1))
-    return {"commands": list(hub.device_log)[-limit:]}
+@router.get("/devices", summary="Configured tactile devices: status, identity, link counters, refusals")
+def devices(request: Request) -> dict:
+    manager = getattr(request.app.state, "devices", None)
+    rig = request.app.state.rig
+    snapshot = manager.snapshot() if manager is not None else {"devices": [], "refusals": []}
+    return {**snapshot, "simulated_rig": rig.info() if rig is not None else None}
 
 
 @router.get("/telemetry", summary="Loop timing since the last reset (exact to 1 µs)")

@@ -19,10 +19,10 @@ import urllib.request
 import psutil
 
 
-def get_json(url: str, method: str = "GET") -> dict:
+def get_json(url: str, method: str = "GET", timeout: float = 5.0) -> dict:
     """GET (or POST) a URL of the server and decode its JSON body."""
     request = urllib.request.Request(url, method=method)
-    with urllib.request.urlopen(request, timeout=5) as response:
+    with urllib.request.urlopen(request, timeout=timeout) as response:
         return json.loads(response.read())
 
 

@@ -22,6 +22,7 @@ from typing import Any
 
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
+from devices.cues import cue_from_wire
 from server.hub.telemetry import LoopTelemetry
 from server.wire import codec, messages
 from server.wire.codec import WireError
@@ -73,7 +74,9 @@ class Hub:
         self.loop_info: dict = {}
         self.last_state: dict | None = None
         self.states_received = 0
-        self.device_log: deque[dict] = deque(maxlen=2000)
+        self.devices = None  # DeviceManager, attached by the app
+        self._last_cues: list | None = None
+        self._device_report: dict | None = None
         self.tracker_applied: deque[list] = deque(maxlen=4096)  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.log_records: deque[dict] = deque(maxlen=200)
         self._frames: dict[str, bytes | str] = {}
@@ -91,6 +94,10 @@ class Hub:
         elif kind == "hello":
             self.loop_info = record[1]
             self.telemetry.rt = bool(record[1].get("rt"))
+            if self._device_report is not None:  # a (re)started loop learns the refusals again
+                self.send_to_loop(["devices", self._device_report])
+        elif kind == "fail_safe":  # a tick failed: every actuator off until a good tick says otherwise
+            self._submit_cues([])
         elif kind == "log":
             level = logging.ERROR if record[1] == "error" else logging.WARNING
             log.log(level, "loop: %s", record[2])
@@ -112,11 +119,32 @@ class Hub:
             self._telemetry_at = now
         return self._telemetry_summary
 
+    # ---- devices ----------------------------------------------------------------------------
+    def attach_devices(self, manager) -> None:
+        self.devices = manager
+        loop = asyncio.get_running_loop()
+        # Listeners fire on serial threads too; the report is built on the event loop.
+        manager.listeners.append(lambda: loop.call_soon_threadsafe(self._devices_changed))
+        self._devices_changed()
+
+    def _submit_cues(self, cues: list) -> None:
+        self._last_cues = cues
+        if self.devices is not None:
+            self.devices.submit(tuple(cue_from_wire(c) for c in cues))
+
+    def _devices_changed(self) -> None:
+        if self.devices is None:
+            return
+        report = {"refusals": [r.reason for r in self.devices.refusals], "status": self.devices.status()}
+        if report != self._device_report:
+            self._device_report = report
+            self.send_to_loop(["devices", report])
+
     def _on_state(self, rec: dict) -> None:
+        if rec["cues"] != self._last_cues:  # first: the device command leaves before any broadcast work
+            self._submit_cues(rec["cues"])
         self.telemetry.add(rec["samples"])
         self.telemetry.resyncs = rec.get("resyncs", 0)
-        if rec["devices"]:
-            self.device_log.extend(rec["devices"])
         if rec["trackers"]:
             self.tracker_applied.extend(rec["trackers"])
         self.states_received += 1

@@ -65,7 +65,10 @@ class LoopSupervisor:
     def send(self, record: list) -> bool:
         if self._sock is None:
             return False
-        ok = ipc.send_record(self._sock, record)
+        try:
+            ok = ipc.send_record(self._sock, record)
+        except OSError:  # the loop process is gone; the watchdog restarts it
+            ok = False
         if ok:
             self._doorbell.ring()  # after the send: when the loop sees the bell, the record is there
         else:

@@ -1,10 +1,11 @@
 """LoopCore: what the 1 kHz loop does each tick, between the mailbox and the simulation.
 
-Records in (tracker samples, keys) are applied between ticks; then one simulation step; the
-tick's cues go to the device sinks; then, if a publish is due, one state record goes out. A
-state record is due on the regular cadence (state_hz, 60 by default) AND in any tick whose cues
-changed, so the device command and the picture of the same tick leave together and a tactile
-cue never leads the picture (haptic-before-visual is noticed from ~15 ms, Di Luca & Mahnan 2019).
+Records in (tracker samples, keys, device reports) are applied between ticks; then one
+simulation step; then, if a publish is due, one state record goes out. A state record is due on
+the regular cadence (state_hz, 60 by default) AND in any tick whose cues changed: the hub hands
+the cues of every such record to the device manager (serial I/O lives in the hub process, never
+here), so the device command and the picture of the same tick leave together and a tactile cue
+never leads the picture (haptic-before-visual is noticed from ~15 ms, Di Luca & Mahnan 2019).
 
 Pure apart from the clock values it is handed: the process adapter (process.py) owns sockets,
 priority and sleeping; tests drive this class directly on a virtual clock.
@@ -24,15 +25,13 @@ def _round(v, digits: int = 9) -> list[float]:
 
 
 class LoopCore:
-    def __init__(self, sim: Simulation, sinks: list, *, state_hz: float = 60.0):
+    def __init__(self, sim: Simulation, *, state_hz: float = 60.0):
         if not 0 < state_hz <= sim.tick_hz:
             raise ValueError("state_hz must be in (0, tick_hz]")
         self.sim = sim
-        self.sinks = sinks
         self.state_hz = state_hz
         self._publish_slot = -1      # index of the last cadence slot published
         self.samples = array("q")    # (period_ns, cost_ns) pairs since the last state record
-        self.device_events: list[dict] = []
         self.tracker_applied: list[list] = []  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.frames = 0
 
@@ -46,14 +45,12 @@ class LoopCore:
         elif kind == "input":
             _, _client_id, key, action = record
             self.sim.input(key, action)
+        elif kind == "devices":  # the device manager's refusals, for the scenario (TickContext.refusals)
+            self.sim.refusals = tuple(str(text) for text in record[1].get("refusals", ()))
 
     def step(self, now_ns: int) -> tuple[TickResult, dict | None]:
         """One tick; returns the result and the state record to publish, if one is due."""
         result = self.sim.step()
-        for sink in self.sinks:
-            commands = sink.submit(result.t_s, result.output.cues)
-            if commands:
-                self.device_events.extend(commands)
         slot = int(result.tick * self.state_hz // self.sim.tick_hz)
         due = slot != self._publish_slot or result.cues_changed or result.poses_changed
         if not due:
@@ -75,10 +72,9 @@ class LoopCore:
             "contacts": [[c.body_id, _round(c.normal, 6), round(c.depth, 9)] for c in r.contacts],
             "objects": [[oid, _round(p.pos), [round(q, 9) for q in p.quat]] for oid, p in self.sim.moved.items()],
             "cues": [cue_to_wire(c) for c in out.cues], "hud": out.hud, "values": out.values,
-            "samples": self.samples.tobytes(), "devices": self.device_events,
+            "samples": self.samples.tobytes(),
             "trackers": self.tracker_applied,
         }
         self.samples = array("q")
-        self.device_events = []
         self.tracker_applied = []
         return record

@@ -6,8 +6,10 @@ deadlines (period p99 2-5 ms from 8 viewers on); a separate process at real-time
 p99 1.03 ms with 64 viewers. Without CAP_SYS_NICE/root it falls back to normal priority with a
 clear warning, reported in telemetry as `rt: false`.
 
-It owns: the clock, the deadline scheduler, the simulation and the device sinks. It talks to the
-hub only through the non-blocking mailbox (ipc.py) and exits when the hub goes away.
+It owns: the clock, the deadline scheduler and the simulation; no serial port, no socket to a
+client, no thread (the device drivers live in the hub process, fed with the cues of every state
+record). It talks to the hub only through the non-blocking mailbox (ipc.py) and exits when the
+hub goes away.
 Run as `python -m server.loop.process --fd N --doorbell M --config JSON` by the hub (server/hub/supervisor.py).
 """
 
@@ -22,7 +24,6 @@ import sys
 import traceback
 from dataclasses import asdict, dataclass
 
-from devices.simulated import SimulatedFerroVibe
 from scenarios import registry
 from server.haptics.contact_gate import ContactGate
 from server.loop import ipc
@@ -60,7 +61,7 @@ def build_core(config: LoopConfig) -> LoopCore:
     scene = Scene.load(config.scene_file) if config.scene_file else None
     gate = ContactGate(config.gate_band, config.gate_min_on_s, config.gate_min_off_s)
     sim = Simulation(scenario, tick_hz=config.tick_hz, gate=gate, seed=config.seed, scene=scene)
-    return LoopCore(sim, [SimulatedFerroVibe()], state_hz=config.state_hz)
+    return LoopCore(sim, state_hz=config.state_hz)
 
 
 def try_realtime(priority: int) -> str | None:
@@ -110,8 +111,9 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
             _, state = core.step(start)
         except Exception:  # noqa: BLE001 - a scenario bug must not kill the loop: fail safe, report
             failures += 1
-            for sink in core.sinks:
-                sink.submit(core.sim.tick / core.sim.tick_hz, ())
+            if core.sim.cues:  # fail safe: the hub turns every device off; the next good tick re-sends
+                core.sim.cues = ()
+                ipc.send_record(sock, ["fail_safe"])
             core.sim.tick += 1
             state = None
             if failures <= 10 or failures % 1000 == 0:

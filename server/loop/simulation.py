@@ -57,6 +57,7 @@ class Simulation:
         self.tick = 0
         self.hip: Vec3 = home_position(self.scene)
         self.cues: tuple[Cue, ...] = ()
+        self.refusals: tuple[str, ...] = ()  # reported by the hub's device manager
         self._settled = None  # (hip, ProxyStep) of a verified fixed point; reused while nothing moves
         self._last_step = None
         scenario.reset(seed)
@@ -97,7 +98,7 @@ class Simulation:
         contact = self.gate.update(t_s, bool(contacts), proxy_step.separation)
         touching = frozenset(c.body_id for c in contacts)
         nearest = self._nearest_body(hip) if contact else None
-        ctx = TickContext(tick, t_s, hip, proxy_step.proxy, contact, touching, nearest)
+        ctx = TickContext(tick, t_s, hip, proxy_step.proxy, contact, touching, nearest, self.refusals)
         output = self.scenario.step(ctx)
         poses_changed = False
         for object_id, pose in output.poses.items():

@@ -1,11 +1,11 @@
-"""Device-independent cues: validation, wire form, and the simulated FerroVibe sink."""
+"""Device-independent cues: validation and wire form (both directions)."""
 
 import math
 
 import pytest
 
-from devices.cues import PulseTrain, Temperature, Texture, Tilt, Vibration, cue_to_wire, tilt_direction
-from devices.simulated import SimulatedFerroVibe
+from devices.cues import (CUE_CLASSES, Friction, PulseTrain, Stop, Temperature, Texture, Tilt, Vibration, cue_from_wire,
+                          cue_to_wire, tilt_direction)
 
 
 def test_wire_form_names_kind_and_drops_absent_fields():
@@ -30,11 +30,20 @@ def test_tilt_direction_normalises(angle, direction):
     assert d == direction and math.copysign(1, d) == 1
 
 
-def test_simulated_ferrovibe_sends_on_change_only():
-    sink = SimulatedFerroVibe()
-    assert sink.submit(0.000, (Tilt(90, 100),))[0]["command"] == "tilt"
-    assert sink.submit(0.001, (Tilt(90, 100),)) == []
-    assert sink.submit(0.002, (Tilt(91, 100),))[0]["direction_deg"] == 91
-    assert sink.submit(0.003, ())[0]["command"] == "flat"
-    assert sink.submit(0.004, (PulseTrain(),)) == []  # no tilt: stays flat
-    assert [c["t"] for c in sink.commands] == [0.000, 0.002, 0.003]
+@pytest.mark.parametrize("cue", [Tilt(90, 100), PulseTrain(50, 200, 80, 235.0), PulseTrain(), Vibration(40),
+                                 Texture(2000, 0.25, 60), Temperature(34.5), Friction(0.8), Stop()])
+def test_wire_form_round_trips(cue):
+    assert cue_from_wire(cue_to_wire(cue)) == cue
+
+
+def test_every_cue_class_has_a_distinct_kind():
+    assert len({cls.kind for cls in CUE_CLASSES}) == len(CUE_CLASSES)
+
+
+@pytest.mark.parametrize("body, message", [
+    ({"kind": "smell"}, "unknown cue kind"), ({"direction_deg": 3}, "unknown cue kind"), ("tilt", "unknown cue kind"),
+    ({"kind": "tilt", "angle": 3}, r"no field\(s\) angle"), ({"kind": "tilt", "direction_deg": 400}, "direction_deg"),
+])
+def test_bad_wire_cues_are_named(body, message):
+    with pytest.raises(ValueError, match=message):
+        cue_from_wire(body)

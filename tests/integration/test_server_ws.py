@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import csv
 import json
 import math
 import time
@@ -142,10 +143,18 @@ def test_tracker_along_the_arc_moves_angle_and_tilt_commands(live_server):
         tilt = [c for c in state["cues"] if c["kind"] == "tilt"]
         assert tilt and abs(tilt[0]["direction_deg"] - (-angle) % 360) < 0.5
         assert state["contact"] is True
-    commands = live_server.get("/api/devices?limit=2000")["commands"]
-    directions = [c["direction_deg"] for c in commands if c["command"] == "tilt"]
+    # The simulated rig's FerroVibe emulator (through pyserial on a pty) tilted the magnet accordingly.
+    devices = live_server.get("/api/devices")
+    timeline = Path(devices["simulated_rig"]["emulators"]["ferrovibe"]["timeline"])
+    time.sleep(0.3)  # the emulator flushes its timeline every 0.2 s
+    with timeline.open() as f:
+        directions = [float(row["direction_deg"]) for row in csv.DictReader(f) if float(row["magnitude_pct"]) > 0]
     for angle in angles:
-        assert any(abs(d - (-angle) % 360) < 0.6 for d in directions), f"no tilt command near {(-angle) % 360}"
+        assert any(abs(d - (-angle) % 360) < 0.6 for d in directions), f"no tilt near {(-angle) % 360} in the timeline"
+    # The FingerTac cannot show a tilt: it says so (console, scenario HUD), it does not stay silent.
+    refusals = [r for r in devices["refusals"] if r["device"] == "fingertac"]
+    assert refusals and refusals[0]["code"] == "not_displayed" and refusals[0]["cue"] == "tilt"
+    assert any(refusals[0]["reason"] in s["hud"] for s in seen.values()), "the scenario did not show the refusal"
 
 
 def test_tracker_reaches_server_counters(live_server):

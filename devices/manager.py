@@ -1,0 +1,233 @@
+"""DeviceManager: the configured devices of a rig, fed with the loop's cues.
+
+The hub hands it each new cue set (the loop publishes a state record in every tick whose cues
+changed). For every device it encodes the cues for that device's profile (devices.encoder) and
+passes the commands to its SerialDevice, which coalesces them onto the link. Refusals (cues a
+profile cannot show) are kept as the rig's current refusal set, logged when they appear, and
+announced to listeners (the hub forwards them to the scenario and the console).
+
+Configuration: `DeviceConfig.parse("ferrovibe@/dev/ttyUSB0")` for the command line, or a TOML
+file with [[device]] tables (docs/devices.md), which may also describe a device of its own.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import threading
+import time
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import serial
+
+from devices.cues import Cue
+from devices.encoder import CueEncoder, Refusal
+from devices.line_protocol import CommandRefused, DeviceLine, LineProtocol
+from devices.ports import PortSpec
+from devices.profiles import CAPS, DeviceProfile, ProfileError, profile_by_model
+from devices.protocol import DeviceErrorReported, FrameRejected, HostProtocol, Identified, StatusChanged
+from devices.serial_port import SerialDevice
+
+log = logging.getLogger("viestac.devices")
+_NAME = re.compile(r"^[a-z0-9][a-z0-9_-]{0,31}$")
+
+
+class DeviceConfigError(ValueError):
+    pass
+
+
+@dataclass(frozen=True)
+class DeviceConfig:
+    name: str
+    profile: DeviceProfile
+    port: PortSpec
+    baud: int = 115200
+    link_share: float = 0.5
+
+    def __post_init__(self) -> None:
+        if not _NAME.match(self.name):
+            raise DeviceConfigError(f"device name {self.name!r}: 1-32 characters a-z 0-9 _ -, starting with a letter or digit")
+        if not 1200 <= self.baud <= 4_000_000:
+            raise DeviceConfigError(f"device {self.name}: baud {self.baud} out of range")
+        if not 0 < self.link_share <= 1:
+            raise DeviceConfigError(f"device {self.name}: link_share must be in (0, 1], got {self.link_share}")
+
+    @classmethod
+    def parse(cls, text: str) -> DeviceConfig:
+        """`[NAME=]MODEL@PORT`, e.g. `ferrovibe@/dev/ttyUSB0` or `left=fingertac@usb:303a:1001:A1`."""
+        head, at, port = text.partition("@")
+        name, _, model = head.rpartition("=")
+        if not at or not model or not port:
+            raise DeviceConfigError(f"device {text!r}: expected [NAME=]MODEL@PORT, e.g. ferrovibe@/dev/ttyUSB0")
+        try:
+            return cls(name=name or model, profile=profile_by_model(model), port=PortSpec.parse(port))
+        except (ProfileError, ValueError) as exc:
+            raise DeviceConfigError(f"device {text!r}: {exc}") from None
+
+    @classmethod
+    def from_dict(cls, data: Mapping, where: str) -> DeviceConfig:
+        allowed = {"name", "profile", "port", "usb", "baud", "link_share"}
+        unknown = set(data) - allowed
+        if unknown:
+            raise DeviceConfigError(f"{where}: unknown key(s) {sorted(unknown)}; allowed: {', '.join(sorted(allowed))}")
+        if "profile" not in data:
+            raise DeviceConfigError(f"{where}: missing 'profile' (a built-in model name or a [profile] table)")
+        try:
+            raw = data["profile"]
+            profile = profile_by_model(raw) if isinstance(raw, str) else DeviceProfile.from_dict(raw, where=f"{where}.profile")
+            return cls(name=str(data.get("name", profile.model)), profile=profile, port=PortSpec.from_dict(data),
+                       baud=int(data.get("baud", 115200)), link_share=float(data.get("link_share", 0.5)))
+        except (DeviceConfigError, ProfileError) as exc:  # already name where they come from
+            raise DeviceConfigError(str(exc)) from None
+        except (ValueError, TypeError) as exc:
+            raise DeviceConfigError(f"{where}: {exc}") from None
+
+
+def load_device_file(path: str | Path) -> list[DeviceConfig]:
+    """[[device]] tables from a TOML file; DeviceConfigError names the file, table and key."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except OSError as exc:
+        raise DeviceConfigError(f"{path}: {exc.strerror or exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise DeviceConfigError(f"{path}: not valid TOML: {exc}") from None
+    unknown = set(data) - {"device"}
+    if unknown:
+        raise DeviceConfigError(f"{path}: unknown top-level key(s) {sorted(unknown)}; expected [[device]] tables")
+    tables = data.get("device", [])
+    if not isinstance(tables, list) or not tables:
+        raise DeviceConfigError(f"{path}: no [[device]] tables")
+    configs = [DeviceConfig.from_dict(t, f"{path} device #{i + 1}") for i, t in enumerate(tables)]
+    try:
+        check_unique(configs)
+    except DeviceConfigError as exc:
+        raise DeviceConfigError(f"{path}: {exc}") from None
+    return configs
+
+
+def check_unique(configs: list[DeviceConfig]) -> None:
+    names = [c.name for c in configs]
+    duplicate = {n for n in names if names.count(n) > 1}
+    if duplicate:
+        raise DeviceConfigError(f"device names must be unique; repeated: {', '.join(sorted(duplicate))} "
+                                "(give each one a name: NAME=MODEL@PORT)")
+
+
+def make_protocol(profile: DeviceProfile, link_share: float, baud: int):
+    byte_time_s = 10.0 / baud  # 8N1: start + 8 data + stop bits
+    if profile.protocol == "line":
+        return LineProtocol(dict(profile.line), share=link_share, byte_time_s=byte_time_s)
+    return HostProtocol(share=link_share, byte_time_s=byte_time_s)
+
+
+class _Managed:
+    def __init__(self, config: DeviceConfig, driver: SerialDevice):
+        self.config = config
+        self.profile = config.profile
+        self.encoder = CueEncoder(config.profile, config.name)
+        self.driver = driver
+        self.refusals: tuple[Refusal, ...] = ()
+
+
+class DeviceManager:
+    def __init__(self, configs: list[DeviceConfig], *, serial_factory=serial.Serial,
+                 clock: Callable[[], float] = time.monotonic, reopen_interval_s: float = 0.5):
+        check_unique(configs)
+        self._lock = threading.Lock()
+        self.listeners: list[Callable[[], None]] = []
+        self.cues: tuple[Cue, ...] = ()
+        self.refusals: tuple[Refusal, ...] = ()
+        self.devices: dict[str, _Managed] = {}
+        self._rejected: dict[str, tuple[int, float]] = {}  # name → (not yet logged, last log time)
+        for config in configs:
+            driver = SerialDevice(config.name, config.port, make_protocol(config.profile, config.link_share, config.baud),
+                                  baud=config.baud, reopen_interval_s=reopen_interval_s, on_event=self._on_event,
+                                  clock=clock, serial_factory=serial_factory)
+            self.devices[config.name] = _Managed(config, driver)
+
+    def start(self) -> None:
+        for d in self.devices.values():
+            d.driver.start()
+            d.driver.set_commands(d.encoder.encode(()).commands.values())  # everything off until a cue says otherwise
+
+    def stop(self) -> None:
+        for d in self.devices.values():
+            d.driver.stop()
+
+    def submit(self, cues: tuple[Cue, ...]) -> tuple[Refusal, ...]:
+        """A new cue set from the loop: encode for every device, hand over, return the refusals."""
+        with self._lock:
+            self.cues = tuple(cues)
+            for d in self.devices.values():
+                encoding = d.encoder.encode(self.cues)
+                d.driver.set_commands(encoding.commands.values())
+                d.refusals = encoding.refusals
+            return self._update_refusals()
+
+    def _update_refusals(self) -> tuple[Refusal, ...]:
+        refusals = tuple(r for d in self.devices.values() for r in d.refusals)
+        if refusals != self.refusals:
+            for r in set(refusals) - set(self.refusals):
+                log.warning("refused: %s", r.reason)
+            self.refusals = refusals
+            self._notify()
+        return refusals
+
+    def _on_event(self, name: str, event) -> None:
+        if isinstance(event, Identified):
+            identity = event.identity
+            d = self.devices[name]
+            caps = frozenset(cap for bit, cap in enumerate(CAPS) if identity.caps >> bit & 1)
+            firmware = f"{identity.fw_major}.{identity.fw_minor}.{identity.fw_patch}"
+            if identity.model != d.config.profile.model:
+                log.warning("%s: configured as %s but the device says it is %s; using what it reports",
+                            name, d.config.profile.model, identity.model)
+            with self._lock:
+                d.profile = d.config.profile.with_identity(channels=identity.channels, caps=caps,
+                                                           carrier_hz=identity.carrier_hz, firmware=firmware)
+                d.encoder = CueEncoder(d.profile, name)
+                encoding = d.encoder.encode(self.cues)
+                d.driver.set_commands(encoding.commands.values())
+                d.refusals = encoding.refusals
+                self._update_refusals()
+            log.info("%s: %s firmware %s, %d channel(s), caps %s", name, identity.model, firmware,
+                     identity.channels, ",".join(sorted(caps)))
+        if isinstance(event, FrameRejected):
+            self._log_rejected(name, event)
+        elif isinstance(event, DeviceErrorReported):
+            log.warning("%s: the device answered ERROR %s to %s", name, event.code, event.message_repr)
+        elif isinstance(event, CommandRefused):
+            log.warning("%s: no line template for %s (%s)", name, event.message, event.reason)
+        elif isinstance(event, DeviceLine):
+            log.debug("%s says: %s", name, event.text)
+        if isinstance(event, StatusChanged):
+            level = logging.WARNING if event.new in ("disconnected", "unresponsive", "bad_version") else logging.INFO
+            log.log(level, "%s: %s -> %s (%s)", name, event.old, event.new, event.reason)
+            self._notify()
+
+    def _log_rejected(self, name: str, event) -> None:
+        """Garbage on a line comes in bursts: log the first, then at most one summary a second."""
+        now = time.monotonic()
+        count, last = self._rejected.get(name, (0, 0.0))
+        count += 1
+        if now - last >= 1.0:
+            log.warning("%s: rejected %d frame(s) from the device, latest %s; resynchronised at the next delimiter",
+                        name, count, getattr(event.error, "kind", event.error))
+            count, last = 0, now
+        self._rejected[name] = (count, last)
+
+    def _notify(self) -> None:
+        for listener in self.listeners:
+            listener()
+
+    def status(self) -> dict[str, str]:
+        return {name: d.driver.status for name, d in self.devices.items()}
+
+    def snapshot(self) -> dict:
+        return {"devices": [{**d.driver.snapshot(), "profile": d.profile.to_dict(),
+                             "refusals": [r.to_dict() for r in d.refusals]} for d in self.devices.values()],
+                "refusals": [r.to_dict() for r in self.refusals]}

@@ -1,0 +1,165 @@
+"""Device profiles: what a tactile device can show, declared once, used by the cue encoder.
+
+A profile names the device (model, firmware, channels, carrier) and, for each of the five
+tactile dimensions of thesis Table 2.2 (stiffness, macro-roughness, fine roughness, temperature,
+friction), whether the device shows it directly, encodes it as vibration ("(!)" in the table),
+or not at all. `caps` are the commands its firmware accepts (device-protocol.md §3 caps bits).
+Scenarios never see profiles: they emit cues, and `devices.encoder` turns cues into commands
+for a profile or refuses them with a reason. Adding a device = adding a profile (or a TOML file).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from enum import Enum
+from types import MappingProxyType
+
+
+class Display(str, Enum):
+    DIRECT = "direct"        # Table 2.2 "!"
+    VIBRATION = "vibration"  # Table 2.2 "(!)": encoded as vibration
+    NONE = "none"            # not shown
+
+    @property
+    def mark(self) -> str:
+        return {"direct": "!", "vibration": "(!)", "none": "-"}[self.value]
+
+
+DIMENSIONS = ("stiffness", "macro_roughness", "fine_roughness", "temperature", "friction")
+CAPS = ("pulse", "continuous", "texture", "tilt", "temperature", "friction")  # bit order of §3
+# Dimensions with a defined vibration encoding (devices/encoder.py). Temperature and friction
+# have none that means anything, so a profile may not claim them as "(!)".
+VIBRATION_ENCODABLE = frozenset({"stiffness", "macro_roughness", "fine_roughness"})
+# The command a DIRECT dimension needs.
+DIRECT_CAP = {"macro_roughness": "tilt", "fine_roughness": "texture", "temperature": "temperature",
+              "friction": "friction"}
+
+
+class ProfileError(ValueError):
+    pass
+
+
+@dataclass(frozen=True)
+class DeviceProfile:
+    model: str                       # lower-case id, as the firmware reports it in IDENTIFY
+    title: str
+    firmware: str                    # firmware version this profile was written for
+    channels: tuple[str, ...]        # actuator names, channel i = channels[i]
+    carrier_hz: int                  # default vibration carrier (0 = none)
+    caps: frozenset[str]
+    dimensions: Mapping[str, Display]
+    protocol: str = "binary"         # "binary" (device-protocol.md) or "line" (ASCII templates)
+    line: Mapping[str, str] = field(default_factory=dict)  # line-protocol templates
+    notes: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.model or not self.model.isascii() or self.model != self.model.lower() or len(self.model) > 32:
+            raise ProfileError(f"model must be 1..32 lower-case ASCII characters, got {self.model!r}")
+        if not self.channels:
+            raise ProfileError(f"{self.model}: at least one channel")
+        unknown = set(self.caps) - set(CAPS)
+        if unknown:
+            raise ProfileError(f"{self.model}: unknown caps {sorted(unknown)}; known: {', '.join(CAPS)}")
+        dims = {k: Display(v) for k, v in self.dimensions.items()}
+        missing, extra = set(DIMENSIONS) - set(dims), set(dims) - set(DIMENSIONS)
+        if missing or extra:
+            raise ProfileError(f"{self.model}: dimensions must be exactly {', '.join(DIMENSIONS)}"
+                               f" (missing {sorted(missing)}, unknown {sorted(extra)})")
+        for dim, how in dims.items():
+            if how is Display.VIBRATION:
+                if dim not in VIBRATION_ENCODABLE:
+                    raise ProfileError(f"{self.model}: {dim} has no vibration encoding; say direct or none")
+                if not {"pulse", "continuous"} & self.caps:
+                    raise ProfileError(f"{self.model}: {dim} encoded as vibration needs the pulse or continuous cap")
+            if how is Display.DIRECT and dim in DIRECT_CAP and DIRECT_CAP[dim] not in self.caps:
+                raise ProfileError(f"{self.model}: {dim} shown directly needs the {DIRECT_CAP[dim]!r} cap")
+        if self.protocol not in ("binary", "line"):
+            raise ProfileError(f"{self.model}: protocol must be 'binary' or 'line', got {self.protocol!r}")
+        if self.protocol == "line":
+            self._check_line_templates()
+        object.__setattr__(self, "caps", frozenset(self.caps))
+        object.__setattr__(self, "dimensions", MappingProxyType(dims))
+        object.__setattr__(self, "line", MappingProxyType(dict(self.line)))
+
+    def _check_line_templates(self) -> None:
+        from devices.line_protocol import LineProfile  # only line profiles need it
+
+        if not self.line:
+            raise ProfileError(f"{self.model}: a line-protocol profile needs [line] templates")
+        try:
+            LineProfile.from_dict(self.line, where=f"{self.model} line")
+        except ValueError as exc:
+            raise ProfileError(str(exc)) from None
+        # Every command the profile claims needs its line, and a pattern needs a way to stop.
+        needed = set(self.caps) | ({"off"} if {"pulse", "continuous", "texture"} & self.caps else set())
+        missing = sorted(needed - set(self.line))
+        if missing:
+            raise ProfileError(f"{self.model}: caps need line templates for {', '.join(missing)}")
+
+    def table_row(self) -> dict[str, str]:
+        """Thesis Table 2.2 notation: '!' direct, '(!)' encoded as vibration, '-' not shown."""
+        return {dim: self.dimensions[dim].mark for dim in DIMENSIONS}
+
+    def with_identity(self, *, channels: int, caps: frozenset[str], carrier_hz: int, firmware: str) -> DeviceProfile:
+        """The profile corrected by what the device reported in IDENTIFY (the device knows best):
+        a dimension whose command the device lacks drops to NONE."""
+        names = tuple(self.channels[i] if i < len(self.channels) else f"ch{i}" for i in range(channels))
+        dims = dict(self.dimensions)
+        for dim, how in dims.items():
+            if how is Display.DIRECT and dim in DIRECT_CAP and DIRECT_CAP[dim] not in caps:
+                dims[dim] = Display.NONE
+            if how is Display.VIBRATION and not {"pulse", "continuous"} & caps:
+                dims[dim] = Display.NONE
+        return replace(self, channels=names, caps=caps, carrier_hz=carrier_hz, firmware=firmware, dimensions=dims)
+
+    def to_dict(self) -> dict:
+        return {"model": self.model, "title": self.title, "firmware": self.firmware, "protocol": self.protocol,
+                "channels": list(self.channels), "carrier_hz": self.carrier_hz, "caps": sorted(self.caps),
+                "dimensions": {d: self.dimensions[d].value for d in DIMENSIONS}, "table_2_2": self.table_row()}
+
+    @classmethod
+    def from_dict(cls, data: Mapping, *, where: str = "profile") -> DeviceProfile:
+        """A profile from a TOML/JSON table (see docs/devices.md); ProfileError names the bad key."""
+        allowed = {"model", "title", "firmware", "channels", "carrier_hz", "caps", "dimensions", "protocol", "line", "notes"}
+        unknown = set(data) - allowed
+        if unknown:
+            raise ProfileError(f"{where}: unknown key(s) {sorted(unknown)}; allowed: {', '.join(sorted(allowed))}")
+        for key in ("model", "channels", "caps", "dimensions"):
+            if key not in data:
+                raise ProfileError(f"{where}: missing key {key!r}")
+        try:
+            return cls(model=str(data["model"]), title=str(data.get("title", data["model"])),
+                       firmware=str(data.get("firmware", "")), channels=tuple(str(c) for c in data["channels"]),
+                       carrier_hz=int(data.get("carrier_hz", 0)), caps=frozenset(data["caps"]),
+                       dimensions=dict(data["dimensions"]), protocol=str(data.get("protocol", "binary")),
+                       line=dict(data.get("line", {})), notes=str(data.get("notes", "")))
+        except ProfileError as exc:
+            raise ProfileError(f"{where}: {exc}") from None
+        except (TypeError, ValueError) as exc:
+            raise ProfileError(f"{where}: {exc}") from None
+
+
+FINGERTAC = DeviceProfile(
+    model="fingertac", title="FingerTac (DLR): two LRAs beside the fingerpad", firmware="1.0.0",
+    channels=("lra_left", "lra_right"), carrier_hz=235, caps=frozenset({"pulse", "continuous", "texture"}),
+    dimensions={"stiffness": "vibration", "macro_roughness": "none", "fine_roughness": "vibration",
+                "temperature": "none", "friction": "none"},
+    notes="1-DoF: both LRAs vibrate together at their 235 Hz resonance; cues are PWM bursts (thesis §3.1).")
+
+FERROVIBE = DeviceProfile(
+    model="ferrovibe", title="FerroVibe (DLR): magnet in ferrofluid tilted by two solenoids", firmware="1.0.0",
+    channels=("magnet",), carrier_hz=235, caps=frozenset({"pulse", "continuous", "texture", "tilt"}),
+    dimensions={"stiffness": "vibration", "macro_roughness": "direct", "fine_roughness": "direct",
+                "temperature": "none", "friction": "none"},
+    notes="Tilt direction 0 = front, 90 = right, 180 = back, 270 = left; texture by re-tilting (thesis §3.2).")
+
+PROFILES: Mapping[str, DeviceProfile] = MappingProxyType({p.model: p for p in (FINGERTAC, FERROVIBE)})
+
+
+def profile_by_model(model: str) -> DeviceProfile:
+    try:
+        return PROFILES[model]
+    except KeyError:
+        raise ProfileError(f"no built-in profile {model!r}; built-in: {', '.join(PROFILES)}"
+                           " (or describe the device in a devices TOML file, docs/devices.md)") from None

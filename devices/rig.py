@@ -1,0 +1,82 @@
+"""The simulated rig: device emulators in their own processes, reached through the real pyserial
+path, so `viestac serve` without hardware exercises exactly the byte path a lab's devices use.
+
+Each emulator is `python -m devices.emulator MODEL --link DIR/MODEL --timeline DIR/MODEL-timeline.csv`;
+the server opens DIR/MODEL like any serial port. The timelines record every actuator change.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from devices.fwcore import ensure_library
+from devices.manager import DeviceConfig
+from devices.ports import PortSpec
+from devices.profiles import profile_by_model
+
+log = logging.getLogger("viestac.devices")
+
+
+class SimulatedRig:
+    def __init__(self, models: tuple[str, ...] = ("fingertac", "ferrovibe"), directory: str | Path | None = None):
+        for model in models:
+            profile_by_model(model)  # fail early on a typo
+        self.models = models
+        self.directory = Path(directory) if directory else None
+        self.procs: dict[str, subprocess.Popen] = {}
+
+    def link(self, model: str) -> Path:
+        return self.directory / model
+
+    def timeline(self, model: str) -> Path:
+        return self.directory / f"{model}-timeline.csv"
+
+    def start(self, timeout_s: float = 10.0) -> list[DeviceConfig]:
+        if self.directory is None:
+            self.directory = Path(tempfile.mkdtemp(prefix="viestac-rig-"))
+        self.directory.mkdir(parents=True, exist_ok=True)
+        ensure_library()  # build the firmware core once, before several emulators race to do it
+        for model in self.models:
+            self.link(model).unlink(missing_ok=True)
+            self.procs[model] = subprocess.Popen(
+                [sys.executable, "-m", "devices.emulator", model, "--link", str(self.link(model)),
+                 "--timeline", str(self.timeline(model))],
+                stdout=subprocess.DEVNULL, cwd=Path(__file__).resolve().parents[1])
+        deadline = time.monotonic() + timeout_s
+        for model, proc in self.procs.items():
+            while not self.link(model).exists():
+                if proc.poll() is not None or time.monotonic() > deadline:
+                    self.stop()
+                    raise RuntimeError(f"the {model} emulator did not start (exit code {proc.poll()})")
+                time.sleep(0.01)
+        log.info("simulated rig: %s in %s", ", ".join(self.models), self.directory)
+        return [DeviceConfig(name=model, profile=profile_by_model(model), port=PortSpec.parse(str(self.link(model))))
+                for model in self.models]
+
+    def stop(self) -> None:
+        for proc in self.procs.values():
+            if proc.poll() is None:
+                proc.terminate()
+        for proc in self.procs.values():
+            try:
+                proc.wait(timeout=3)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+        self.procs.clear()
+
+    def info(self) -> dict:
+        return {"directory": str(self.directory), "emulators": {
+            model: {"pid": proc.pid, "alive": proc.poll() is None, "link": str(self.link(model)),
+                    "timeline": str(self.timeline(model))} for model, proc in self.procs.items()}}
+
+
+def default_rig_dir() -> Path | None:
+    """VIESTAC_RIG_DIR pins the rig's directory (links and timelines); else a fresh temp dir."""
+    value = os.environ.get("VIESTAC_RIG_DIR")
+    return Path(value) if value else None

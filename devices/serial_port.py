@@ -1,0 +1,197 @@
+"""SerialDevice: one configured device on a serial port — pyserial and two threads around a
+sans-I/O protocol (devices.protocol.HostProtocol or devices.line_protocol.LineProtocol).
+
+No domain logic lives here. The reader thread owns the connection: it resolves the port (a
+path or USB VID/PID/serial number), opens it, feeds every byte it reads to the protocol, and on
+any read error (unplug, Bluetooth link lost) closes the port, reports "disconnected" and tries
+again every `reopen_interval_s`. The writer thread asks the protocol what to write and when to
+ask again (the link budget, heartbeats), and sleeps in between. `set_commands` only takes a lock
+for the time of a dict update and never touches the port, so its caller (the hub, fed by the
+1 kHz loop) can never wait on a serial port (docs/device-protocol.md §4–5).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+
+import serial
+
+from devices.ports import PortSpec, latency_warning, resolve
+
+log = logging.getLogger("viestac.devices")
+_ROUTINE = {"Acked", "Pong"}  # counted by the protocol, not kept in the event list
+
+
+class SerialDevice:
+    def __init__(self, name: str, spec: PortSpec, protocol, *, baud: int = 115200, reopen_interval_s: float = 0.5,
+                 on_event: Callable[[str, object], None] | None = None, clock: Callable[[], float] = time.monotonic,
+                 serial_factory=serial.Serial):
+        self.name = name
+        self.spec = spec
+        self.protocol = protocol
+        self.baud = baud
+        self.reopen_interval_s = reopen_interval_s
+        self.on_event = on_event
+        self.clock = clock
+        self.serial_factory = serial_factory
+        self.path: str | None = None
+        self.warning: str | None = None
+        self.last_error = ""
+        self.connects = 0
+        self.disconnects = 0
+        self.events: deque[dict] = deque(maxlen=200)  # recent facts, for the console
+        self._port: serial.Serial | None = None
+        self._cond = threading.Condition()
+        self._running = False
+        self._threads: list[threading.Thread] = []
+
+    # ---- public, any thread --------------------------------------------------------------
+
+    def start(self) -> None:
+        self._running = True
+        self._threads = [threading.Thread(target=self._run_reader, name=f"{self.name}-reader", daemon=True),
+                         threading.Thread(target=self._run_writer, name=f"{self.name}-writer", daemon=True)]
+        for thread in self._threads:
+            thread.start()
+
+    def stop(self) -> None:
+        with self._cond:
+            self._running = False
+            self._cond.notify_all()
+        self._drop("stopped", report=False)
+        for thread in self._threads:
+            thread.join(timeout=2)
+
+    def set_commands(self, commands: Iterable[object]) -> None:
+        """The newest value of each layer; never blocks on the port."""
+        now = self.clock()
+        with self._cond:
+            for command in commands:
+                self.protocol.set(command, now)
+            self._cond.notify()
+
+    @property
+    def status(self) -> str:
+        return self.protocol.status
+
+    def snapshot(self) -> dict:
+        with self._cond:
+            identity = self.protocol.identity
+            return {"name": self.name, "port": str(self.spec), "path": self.path, "status": self.protocol.status,
+                    "identity": _identity_dict(identity), "rtt_ms": None if self.protocol.rtt_s is None
+                    else round(self.protocol.rtt_s * 1000, 3), "counters": dict(self.protocol.counters),
+                    "connects": self.connects, "disconnects": self.disconnects, "last_error": self.last_error,
+                    "warning": self.warning, "events": list(self.events)[-20:]}
+
+    # ---- threads -------------------------------------------------------------------------
+
+    def _run_reader(self) -> None:
+        while self._running:
+            port = self._port
+            if port is None:
+                if not self._open():
+                    with self._cond:
+                        self._cond.wait(self.reopen_interval_s)
+                continue
+            try:
+                data = port.read(max(1, port.in_waiting))
+            except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
+                # TypeError/AttributeError: pyserial's read on a port another thread just closed
+                self._drop(f"read failed: {exc}")
+                continue
+            if data:
+                with self._cond:
+                    self.protocol.receive_data(data, self.clock())
+                    events = self.protocol.events_received()
+                    self._cond.notify()
+                self._publish(events)
+
+    def _run_writer(self) -> None:
+        while True:
+            with self._cond:
+                if not self._running:
+                    return
+                port = self._port
+                data, wake_at = (self.protocol.poll(self.clock()) if port is not None else (b"", None))
+                events = self.protocol.events_received()
+                if not data:
+                    timeout = 0.25 if wake_at is None else min(0.25, max(0.0, wake_at - self.clock()))
+                    self._cond.wait(timeout)
+            self._publish(events)
+            if data:
+                try:
+                    port.write(data)
+                except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
+                    self._drop(f"write failed: {exc}")
+
+    def _open(self) -> bool:
+        path = resolve(self.spec, on_warning=self._warn)
+        if path is None:
+            self.last_error = f"port {self.spec} not present"
+            return False
+        try:
+            port = self.serial_factory(path, self.baud, timeout=0.1, write_timeout=0.5)
+        except (serial.SerialException, OSError, ValueError) as exc:
+            self.last_error = f"cannot open {path}: {exc}"
+            return False
+        self.path = path
+        self.warning = latency_warning(path)
+        if self.warning:
+            log.warning("%s: %s", self.name, self.warning)
+        with self._cond:
+            self._port = port
+            self.connects += 1
+            self.protocol.connection_made(self.clock())
+            events = self.protocol.events_received()
+            self._cond.notify_all()
+        log.info("%s: opened %s", self.name, path)
+        self._publish(events)
+        return True
+
+    def _drop(self, reason: str, *, report: bool = True) -> None:
+        with self._cond:
+            port, self._port = self._port, None
+            if port is None:
+                return
+            self.disconnects += report
+            self.last_error = reason
+            self.protocol.connection_lost(self.clock(), reason)
+            events = self.protocol.events_received()
+            self._cond.notify_all()
+        try:
+            port.close()
+        except Exception:  # the port is gone already; closing is best effort
+            pass
+        if report:
+            log.warning("%s: disconnected (%s)", self.name, reason)
+        self._publish(events)
+
+    def _warn(self, text: str) -> None:
+        self.warning = text
+        log.warning("%s: %s", self.name, text)
+
+    def _publish(self, events: list) -> None:
+        for event in events:
+            if type(event).__name__ not in _ROUTINE:  # hundreds per second would push out what matters
+                self.events.append({"t": time.time(), "event": type(event).__name__, **_event_fields(event)})
+            if self.on_event:
+                self.on_event(self.name, event)
+
+
+def _identity_dict(identity) -> dict | None:
+    if identity is None:
+        return None
+    return {f.name: getattr(identity, f.name) for f in dataclasses.fields(identity)}
+
+
+def _event_fields(event) -> dict:
+    out = {}
+    for f in dataclasses.fields(event) if dataclasses.is_dataclass(event) else ():
+        key, value = f.name, getattr(event, f.name)
+        out[key] = value if isinstance(value, (int, float, str, bool, type(None))) else repr(value)
+    return out

@@ -1,0 +1,166 @@
+"""The whole device byte path: cue → encoder → HostProtocol → pyserial → pty → emulator (the C
+firmware core) → actuator timeline. Nothing here is mocked; the only model is the emulator's
+115200-baud wire time (86.8 µs per byte), which a pty does not enforce."""
+
+from __future__ import annotations
+
+import os
+import random
+import threading
+import time
+
+import pytest
+
+from devices.cues import PulseTrain, Texture, Tilt
+from devices.emulator import Emulator
+from devices.framing import encode_frame
+from devices.manager import DeviceConfig, DeviceManager
+from devices.ports import PortSpec
+from devices.profiles import profile_by_model
+from server.bench.link_bench import run_link_bench
+
+
+@pytest.fixture
+def rig(tmp_path):
+    """start(model) → (emulator, manager) wired through a real pty; everything stopped afterwards."""
+    started = []
+    errors = []
+    old_hook = threading.excepthook
+    threading.excepthook = lambda args: errors.append(args)  # no exception may escape a device thread
+
+    def start(model: str, **emulator_options):
+        emulator = Emulator(model, link=tmp_path / model, **emulator_options)
+        emulator.start()
+        manager = DeviceManager([DeviceConfig(model, profile_by_model(model), PortSpec.parse(str(tmp_path / model)))],
+                                reopen_interval_s=0.1)
+        manager.start()
+        started.append((emulator, manager))
+        wait_for(lambda: manager.status()[model] == "connected", 3.0, f"{model} never connected")
+        return emulator, manager
+
+    yield start
+    for emulator, manager in started:
+        manager.stop()
+        emulator.stop()
+    threading.excepthook = old_hook
+    assert not errors, f"exceptions escaped device threads: {[str(e.exc_value) for e in errors]}"
+
+
+def wait_for(predicate, timeout_s: float, message: str) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(message)
+        time.sleep(0.005)
+
+
+def rising_edges(edges, channel=0):
+    return [e.t_us for prev, e in zip(edges, edges[1:]) if e.channel == channel and e.gate and not prev.gate
+            and prev.channel == channel]
+
+
+def test_handshake_identifies_the_emulated_firmware(rig):
+    _, manager = rig("ferrovibe")
+    snap = manager.snapshot()["devices"][0]
+    assert snap["identity"]["model"] == "ferrovibe" and snap["identity"]["caps"] == 0x0F
+    assert snap["profile"]["table_2_2"]["macro_roughness"] == "!"
+
+
+@pytest.mark.parametrize("period_us", [2000, 3000, 4000, 5000, 6000])
+def test_texture_periods_appear_in_the_timeline_within_one_percent(rig, period_us):
+    emulator, manager = rig("ferrovibe")
+    t0 = time.monotonic_ns() // 1000
+    manager.submit((Texture(period_us, 0.5, 100),))
+    time.sleep(0.25)
+    manager.submit(())
+    time.sleep(0.05)
+    edges = [e for e in emulator.snapshot_edges() if e.t_us >= t0 and e.mode == 3]
+    rises = rising_edges(edges)
+    assert len(rises) >= 20, f"too few texture periods in the timeline: {len(rises)}"
+    periods = [b - a for a, b in zip(rises, rises[1:])]
+    worst = max(abs(p - period_us) / period_us for p in periods)
+    assert worst < 0.01, f"period error {worst:.2%} (periods {sorted(set(periods))})"
+    on_times = [b.t_us - a.t_us for a, b in zip(edges, edges[1:]) if a.gate and not b.gate]
+    assert all(abs(t - period_us / 2) <= 0.01 * period_us for t in on_times)
+
+
+def test_pulse_train_50_200_has_exact_on_and_off_times_on_both_lras(rig):
+    emulator, manager = rig("fingertac")
+    t0 = time.monotonic_ns() // 1000
+    manager.submit((PulseTrain(50, 200, 100),))
+    time.sleep(1.3)
+    manager.submit(())
+    time.sleep(0.05)
+    for channel in (0, 1):
+        edges = [e for e in emulator.snapshot_edges() if e.t_us >= t0 and e.channel == channel and e.mode == 1]
+        assert all(e.carrier_hz == 235 for e in edges if e.gate), "LRAs vibrate at their 235 Hz resonance"
+        durations = [(a.gate, b.t_us - a.t_us) for a, b in zip(edges, edges[1:])]
+        on = [d for gate, d in durations if gate]
+        off = [d for gate, d in durations if not gate]
+        assert len(on) >= 4 and len(off) >= 4
+        assert all(abs(d - 50_000) <= 1_000 for d in on), on
+        assert all(abs(d - 200_000) <= 1_000 for d in off), off
+
+
+@pytest.mark.slow
+def test_a_cue_changing_every_tick_for_10_s_stays_under_half_the_link_and_arrives_within_20_ms():
+    result = run_link_bench(seconds=10.0)
+    print(f"\n{result}")
+    assert result["values_submitted"] > 8000 and result["values_missing"] == 0
+    assert result["in_order"], "the device never goes back to an older value"
+    assert result["link_share"] < 0.5 and result["link_share_worst_1s"] < 0.5
+    assert result["latency_max_ms"] <= 20.0, f"the newest value arrived after {result['latency_max_ms']} ms"
+
+
+def test_unplug_reports_disconnected_within_1_s_and_reconnects_by_itself(rig):
+    emulator, manager = rig("ferrovibe")
+    manager.submit((Tilt(90, 100),))
+    time.sleep(0.05)
+    emulator.unplug()
+    t_unplug = time.monotonic()
+    wait_for(lambda: manager.status()["ferrovibe"] == "disconnected", 1.0, "not disconnected within 1 s")
+    print(f"\ndisconnected after {(time.monotonic() - t_unplug) * 1000:.0f} ms")
+    manager.submit((Tilt(180, 100),))  # set while unplugged: must not raise, must be shown after replug
+    time.sleep(0.3)
+    emulator.replug()
+    wait_for(lambda: manager.status()["ferrovibe"] == "connected", 2.0, "did not reconnect")
+    wait_for(lambda: any(e.direction_cdeg == 18000 for e in emulator.snapshot_edges()), 1.0,
+             "the current value was not re-sent after the reconnect")
+    snap = manager.snapshot()["devices"][0]
+    assert snap["disconnects"] == 1 and snap["connects"] == 2
+
+
+def test_garbage_and_bad_crc_from_the_device_are_counted_and_survived(rig):
+    emulator, manager = rig("ferrovibe")
+    rng = random.Random(7)
+    noise = bytes(rng.randrange(256) for _ in range(5000))
+    good = bytearray(encode_frame(0x83, 1, bytes([0])))  # an ACK frame ...
+    bad_crc = bytes(good[:-2]) + bytes([good[-2] ^ 0x01, 0])  # ... with one bit flipped before the delimiter
+    emulator.inject(noise + b"\x00" + bad_crc * 3)
+    wait_for(lambda: manager.snapshot()["devices"][0]["counters"].get("bad_crc", 0) >= 3
+             or sum(manager.snapshot()["devices"][0]["counters"].get(k, 0)
+                    for k in ("framing", "too_long", "bad_length", "unknown_type")) > 0, 1.0, "garbage not counted")
+    time.sleep(0.1)
+    counters = manager.snapshot()["devices"][0]["counters"]
+    rejected = sum(counters.get(k, 0) for k in ("framing", "too_long", "bad_length", "bad_crc", "unknown_type"))
+    assert rejected >= 3, counters
+    assert manager.status()["ferrovibe"] == "connected"
+    manager.submit((Tilt(45, 100),))
+    wait_for(lambda: any(e.direction_cdeg == 4500 for e in emulator.snapshot_edges()), 1.0,
+             "commands stopped working after garbage")
+
+
+def test_garbage_from_the_host_side_is_survived_by_the_firmware(rig):
+    emulator, manager = rig("fingertac")
+    fd = os.open(str(emulator.path), os.O_WRONLY | os.O_NOCTTY)
+    try:
+        os.write(fd, bytes(random.Random(3).randrange(256) for _ in range(3000)) + b"\x00")
+    finally:
+        os.close(fd)
+    time.sleep(0.3)  # the wire model delivers 3000 bytes in 0.26 s
+    counters = emulator.core.counters()
+    assert sum(v for k, v in counters.items() if k != "frames_ok") > 0
+    t0 = time.monotonic_ns() // 1000
+    manager.submit((PulseTrain(20, 20),))
+    wait_for(lambda: any(e.t_us > t0 and e.mode == 1 for e in emulator.snapshot_edges()), 1.0,
+             "the firmware stopped understanding frames")
