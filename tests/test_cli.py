@@ -37,3 +37,63 @@ def test_settings_reach_the_loop():
     config = Settings(gate_band=0.001, gate_dwell_s=0.05, state_hz=90).loop_config()
     assert (config.gate_band, config.gate_min_on_s, config.gate_min_off_s, config.state_hz) == (0.001, 0.05, 0.05, 90)
     assert config.scenario == "contact-angle-v1"
+
+
+def test_bad_device_option_is_refused_before_anything_starts(tmp_path):
+    result = _serve("--device", "ferovibe@/dev/ttyUSB0")
+    assert result.returncode == 2 and "built-in: fingertac, ferrovibe" in result.stderr
+    bad = tmp_path / "rig.toml"
+    bad.write_text("[[device]]\nprofile = 'ferrovibe'\nport = '/dev/ttyUSB0'\nspeed = 9600\n")
+    result = _serve("--devices", str(bad))
+    assert result.returncode == 2 and "speed" in result.stderr and str(bad) in result.stderr
+
+
+def test_viestac_devices_lists_ports_configured_devices_and_a_running_servers_status(live_server, tmp_path):
+    config = tmp_path / "rig.toml"
+    config.write_text(f"[[device]]\nname = 'tac'\nprofile = 'fingertac'\nport = '{tmp_path / 'absent'}'\n")
+    result = subprocess.run([sys.executable, "-m", "server.cli", "devices", "--devices", str(config),
+                             "--server", live_server.http_url], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert "Serial ports" in result.stdout
+    assert f"Configured tac (fingertac) on {tmp_path / 'absent'}: not present" in result.stdout
+    # the live server runs the simulated rig: both emulated devices are connected, with firmware and RTT
+    for model in ("fingertac", "ferrovibe"):
+        line = next(l for l in result.stdout.splitlines() if l.strip().startswith(model))
+        assert "connected" in line and "firmware 1.0.0" in line and "rtt" in line
+    as_json = subprocess.run([sys.executable, "-m", "server.cli", "devices", "--json", "--server", "http://127.0.0.1:9"],
+                             capture_output=True, text=True, timeout=60)
+    report = json.loads(as_json.stdout)
+    assert report["server"] is None and "no server at http://127.0.0.1:9" in report["server_error"]
+
+
+def test_viestac_emulate_prints_its_port_and_records_the_timeline(tmp_path):
+    import csv
+    import time
+
+    from devices.cues import PulseTrain
+    from devices.manager import DeviceConfig, DeviceManager
+
+    link, timeline = tmp_path / "ft", tmp_path / "ft.csv"
+    proc = subprocess.Popen([sys.executable, "-m", "server.cli", "emulate", "fingertac", "--link", str(link),
+                             "--timeline", str(timeline)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        first = proc.stdout.readline()
+        assert first.startswith("fingertac emulator on /dev/pts/") and str(link) in first
+        assert proc.stdout.readline().strip() == str(link)
+        manager = DeviceManager([DeviceConfig.parse(f"fingertac@{link}")], reopen_interval_s=0.1)
+        manager.start()
+        deadline = time.monotonic() + 3
+        while manager.status()["fingertac"] != "connected":
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        manager.submit((PulseTrain(20, 30),))
+        time.sleep(0.3)
+        manager.stop()
+    finally:
+        proc.terminate()
+        _, err = proc.communicate(timeout=5)
+    assert proc.returncode == 0 and "fingertac emulator stopped" in err
+    with timeline.open() as f:
+        rows = list(csv.DictReader(f))
+    pulses = [r for r in rows if r["mode"] == "pulse" and r["gate"] == "1" and r["cause"] == "schedule"]
+    assert len(pulses) >= 8 and {r["channel"] for r in pulses} == {"0", "1"} and pulses[0]["carrier_hz"] == "235"
