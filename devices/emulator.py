@@ -252,6 +252,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--link", help="also reachable at this path (a symlink that survives unplug/replug)")
     parser.add_argument("--timeline", help="write the actuator timeline to this CSV file")
     parser.add_argument("--no-wire", action="store_true", help="do not model the 115200-baud wire time")
+    parser.add_argument("--exit-with-parent", action="store_true", help="stop when the parent process goes away")
     args = parser.parse_args(argv)
     emulator = Emulator(args.model, link=args.link, timeline=args.timeline, wire=not args.no_wire)
     path = emulator.start()
@@ -260,7 +261,10 @@ def main(argv: list[str] | None = None) -> int:
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
-    stop.wait()
+    parent = os.getppid()
+    while not stop.wait(0.5):
+        if args.exit_with_parent and os.getppid() != parent:
+            break  # the server died without stopping us (e.g. SIGKILL)
     emulator.stop()
     c = emulator.core.counters()
     print(f"{args.model} emulator stopped: {emulator.bytes_in} bytes in, {c.get('frames_ok', 0)} frames, "

@@ -205,7 +205,8 @@ class DeviceManager:
         elif isinstance(event, DeviceLine):
             log.debug("%s says: %s", name, event.text)
         if isinstance(event, StatusChanged):
-            level = logging.WARNING if event.new in ("disconnected", "unresponsive", "bad_version") else logging.INFO
+            trouble = event.new in ("disconnected", "unresponsive", "bad_version") and event.reason != "stopped"
+            level = logging.WARNING if trouble else logging.INFO
             log.log(level, "%s: %s -> %s (%s)", name, event.old, event.new, event.reason)
             self._notify()
 

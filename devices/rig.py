@@ -46,8 +46,9 @@ class SimulatedRig:
             self.link(model).unlink(missing_ok=True)
             self.procs[model] = subprocess.Popen(
                 [sys.executable, "-m", "devices.emulator", model, "--link", str(self.link(model)),
-                 "--timeline", str(self.timeline(model))],
-                stdout=subprocess.DEVNULL, cwd=Path(__file__).resolve().parents[1])
+                 "--timeline", str(self.timeline(model)), "--exit-with-parent"],
+                stdout=subprocess.DEVNULL, cwd=Path(__file__).resolve().parents[1],
+                start_new_session=True)  # a terminal's Ctrl-C reaches the server, which stops us in order
         deadline = time.monotonic() + timeout_s
         for model, proc in self.procs.items():
             while not self.link(model).exists():

@@ -149,7 +149,7 @@ class SerialDevice:
             self.protocol.connection_made(self.clock())
             events = self.protocol.events_received()
             self._cond.notify_all()
-        log.info("%s: opened %s", self.name, path)
+        log.debug("%s: opened %s", self.name, path)
         self._publish(events)
         return True
 
@@ -167,9 +167,7 @@ class SerialDevice:
             port.close()
         except Exception:  # the port is gone already; closing is best effort
             pass
-        if report:
-            log.warning("%s: disconnected (%s)", self.name, reason)
-        self._publish(events)
+        self._publish(events)  # the StatusChanged event carries the reason to the log
 
     def _warn(self, text: str) -> None:
         self.warning = text

@@ -43,7 +43,8 @@ class LoopSupervisor:
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "server.loop.process", "--fd", str(theirs.fileno()),
              "--doorbell", str(self._doorbell.fd), "--config", self.config.to_json()],
-            pass_fds=(theirs.fileno(), self._doorbell.fd), cwd=os.getcwd())
+            pass_fds=(theirs.fileno(), self._doorbell.fd), cwd=os.getcwd(),
+            start_new_session=True)  # Ctrl-C in a terminal stops the hub, which stops the loop in order
         theirs.close()
         self._sock = ours
         loop.add_reader(ours.fileno(), self._readable)
