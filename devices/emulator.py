@@ -31,15 +31,16 @@ from collections import deque
 from pathlib import Path
 
 from devices.fwcore import Edge, FirmwareCore
+from devices.link import BYTE_TIME_S
+from devices.messages import PatternMode
 
-BYTE_TIME_US = 86.8  # 115200 8N1: 10 bits per byte
+BYTE_TIME_US = BYTE_TIME_S * 1e6  # 86.8 µs at 115200 8N1
 TIMELINE_COLUMNS = ("t_us", "channel", "gate", "mode", "intensity_pct", "carrier_hz", "direction_deg",
                     "magnitude_pct", "cause")
-_MODES = {0: "off", 1: "pulse", 2: "continuous", 3: "texture"}
 
 
 def edge_row(e: Edge) -> tuple:
-    return (e.t_us, e.channel, int(e.gate), _MODES.get(e.mode, str(e.mode)), e.intensity, e.carrier_hz,
+    return (e.t_us, e.channel, int(e.gate), PatternMode(e.mode).name.lower(), e.intensity, e.carrier_hz,
             e.direction_cdeg / 100, e.magnitude, e.cause)
 
 

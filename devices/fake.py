@@ -17,6 +17,7 @@ from collections.abc import Callable
 
 from devices import messages as m
 from devices.framing import FrameDecoder, FrameError, encode_frame
+from devices.link import BYTE_TIME_S
 
 FINGERTAC = m.Identify(1, 1, 0, 0, 2, m.Caps.PULSE | m.Caps.CONTINUOUS | m.Caps.TEXTURE, 235, "fingertac")
 FERROVIBE = m.Identify(1, 1, 0, 0, 1, m.Caps.PULSE | m.Caps.CONTINUOUS | m.Caps.TEXTURE | m.Caps.TILT, 235,
@@ -112,7 +113,7 @@ class FakeDevice:
 class SimulatedLink:
     """A host protocol and a FakeDevice on one simulated serial line."""
 
-    def __init__(self, host, device: FakeDevice, *, byte_time_s: float = 86.8e-6, latency_s: float = 0.0,
+    def __init__(self, host, device: FakeDevice, *, byte_time_s: float = BYTE_TIME_S, latency_s: float = 0.0,
                  to_device: Callable[[bytes], bytes] | None = None):
         self.host, self.device = host, device
         self.byte_time_s, self.latency_s = byte_time_s, latency_s

@@ -33,12 +33,13 @@ try:
 except ImportError:  # Windows: no lock; the atomic rename still keeps the library whole
     fcntl = None
 
+from devices.messages import CAP_NAMES, cap_names
+
 FIRMWARE_DIR = Path(__file__).resolve().parent / "firmware"
 BUILD_DIR = FIRMWARE_DIR / "build"
 LIBRARY_PATH = BUILD_DIR / "libviestac_fw.so"
 
 MODELS = ("fingertac", "ferrovibe")
-CAP_NAMES = ("pulse", "continuous", "texture", "tilt", "temperature", "friction")  # §3 bit order
 MAX_PAYLOAD = 58
 MAX_CHANNELS = 4
 NEVER = 2**64 - 1
@@ -345,7 +346,7 @@ class FirmwareCore:
 
     @property
     def cap_names(self) -> tuple[str, ...]:
-        return tuple(name for bit, name in enumerate(CAP_NAMES) if self.caps >> bit & 1)
+        return tuple(name for name in CAP_NAMES if name in cap_names(self.caps))
 
     def _check_time(self, now_us: int) -> int:
         now_us = int(now_us)

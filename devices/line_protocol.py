@@ -42,7 +42,7 @@ from dataclasses import dataclass, fields
 
 from devices import messages as m
 from devices.framing import FrameError
-from devices.link import CommandBook, LinkBudget
+from devices.link import BYTE_TIME_S, CommandBook, LinkBudget
 from devices.protocol import CONNECTED, DISCONNECTED, HANDSHAKING, FrameRejected, StatusChanged
 
 _MODE_KEYS = {m.PatternMode.OFF: "off", m.PatternMode.PULSE: "pulse", m.PatternMode.CONTINUOUS: "continuous",
@@ -164,7 +164,7 @@ class CommandRefused:
 
 
 class LineProtocol:
-    def __init__(self, profile: LineProfile | Mapping, *, share: float = 0.5, byte_time_s: float = 86.8e-6,
+    def __init__(self, profile: LineProfile | Mapping, *, share: float = 0.5, byte_time_s: float = BYTE_TIME_S,
                  hello_interval_s: float = 0.25, ping_interval_s: float = 0.5, silence_timeout_s: float = 1.5):
         # ping_interval_s and silence_timeout_s: accepted for HostProtocol's signature; an ASCII
         # firmware has no heartbeat this class could rely on

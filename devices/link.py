@@ -25,11 +25,12 @@ from devices.messages import SET_MESSAGES, as_seen_by, overrides, touches
 K = TypeVar("K", bound=Hashable)
 V = TypeVar("V")
 
+BYTE_TIME_S = 86.8e-6  # 115200 8N1: 10 bits per byte on the wire (10 / 115200 = 86.806 µs)
 
 class LinkBudget:
     """The host's share of the line (§5: 0.5 by default; 86.8 µs per byte at 115200 8N1)."""
 
-    def __init__(self, share: float = 0.5, byte_time_s: float = 86.8e-6):
+    def __init__(self, share: float = 0.5, byte_time_s: float = BYTE_TIME_S):
         if not 0.0 < share <= 1.0:
             raise ValueError(f"share must be in (0, 1], got {share!r}")
         if not (math.isfinite(byte_time_s) and byte_time_s > 0.0):

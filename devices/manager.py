@@ -26,8 +26,10 @@ import serial
 from devices.cues import Cue
 from devices.encoder import CueEncoder, Refusal
 from devices.line_protocol import CommandRefused, DeviceLine, LineProtocol
+from devices.link import BYTE_TIME_S
 from devices.ports import PortSpec
-from devices.profiles import CAPS, DeviceProfile, ProfileError, profile_by_model
+from devices.messages import cap_names
+from devices.profiles import DeviceProfile, ProfileError, profile_by_model
 from devices.protocol import DeviceErrorReported, FrameRejected, HostProtocol, Identified, StatusChanged
 from devices.serial_port import SerialDevice
 
@@ -118,7 +120,7 @@ def check_unique(configs: list[DeviceConfig]) -> None:
 
 
 def make_protocol(profile: DeviceProfile, link_share: float, baud: int):
-    byte_time_s = 10.0 / baud  # 8N1: start + 8 data + stop bits
+    byte_time_s = BYTE_TIME_S * 115_200 / baud  # 8N1 at this baud rate
     if profile.protocol == "line":
         return LineProtocol(dict(profile.line), share=link_share, byte_time_s=byte_time_s)
     return HostProtocol(share=link_share, byte_time_s=byte_time_s)
@@ -181,7 +183,7 @@ class DeviceManager:
         if isinstance(event, Identified):
             identity = event.identity
             d = self.devices[name]
-            caps = frozenset(cap for bit, cap in enumerate(CAPS) if identity.caps >> bit & 1)
+            caps = cap_names(identity.caps)
             firmware = f"{identity.fw_major}.{identity.fw_minor}.{identity.fw_patch}"
             if identity.model != d.config.profile.model:
                 log.warning("%s: configured as %s but the device says it is %s; using what it reports",

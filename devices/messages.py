@@ -49,6 +49,14 @@ class Caps(IntFlag):
     FRICTION = 1 << 5
 
 
+CAP_NAMES = tuple(cap.name.lower() for cap in Caps)  # in bit order: pulse, continuous, ...
+
+
+def cap_names(bits: int) -> frozenset[str]:
+    """IDENTIFY's caps byte as names."""
+    return frozenset(name for bit, name in enumerate(CAP_NAMES) if bits >> bit & 1)
+
+
 class ErrorCode(IntEnum):
     BAD_CRC = 1
     FRAMING = 2

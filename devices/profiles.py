@@ -15,6 +15,8 @@ from dataclasses import dataclass, field, replace
 from enum import Enum
 from types import MappingProxyType
 
+from devices.messages import CAP_NAMES
+
 
 class Display(str, Enum):
     DIRECT = "direct"        # Table 2.2 "!"
@@ -27,7 +29,7 @@ class Display(str, Enum):
 
 
 DIMENSIONS = ("stiffness", "macro_roughness", "fine_roughness", "temperature", "friction")
-CAPS = ("pulse", "continuous", "texture", "tilt", "temperature", "friction")  # bit order of §3
+CAPS = CAP_NAMES  # the commands a firmware may accept (IDENTIFY caps bits, device-protocol.md §3)
 # Dimensions with a defined vibration encoding (devices/encoder.py). Temperature and friction
 # have none that means anything, so a profile may not claim them as "(!)".
 VIBRATION_ENCODABLE = frozenset({"stiffness", "macro_roughness", "fine_roughness"})

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 from devices import messages as m
 from devices.framing import Frame, FrameDecoder, FrameError, encode_frame
-from devices.link import CommandBook, LinkBudget
+from devices.link import BYTE_TIME_S, CommandBook, LinkBudget
 
 DISCONNECTED, HANDSHAKING, CONNECTED, UNRESPONSIVE, BAD_VERSION = (
     "disconnected", "handshaking", "connected", "unresponsive", "bad_version")
@@ -82,7 +82,7 @@ class Pong:
 
 
 class HostProtocol:
-    def __init__(self, *, share: float = 0.5, byte_time_s: float = 86.8e-6, hello_interval_s: float = 0.25,
+    def __init__(self, *, share: float = 0.5, byte_time_s: float = BYTE_TIME_S, hello_interval_s: float = 0.25,
                  ping_interval_s: float = 0.5, silence_timeout_s: float = 1.5, ack_timeout_s: float = 0.5):
         self.hello_interval_s = hello_interval_s
         self.ping_interval_s = ping_interval_s
