@@ -59,8 +59,13 @@ class SerialDevice:
         for thread in self._threads:
             thread.start()
 
-    def stop(self) -> None:
+    def stop(self, drain_s: float = 0.3) -> None:
+        """Stop the threads, after at most `drain_s` for the commands still waiting (the last
+        ones are usually "everything off": a device must not buzz on after the server quits)."""
+        deadline = time.monotonic() + drain_s
         with self._cond:
+            while self._port is not None and self.protocol.book.pending and time.monotonic() < deadline:
+                self._cond.wait(0.01)
             self._running = False
             self._cond.notify_all()
         self._drop("stopped", report=False)

@@ -164,3 +164,14 @@ def test_garbage_from_the_host_side_is_survived_by_the_firmware(rig):
     manager.submit((PulseTrain(20, 20),))
     wait_for(lambda: any(e.t_us > t0 and e.mode == 1 for e in emulator.snapshot_edges()), 1.0,
              "the firmware stopped understanding frames")
+
+
+def test_stopping_right_after_the_last_cue_still_turns_the_device_off(rig):
+    emulator, manager = rig("ferrovibe")
+    manager.submit((Tilt(90, 100), Texture(3000)))
+    wait_for(lambda: any(e.magnitude == 100 for e in emulator.snapshot_edges()), 1.0, "tilt never arrived")
+    manager.submit(())
+    manager.stop()  # at once: the off commands are still waiting for the link budget
+    time.sleep(0.05)
+    last = emulator.snapshot_edges()[-1]
+    assert (last.magnitude, last.gate, last.mode) == (0, False, 0), last
