@@ -244,13 +244,9 @@ class LineProtocol:
     def poll(self, now_s: float) -> tuple[bytes, float | None]:
         if self.status == DISCONNECTED:
             return b"", None
-        data = b""
-        if self.budget.ready(now_s):
-            data = self._next_write(now_s)
-            if data:
-                self.budget.spend(len(data), now_s)
-                self.counters["bytes_out"] += len(data)
-                self.counters["frames_out"] += 1
+        data = self.budget.write(now_s, lambda: self._next_write(now_s))
+        self.counters["bytes_out"] += len(data)
+        self.counters["frames_out"] += bool(data)
         due = [t for t in (self._hello_due, -float("inf") if self.book.pending else None) if t is not None]
         return data, (max(min(due), self.budget.ready_at, now_s) if due else None)
 

@@ -52,6 +52,16 @@ class LinkBudget:
         self.bytes_total += n
         self.writes_total += 1
 
+    def write(self, now_s: float, produce) -> bytes:
+        """`produce()`'s bytes, charged to the budget, if a write may start now; else b"" (and
+        `produce` is not called, so nothing leaves its slot)."""
+        if not self.ready(now_s):
+            return b""
+        data = produce()
+        if data:
+            self.spend(len(data), now_s)
+        return data
+
     def utilisation(self, bytes_sent: int, elapsed_s: float) -> float:
         """Fraction of the line that bytes_sent occupied over elapsed_s."""
         return bytes_sent * self.byte_time_s / elapsed_s if elapsed_s > 0 else 0.0

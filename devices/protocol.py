@@ -206,12 +206,8 @@ class HostProtocol:
         if self.status == DISCONNECTED:
             return b"", None
         self._check_timers(now_s)
-        data = b""
-        if self.budget.ready(now_s):
-            data = self._next_write(now_s)
-            if data:
-                self.budget.spend(len(data), now_s)
-                self.counters["bytes_out"] += len(data)
+        data = self.budget.write(now_s, lambda: self._next_write(now_s))
+        self.counters["bytes_out"] += len(data)
         return data, self._wake_at(now_s)
 
     def events_received(self) -> list:

@@ -126,11 +126,17 @@ def _bench_loop(args: argparse.Namespace) -> int:
 
     result = run_loop_bench(seconds=args.seconds, viewers=args.clients, trackers=args.trackers,
                             warmup_s=args.warmup, scenario=args.scenario)
-    if args.json:
+    return _print_bench(result, args.json)
+
+
+def _print_bench(result: dict, as_json: bool) -> int:
+    """One JSON object, or one aligned `key value` line per result."""
+    if as_json:
         print(json.dumps(result))
     else:
+        width = max(map(len, result), default=0) + 2
         for key, value in result.items():
-            print(f"{key:32s} {value}")
+            print(f"{key:{width}s} {value}")
     return 0
 
 
@@ -138,12 +144,7 @@ def _bench_link(args: argparse.Namespace) -> int:
     from server.bench.link_bench import run_link_bench
 
     result = run_link_bench(seconds=args.seconds, rate_hz=args.rate, share=args.share)
-    if args.json:
-        print(json.dumps(result))
-    else:
-        for key, value in result.items():
-            print(f"{key:24s} {value}")
-    return 0
+    return _print_bench(result, args.json)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -5,14 +5,14 @@
 // edges to pins.
 //
 // Build: the core must sit in the sketch folder. Link (or copy, e.g. for the Arduino IDE) it:
-//   cd devices/firmware/fingertac && ln -sf ../src/*.c ../include/viestac_fw.h .
+//   cd devices/firmware/fingertac && ln -sf ../src/*.c ../include/*.h .
 //   arduino-cli compile --fqbn esp32:esp32:esp32 .
 //   arduino-cli upload  --fqbn esp32:esp32:esp32 -p /dev/ttyUSB0 .
 // `make sketch-check` compile-checks this file on the host against test/arduino_stub.
 #include <Arduino.h>
 #include <esp_timer.h>
 
-#include "viestac_fw.h"
+#include "viestac_arduino.h"
 
 static const unsigned long BAUD = 115200;        // §0: 115200 8N1
 static const uint8_t LRA_PIN[2] = { 25, 26 };    // PWM input of the LRA driver of channel 0, 1
@@ -55,19 +55,7 @@ void loop()
 {
     // 64-bit µs since boot: no 71-minute wrap as with 32-bit micros().
     uint64_t now = (uint64_t)esp_timer_get_time();
-    uint8_t buf[64];
-    size_t n = 0;
-    while (n < sizeof buf && Serial.available() > 0)
-        buf[n++] = (uint8_t)Serial.read();
-    if (n)
-        vt_device_receive(&dev, buf, n, now);
-
-    // Write only what the UART buffer takes now, so a slow link never stalls the edges.
-    int room = Serial.availableForWrite();
-    if (room > 0 && vt_device_output_pending(&dev)) {
-        n = vt_device_take_output(&dev, buf, (size_t)room < sizeof buf ? (size_t)room : sizeof buf);
-        Serial.write(buf, n);
-    }
+    vt_serial_pump(&dev, now);
 
     // Edges carry their exact scheduled time; polling from loop() applies them within a few µs
     // (a timer alarm at vt_device_next_edge_us() would make that exact).
