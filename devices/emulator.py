@@ -1,4 +1,4 @@
-"""Device emulators: a pseudo-terminal that behaves like FingerTac or FerroVibe firmware.
+"""Device emulators: a pseudo-terminal that behaves like the FingerTac, FerroVibe or devkit firmware.
 
 The emulator runs the real firmware core (devices/firmware, through devices.fwcore) behind a pty,
 so the host's whole byte path (pyserial, framing, handshake, coalescing) is the production one.
@@ -30,18 +30,21 @@ import tty
 from collections import deque
 from pathlib import Path
 
-from devices.fwcore import Edge, FirmwareCore
+from devices.fwcore import MODELS, Edge, FirmwareCore
 from devices.link import BYTE_TIME_S
 from devices.messages import PatternMode
 
 BYTE_TIME_US = BYTE_TIME_S * 1e6  # 86.8 µs at 115200 8N1
+# temperature_c and friction come last, so readers that index the older columns keep working
 TIMELINE_COLUMNS = ("t_us", "channel", "gate", "mode", "intensity_pct", "carrier_hz", "direction_deg",
-                    "magnitude_pct", "cause")
+                    "magnitude_pct", "cause", "temperature_c", "friction")
 
 
 def edge_row(e: Edge) -> tuple:
+    """One timeline row; a temperature or friction layer that is off is an empty cell."""
     return (e.t_us, e.channel, int(e.gate), PatternMode(e.mode).name.lower(), e.intensity, e.carrier_hz,
-            e.direction_cdeg / 100, e.magnitude, e.cause)
+            e.direction_cdeg / 100, e.magnitude, e.cause, "" if e.temperature_c is None else e.temperature_c,
+            "" if e.friction is None else e.friction)
 
 
 class Emulator:
@@ -249,7 +252,7 @@ class Emulator:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="viestac emulate",
                                      description="Emulate a tactile device on a pseudo-terminal (runs the firmware core).")
-    parser.add_argument("model", choices=["fingertac", "ferrovibe"])
+    parser.add_argument("model", choices=MODELS)
     parser.add_argument("--link", help="also reachable at this path (a symlink that survives unplug/replug)")
     parser.add_argument("--timeline", help="write the actuator timeline to this CSV file")
     parser.add_argument("--no-wire", action="store_true", help="do not model the 115200-baud wire time")

@@ -39,7 +39,7 @@ FIRMWARE_DIR = Path(__file__).resolve().parent / "firmware"
 BUILD_DIR = FIRMWARE_DIR / "build"
 LIBRARY_PATH = BUILD_DIR / "libviestac_fw.so"
 
-MODELS = ("fingertac", "ferrovibe")
+MODELS = ("fingertac", "ferrovibe", "devkit")
 MAX_PAYLOAD = 58
 MAX_CHANNELS = 4
 NEVER = 2**64 - 1
@@ -134,7 +134,9 @@ class _Model(ctypes.Structure):
 class _Edge(ctypes.Structure):
     _fields_ = [("t_us", ctypes.c_uint64), ("channel", ctypes.c_uint8), ("gate", ctypes.c_uint8),
                 ("mode", ctypes.c_uint8), ("intensity", ctypes.c_uint8), ("carrier_hz", ctypes.c_uint16),
-                ("direction_cdeg", ctypes.c_uint16), ("magnitude", ctypes.c_uint8), ("cause", ctypes.c_uint8)]
+                ("direction_cdeg", ctypes.c_uint16), ("centi_celsius", ctypes.c_int16),
+                ("friction_milli", ctypes.c_uint16), ("magnitude", ctypes.c_uint8),
+                ("temperature_on", ctypes.c_uint8), ("friction_on", ctypes.c_uint8), ("cause", ctypes.c_uint8)]
 
 
 class _Channel(ctypes.Structure):
@@ -182,6 +184,7 @@ def _load(path: Path) -> ctypes.CDLL:
         "vt_device_sizeof": (sz, []),
         "vt_edge_sizeof": (sz, []),
         "vt_channel_sizeof": (sz, []),
+        "vt_edge_offset": (sz, [ctypes.c_int]),
         "vt_device_init": (ctypes.c_int, [vp, ctypes.POINTER(_Model)]),
         "vt_device_receive": (None, [vp, u8p, sz, u64]),
         "vt_device_take_output": (sz, [vp, u8p, sz]),
@@ -192,9 +195,15 @@ def _load(path: Path) -> ctypes.CDLL:
         "vt_counter_name": (ctypes.c_char_p, [ctypes.c_int]),
     }
     for name, (restype, argtypes) in sigs.items():
-        fn = getattr(lib, name)
+        try:
+            fn = getattr(lib, name)
+        except AttributeError:
+            raise FirmwareBuildError(f"{path} has no {name}: it is older than devices/fwcore.py; rebuild it") from None
         fn.restype, fn.argtypes = restype, argtypes
-    if lib.vt_edge_sizeof() != ctypes.sizeof(_Edge) or lib.vt_channel_sizeof() != ctypes.sizeof(_Channel):
+    # a struct can change and keep its size (padding), so every vt_edge field's offset is compared too
+    offsets = [getattr(_Edge, name).offset for name, _ in _Edge._fields_] + [ctypes.c_size_t(-1).value]
+    if (lib.vt_edge_sizeof() != ctypes.sizeof(_Edge) or lib.vt_channel_sizeof() != ctypes.sizeof(_Channel)
+            or [lib.vt_edge_offset(k) for k in range(len(offsets))] != offsets):
         raise FirmwareBuildError(f"{path} does not match devices/fwcore.py's struct layout; rebuild it")
     return lib
 
@@ -283,11 +292,15 @@ class Edge:
     direction_cdeg: int
     magnitude: int        # tilt %, 0 = flat
     cause: str            # "command" or "schedule" ("state" only from FirmwareCore.output)
+    temperature_c: float | None = None   # temperature layer, None = off
+    friction: float | None = None        # friction coefficient, None = off
 
     @classmethod
-    def _from_c(cls, e: _Edge) -> Edge:
+    def _from_c(cls, e: _Edge, cause: str | None = None) -> Edge:
         return cls(e.t_us, e.channel, bool(e.gate), e.mode, e.intensity, e.carrier_hz, e.direction_cdeg,
-                   e.magnitude, CAUSES.get(e.cause, str(e.cause)))
+                   e.magnitude, cause or CAUSES.get(e.cause, str(e.cause)),
+                   e.centi_celsius / 100 if e.temperature_on else None,
+                   e.friction_milli / 1000 if e.friction_on else None)
 
 
 class FirmwareCore:
@@ -399,9 +412,7 @@ class FirmwareCore:
 
     def output(self, channel: int) -> Edge:
         """The channel's current output state (as of the last reported edge; cause "state")."""
-        e = self._channel(channel).last
-        return Edge(e.t_us, channel, bool(e.gate), e.mode, e.intensity, e.carrier_hz, e.direction_cdeg,
-                    e.magnitude, "state")
+        return Edge._from_c(self._channel(channel).last, "state")
 
     def layers(self, channel: int) -> dict[str, int | None]:
         """Every layer of a channel as the device holds it (§2); temperature/friction None = off."""

@@ -156,7 +156,18 @@ FERROVIBE = DeviceProfile(
                 "temperature": "none", "friction": "none"},
     notes="Tilt direction 0 = front, 90 = right, 180 = back, 270 = left; texture by re-tilting (thesis §3.2).")
 
-PROFILES: Mapping[str, DeviceProfile] = MappingProxyType({p.model: p for p in (FINGERTAC, FERROVIBE)})
+DEVKIT = DeviceProfile(
+    model="devkit",
+    title="ViESTac devkit: reference firmware for new devices — one vibrotactile actuator (LRA, 235 Hz carrier), "
+          "a Peltier element and a friction display on one fingertip",
+    firmware="1.0.0", channels=("fingertip",), carrier_hz=235,
+    caps=frozenset({"pulse", "continuous", "texture", "temperature", "friction"}),
+    dimensions={"stiffness": "vibration", "macro_roughness": "none", "fine_roughness": "direct",
+                "temperature": "direct", "friction": "direct"},
+    notes="Every layer but tilt on one channel; the reference sketch (devices/firmware/devkit) drives the "
+          "Peltier open loop, a real build closes it on a thermistor.")
+
+PROFILES: Mapping[str, DeviceProfile] = MappingProxyType({p.model: p for p in (FINGERTAC, FERROVIBE, DEVKIT)})
 
 
 def profile_by_model(model: str) -> DeviceProfile:

@@ -420,7 +420,7 @@ def test_bad_channel():
     assert core.counters()["bad_channel"] == 2 and core.advance(0) == []
 
 
-@pytest.mark.parametrize("model,channels,caps", [("fingertac", 2, 0x07), ("ferrovibe", 1, 0x0F)])
+@pytest.mark.parametrize("model,channels,caps", [("fingertac", 2, 0x07), ("ferrovibe", 1, 0x0F), ("devkit", 1, 0x37)])
 def test_hello_identify(model, channels, caps):
     core = FirmwareCore(model)
     assert (core.channels, core.caps, core.carrier_hz, core.firmware) == (channels, caps, 235, (1, 0, 0))
@@ -504,6 +504,64 @@ def test_edge_fields_and_output_state():
         core.output(1)
     with pytest.raises(ValueError):
         core.advance(299)                           # time never goes backwards
+
+
+def temperature(channel, centi_celsius) -> bytes:
+    return struct.pack("<Bh", channel, centi_celsius)
+
+
+def friction(channel, milli) -> bytes:
+    return struct.pack("<BH", channel, milli)
+
+
+def test_devkit_temperature_and_friction_produce_command_edges():
+    core = FirmwareCore("devkit")
+    assert core.output(0).temperature_c is None and core.output(0).friction is None
+    send(core, SET_PATTERN, 1, pattern(0, PULSE, 100, 0, 50_000, 200_000), 0)
+    core.advance(0)
+    assert_ack(send(core, SET_TEMPERATURE, 2, temperature(0, 4_000), 60_000), 2)
+    edges = core.advance(60_000)
+    assert [(e.t_us, e.cause) for e in edges] == [(50_000, "schedule"), (60_000, "command")]
+    assert edges[0].temperature_c is None
+    assert edges[1] == Edge(60_000, 0, False, PULSE, 100, 235, 0, 0, "command", 40.0, None)
+    assert core.next_edge_us() == 250_000                       # the pattern's phase goes on
+    assert_ack(send(core, SET_FRICTION, 3, friction(0xFF, 800), 70_000), 3)
+    assert core.advance(70_000) == [Edge(70_000, 0, False, PULSE, 100, 235, 0, 0, "command", 40.0, 0.8)]
+    # the same values again change nothing, so they report nothing
+    send(core, SET_TEMPERATURE, 4, temperature(0, 4_000), 80_000)
+    send(core, SET_FRICTION, 5, friction(0, 800), 80_000)
+    assert core.advance(80_000) == []
+    assert core.output(0) == Edge(70_000, 0, False, PULSE, 100, 235, 0, 0, "state", 40.0, 0.8)
+    # STOP turns both layers off in the same edge as the pattern; a second STOP reports nothing
+    assert_ack(send(core, STOP, 6, b"\xff", 90_000), 6)
+    assert core.advance(90_000) == [Edge(90_000, 0, False, OFF, 0, 0, 0, 0, "command")]
+    send(core, STOP, 7, b"\x00", 95_000)
+    assert core.advance(95_000) == []
+    # 0 °C and a coefficient of 0 are values, not "off"
+    send(core, SET_TEMPERATURE, 8, temperature(0, 0), 100_000)
+    send(core, SET_FRICTION, 9, friction(0, 0), 100_000)
+    assert [(e.temperature_c, e.friction) for e in core.advance(100_000)] == [(0.0, None), (0.0, 0.0)]
+
+
+def test_temperature_and_friction_edges_on_every_channel():
+    core = FirmwareCore.from_descriptor("testdev", **FULL)
+    assert_ack(send(core, SET_TEMPERATURE, 1, temperature(0xFF, 3_450), 1_000), 1)
+    assert_ack(send(core, SET_FRICTION, 2, friction(1, 2_500), 2_000), 2)
+    edges = core.advance(2_000)
+    assert [(e.t_us, e.channel, e.temperature_c, e.friction, e.cause) for e in edges] == [
+        (1_000, 0, 34.5, None, "command"), (1_000, 1, 34.5, None, "command"), (2_000, 1, 34.5, 2.5, "command")]
+
+
+@pytest.mark.parametrize("model", ["fingertac", "ferrovibe"])
+def test_vibrotactile_models_report_no_temperature_or_friction(model):
+    core = FirmwareCore(model)
+    assert_error(send(core, SET_TEMPERATURE, 1, temperature(0, 4_000), 0), 1, 6)
+    assert_error(send(core, SET_FRICTION, 2, friction(0, 800), 0), 2, 6)
+    send(core, SET_PATTERN, 3, pattern(0, CONTINUOUS, 50), 10)
+    send(core, STOP, 4, b"\xff", 20)
+    edges = core.advance(20)
+    assert [e.mode for e in edges] == [CONTINUOUS, OFF]
+    assert all(e.temperature_c is None and e.friction is None for e in edges)
 
 
 def test_unknown_model_is_a_value_error():

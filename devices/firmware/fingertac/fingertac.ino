@@ -16,39 +16,17 @@
 
 static const unsigned long BAUD = 115200;        // §0: 115200 8N1
 static const uint8_t LRA_PIN[2] = { 25, 26 };    // PWM input of the LRA driver of channel 0, 1
-static const uint8_t PWM_BITS = 10;
-static const uint32_t PWM_FULL = (1u << PWM_BITS) - 1;
-static const uint32_t NO_CARRIER_PWM_HZ = 20000; // texture: no carrier, a fast PWM is a DC level
 static const size_t EDGE_BATCH = 8;
 
 static vt_device dev;                            // the whole device state, no heap
-static uint32_t pwm_hz[2];
-
-static void apply(const vt_edge &e)
-{
-    if (e.channel >= 2)
-        return;
-    uint8_t pin = LRA_PIN[e.channel];
-    uint32_t hz = e.carrier_hz ? e.carrier_hz : NO_CARRIER_PWM_HZ;
-    if (hz != pwm_hz[e.channel]) {
-        ledcChangeFrequency(pin, hz, PWM_BITS);
-        pwm_hz[e.channel] = hz;
-    }
-    // A square wave at the carrier drives the LRA hardest at 50 % duty, so intensity scales
-    // that; without a carrier (texture) the gate itself is the vibration and intensity is the level.
-    uint32_t span = e.carrier_hz ? PWM_FULL / 2 : PWM_FULL;
-    ledcWrite(pin, e.gate ? span * e.intensity / 100 : 0);
-}
+static vt_lra lra[2];
 
 void setup()
 {
     Serial.begin(BAUD);
     vt_device_init(&dev, &vt_model_fingertac);
-    for (int i = 0; i < 2; i++) {
-        pwm_hz[i] = vt_model_fingertac.carrier_hz;
-        ledcAttach(LRA_PIN[i], pwm_hz[i], PWM_BITS);
-        ledcWrite(LRA_PIN[i], 0);
-    }
+    for (int i = 0; i < 2; i++)
+        vt_lra_attach(&lra[i], LRA_PIN[i], vt_model_fingertac.carrier_hz);
 }
 
 void loop()
@@ -64,6 +42,7 @@ void loop()
     do {
         k = vt_device_advance(&dev, now, edges, EDGE_BATCH);
         for (size_t i = 0; i < k; i++)
-            apply(edges[i]);
+            if (edges[i].channel < 2)
+                vt_lra_apply(&lra[edges[i].channel], &edges[i]);
     } while (k == EDGE_BATCH);
 }

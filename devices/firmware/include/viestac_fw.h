@@ -103,6 +103,7 @@ typedef struct {
 
 extern const vt_model vt_model_fingertac;
 extern const vt_model vt_model_ferrovibe;
+extern const vt_model vt_model_devkit;
 const vt_model *vt_model_by_name(const char *name);  /* NULL if unknown */
 
 /* ---- device (vt_device.c, vt_sched.c) ----------------------------------------------------- */
@@ -114,8 +115,11 @@ typedef struct {
     uint8_t gate;                          /* pattern gate: 1 = vibrating / tilted (texture) */
     uint8_t mode, intensity;
     uint16_t carrier_hz;                   /* effective carrier; 0 for texture and off */
-    uint16_t direction_cdeg;
+    uint16_t direction_cdeg;               /* tilt layer */
+    int16_t centi_celsius;                 /* temperature layer: 0 when off */
+    uint16_t friction_milli;               /* friction layer: 0 when off */
     uint8_t magnitude;
+    uint8_t temperature_on, friction_on;
     uint8_t cause;                         /* VT_CAUSE_* */
 } vt_edge;
 
@@ -155,6 +159,9 @@ typedef struct {
 size_t vt_device_sizeof(void);
 size_t vt_edge_sizeof(void);
 size_t vt_channel_sizeof(void);
+/* offsetof the k-th vt_edge field in declaration order, (size_t)-1 past the last: bindings that
+ * mirror vt_edge check every field, since a reordered struct can keep its size. */
+size_t vt_edge_offset(int k);
 /* 0, or -1 (d untouched) if m is NULL or has 0 or more than VT_MAX_CHANNELS channels. */
 int vt_device_init(vt_device *d, const vt_model *m);
 /* Feed bytes from the host; complete frames take effect at now_us (§2 timing rule). */

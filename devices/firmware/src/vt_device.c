@@ -10,6 +10,18 @@ size_t vt_device_sizeof(void) { return sizeof(vt_device); }
 size_t vt_edge_sizeof(void) { return sizeof(vt_edge); }
 size_t vt_channel_sizeof(void) { return sizeof(vt_channel); }
 
+size_t vt_edge_offset(int k)
+{
+    static const size_t offsets[] = {
+        offsetof(vt_edge, t_us), offsetof(vt_edge, channel), offsetof(vt_edge, gate),
+        offsetof(vt_edge, mode), offsetof(vt_edge, intensity), offsetof(vt_edge, carrier_hz),
+        offsetof(vt_edge, direction_cdeg), offsetof(vt_edge, centi_celsius),
+        offsetof(vt_edge, friction_milli), offsetof(vt_edge, magnitude),
+        offsetof(vt_edge, temperature_on), offsetof(vt_edge, friction_on), offsetof(vt_edge, cause)
+    };
+    return k >= 0 && (size_t)k < sizeof offsets / sizeof offsets[0] ? offsets[k] : (size_t)-1;
+}
+
 int vt_device_init(vt_device *d, const vt_model *m)
 {
     if (!m || m->channels == 0 || m->channels > VT_MAX_CHANNELS)
@@ -118,6 +130,7 @@ static int apply(vt_device *d, uint8_t type, const uint8_t *p, uint64_t now)
         uint16_t v = rd16(p + 1);              /* a negative i16 reads as >= 0x8000 */
         if (v > 5000)
             return VT_ERR_BAD_VALUE;
+        vt_sched_catch_up(d, now);
         for (uint8_t i = first; i < end; i++) {
             if (type == VT_SET_TEMPERATURE) {
                 d->ch[i].temperature_on = 1;
@@ -126,6 +139,7 @@ static int apply(vt_device *d, uint8_t type, const uint8_t *p, uint64_t now)
                 d->ch[i].friction_on = 1;
                 d->ch[i].friction_milli = v;
             }
+            vt_sched_commit(d, i, 0, now);     /* like tilt: the pattern's phase goes on */
         }
         return 0;
     }

@@ -14,9 +14,16 @@ const vt_model vt_model_ferrovibe = {
     "ferrovibe", 1, 0, 0, 1, VT_CAP_PULSE | VT_CAP_CONTINUOUS | VT_CAP_TEXTURE | VT_CAP_TILT, 235
 };
 
+/* ViESTac devkit, the reference firmware for new devices: one LRA (235 Hz carrier), a Peltier element
+ * and a friction display on one fingertip, so every layer but tilt has an actuator. */
+const vt_model vt_model_devkit = {
+    "devkit", 1, 0, 0, 1,
+    VT_CAP_PULSE | VT_CAP_CONTINUOUS | VT_CAP_TEXTURE | VT_CAP_TEMPERATURE | VT_CAP_FRICTION, 235
+};
+
 const vt_model *vt_model_by_name(const char *name)
 {
-    static const vt_model *const models[] = { &vt_model_fingertac, &vt_model_ferrovibe };
+    static const vt_model *const models[] = { &vt_model_fingertac, &vt_model_ferrovibe, &vt_model_devkit };
     for (size_t i = 0; name && i < sizeof models / sizeof models[0]; i++)
         if (strcmp(models[i]->name, name) == 0)
             return models[i];

@@ -41,6 +41,11 @@ static vt_edge output_of(const vt_device *d, uint8_t i, uint64_t t, uint8_t caus
         e.carrier_hz = c->carrier_hz ? c->carrier_hz : d->model->carrier_hz;
     e.direction_cdeg = c->direction_cdeg;
     e.magnitude = c->magnitude;
+    /* a layer that is off reports 0, so a value kept by STOP never tells two edges apart */
+    e.temperature_on = c->temperature_on;
+    e.centi_celsius = c->temperature_on ? c->centi_celsius : 0;
+    e.friction_on = c->friction_on;
+    e.friction_milli = c->friction_on ? c->friction_milli : 0;
     e.cause = cause;
     return e;
 }
@@ -49,7 +54,9 @@ static int same_output(const vt_edge *a, const vt_edge *b)
 {
     return a->gate == b->gate && a->mode == b->mode && a->intensity == b->intensity &&
            a->carrier_hz == b->carrier_hz && a->direction_cdeg == b->direction_cdeg &&
-           a->magnitude == b->magnitude;
+           a->magnitude == b->magnitude && a->temperature_on == b->temperature_on &&
+           a->centi_celsius == b->centi_celsius && a->friction_on == b->friction_on &&
+           a->friction_milli == b->friction_milli;
 }
 
 static void queue_push(vt_device *d, const vt_edge *e)

@@ -52,6 +52,14 @@ static void set_tilt(vt_device *d, uint8_t seq, uint8_t ch, uint16_t dir, uint8_
     cmd(d, VT_SET_TILT, seq, p, sizeof p, now);
 }
 
+/* SET_TEMPERATURE (centi-degrees) or SET_FRICTION (milli): both are channel + 16-bit value. */
+static void set_layer(vt_device *d, uint8_t type, uint8_t seq, uint8_t ch, uint16_t v, uint64_t now)
+{
+    uint8_t p[3] = { ch };
+    put16(p + 1, v);
+    cmd(d, type, seq, p, sizeof p, now);
+}
+
 /* Decode every pending reply; returns how many frames were found. */
 static size_t replies(vt_device *d, vt_frame *frames, size_t max)
 {
@@ -232,6 +240,8 @@ static void test_models(void)
     CHECK(vt_model_by_name("FingerTac") == NULL && vt_model_by_name(NULL) == NULL);
     CHECK(vt_model_fingertac.channels == 2 && vt_model_fingertac.caps == 0x07 && vt_model_fingertac.carrier_hz == 235);
     CHECK(vt_model_ferrovibe.channels == 1 && vt_model_ferrovibe.caps == 0x0F && vt_model_ferrovibe.carrier_hz == 235);
+    CHECK(vt_model_by_name("devkit") == &vt_model_devkit);
+    CHECK(vt_model_devkit.channels == 1 && vt_model_devkit.caps == 0x37 && vt_model_devkit.carrier_hz == 235);
     vt_device d;
     vt_model bad = vt_model_fingertac;
     bad.channels = VT_MAX_CHANNELS + 1;
@@ -403,6 +413,60 @@ static void test_tilt(void)
     CHECK(vt_device_channel(&d, 0)->direction_cdeg == 3900);
 }
 
+static void test_temperature_friction(void)
+{
+    vt_device d;
+    vt_edge e[32];
+    vt_device_init(&d, &vt_model_devkit);
+    set_pattern(&d, 1, 0, VT_MODE_PULSE, 100, 0, 50000, 200000, 0);
+    CHECK(reply_code(&d, 1) == 0 && advance_all(&d, 0, e, 32) == 1 && !e[0].temperature_on && !e[0].friction_on);
+
+    /* a command edge that keeps the pattern and its phase, after the toggles that were due */
+    set_layer(&d, VT_SET_TEMPERATURE, 2, 0, 4000, 60000);
+    CHECK(reply_code(&d, 2) == 0);
+    CHECK(advance_all(&d, 60000, e, 32) == 2 && e[0].t_us == 50000 && e[0].cause == VT_CAUSE_SCHEDULE);
+    CHECK(e[1].t_us == 60000 && e[1].cause == VT_CAUSE_COMMAND && e[1].temperature_on && e[1].centi_celsius == 4000);
+    CHECK(!e[1].friction_on && e[1].gate == 0 && e[1].mode == VT_MODE_PULSE && e[1].carrier_hz == 235);
+    CHECK(vt_device_next_edge_us(&d) == 250000);
+
+    set_layer(&d, VT_SET_TEMPERATURE, 3, 0, 4000, 70000);             /* unchanged: no edge */
+    CHECK(reply_code(&d, 3) == 0 && advance_all(&d, 70000, e, 32) == 0);
+    set_layer(&d, VT_SET_FRICTION, 4, VT_CHANNEL_ALL, 800, 80000);
+    CHECK(reply_code(&d, 4) == 0 && advance_all(&d, 80000, e, 32) == 1);
+    CHECK(e[0].friction_on && e[0].friction_milli == 800 && e[0].temperature_on && e[0].centi_celsius == 4000);
+    set_layer(&d, VT_SET_FRICTION, 5, 0, 800, 90000);
+    CHECK(reply_code(&d, 5) == 0 && advance_all(&d, 90000, e, 32) == 0);
+    set_layer(&d, VT_SET_FRICTION, 6, 0, 5001, 90000);                 /* an error changes nothing */
+    CHECK(reply_code(&d, 6) == VT_ERR_BAD_VALUE && advance_all(&d, 90000, e, 32) == 0);
+    set_layer(&d, VT_SET_TEMPERATURE, 7, 1, 3000, 90000);
+    CHECK(reply_code(&d, 7) == VT_ERR_BAD_CHANNEL && advance_all(&d, 90000, e, 32) == 0);
+
+    /* STOP: every layer off in one edge, values reported as 0; a second STOP changes nothing */
+    cmd(&d, VT_STOP, 8, (const uint8_t *)"\0", 1, 100000);
+    CHECK(reply_code(&d, 8) == 0 && advance_all(&d, 100000, e, 32) == 1);
+    CHECK(e[0].mode == VT_MODE_OFF && !e[0].temperature_on && e[0].centi_celsius == 0 &&
+          !e[0].friction_on && e[0].friction_milli == 0);
+    CHECK(vt_device_channel(&d, 0)->centi_celsius == 4000);             /* the layer keeps its value */
+    cmd(&d, VT_STOP, 9, (const uint8_t *)"\0", 1, 110000);
+    CHECK(reply_code(&d, 9) == 0 && advance_all(&d, 110000, e, 32) == 0);
+
+    /* 0 °C and friction 0 are values, not "off" */
+    set_layer(&d, VT_SET_TEMPERATURE, 10, 0, 0, 120000);
+    set_layer(&d, VT_SET_FRICTION, 11, 0, 0, 120000);
+    vt_frame f[4];
+    CHECK(replies(&d, f, 4) == 2 && f[0].type == VT_ACK && f[1].type == VT_ACK);
+    CHECK(advance_all(&d, 120000, e, 32) == 2 && e[0].temperature_on && !e[0].friction_on &&
+          e[1].temperature_on && e[1].friction_on && e[1].friction_milli == 0);
+}
+
+static void test_edge_layout(void)
+{
+    CHECK(vt_edge_sizeof() == sizeof(vt_edge) && sizeof(vt_edge) == 24);     /* no padding holes */
+    CHECK(vt_edge_offset(0) == 0 && vt_edge_offset(7) == offsetof(vt_edge, centi_celsius));
+    CHECK(vt_edge_offset(12) == offsetof(vt_edge, cause) && vt_edge_offset(13) == (size_t)-1);
+    CHECK(vt_edge_offset(-1) == (size_t)-1);
+}
+
 static void test_output_overflow(void)
 {
     vt_device d;
@@ -460,6 +524,8 @@ int main(void)
     test_pulse_train();
     test_modes();
     test_tilt();
+    test_temperature_friction();
+    test_edge_layout();
     test_output_overflow();
     test_garbage();
     printf("test_core: %d checks, %d failed\n", checks, failures);
