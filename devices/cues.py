@@ -67,6 +67,17 @@ class Tilt(_Ranged):
 
 
 @dataclass(frozen=True)
+class Stiffness(_Ranged):
+    """How hard the touched object is (Table 2.2 "stiffness"). `k_n_per_m` is the spring constant;
+    `relative` places it between the softest (0) and stiffest (1) object of the task, which is what
+    a device that encodes stiffness as vibration shows (spec.md Scenario 3: pulse rate)."""
+    kind: ClassVar[str] = "stiffness"
+    RANGES: ClassVar = {"k_n_per_m": (0.0, 1e6), "relative": (0.0, 1.0)}
+    k_n_per_m: float = 100.0
+    relative: float = 1.0
+
+
+@dataclass(frozen=True)
 class Temperature(_Ranged):
     kind: ClassVar[str] = "temperature"
     RANGES: ClassVar = {"celsius": (0.0, 50.0)}
@@ -87,8 +98,8 @@ class Stop(_Ranged):
     kind: ClassVar[str] = "stop"
 
 
-Cue = PulseTrain | Vibration | Texture | Tilt | Temperature | Friction | Stop
-CUE_CLASSES = (PulseTrain, Vibration, Texture, Tilt, Temperature, Friction, Stop)
+Cue = PulseTrain | Vibration | Texture | Tilt | Stiffness | Temperature | Friction | Stop
+CUE_CLASSES = (PulseTrain, Vibration, Texture, Tilt, Stiffness, Temperature, Friction, Stop)
 CUE_KINDS = {cls.kind: cls for cls in CUE_CLASSES}
 _FIELDS = {cls: tuple(f.name for f in fields(cls)) for cls in CUE_CLASSES}
 

@@ -12,6 +12,9 @@ Encodings (thesis Table 2.2: "!" direct, "(!)" encoded as vibration):
   (the direction is lost: a 1-DoF vibrator cannot point).
 - Texture: direct → pattern `texture` (on for duty·P, off for the rest: FerroVibe tilts for P/2,
   flat for P/2, spec.md Scenario 2); (!) → continuous vibration at the texture's frequency 1/P.
+- Stiffness: (!) → pulse train, t_on fixed, pulse rate linear in `relative` from 1 Hz (softest) to
+  10 Hz (stiffest), t_off = 1000/rate − t_on (spec.md Scenario 3; the defaults live in
+  `StiffnessEncoding`); direct → refused, protocol v1 has no normal-force command.
 - Temperature, Friction: direct only.
 - Stop: every layer off, whatever else the tick asks for.
 Two cues that need the same layer in one tick: the first one (scenario order) wins, the other is
@@ -22,13 +25,35 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from devices.cues import Cue, Friction, PulseTrain, Stop, Temperature, Texture, Tilt, Vibration
+from devices.cues import Cue, Friction, PulseTrain, Stiffness, Stop, Temperature, Texture, Tilt, Vibration
 from devices.messages import ALL_CHANNELS, SetFriction, SetPattern, SetTemperature, SetTilt
 from devices.profiles import DeviceProfile, Display
 
 NEUTRAL_SKIN_C = 32.0  # a thermal display at rest shows skin temperature, not "off"
 
-_DIMENSION = {Tilt: "macro_roughness", Texture: "fine_roughness", Temperature: "temperature", Friction: "friction"}
+_DIMENSION = {Tilt: "macro_roughness", Texture: "fine_roughness", Stiffness: "stiffness", Temperature: "temperature",
+              Friction: "friction"}
+
+
+@dataclass(frozen=True)
+class StiffnessEncoding:
+    """Stiffness as vibration (spec.md Scenario 3 and "PWM defaults"): bursts of t_on_ms whose rate
+    rises linearly from rate_hz[0] (softest) to rate_hz[1] (stiffest)."""
+    t_on_ms: float = 50.0
+    rate_hz: tuple[float, float] = (1.0, 10.0)
+    intensity_pct: float = 100.0
+
+    def __post_init__(self) -> None:
+        low, high = self.rate_hz
+        if not (0.0 < low <= high and self.t_on_ms > 0.0 and 1000.0 / high >= self.t_on_ms):
+            raise ValueError("stiffness encoding needs 0 < rate_low <= rate_high and t_on <= 1000/rate_high ms")
+
+    def pulse_rate_hz(self, relative: float) -> float:
+        low, high = self.rate_hz
+        return low + (high - low) * relative
+
+    def t_off_ms(self, relative: float) -> float:
+        return 1000.0 / self.pulse_rate_hz(relative) - self.t_on_ms
 
 
 @dataclass(frozen=True)
@@ -52,9 +77,11 @@ class Encoding:
 
 
 class CueEncoder:
-    def __init__(self, profile: DeviceProfile, device: str | None = None):
+    def __init__(self, profile: DeviceProfile, device: str | None = None,
+                 stiffness: StiffnessEncoding = StiffnessEncoding()):
         self.profile = profile
         self.device = device or profile.model
+        self.stiffness = stiffness
         caps = profile.caps
         self.off: dict[str, object] = {}
         if {"pulse", "continuous", "texture"} & caps:
@@ -118,6 +145,15 @@ class CueEncoder:
             if how is Display.DIRECT:
                 return "pattern", SetPattern.texture(ALL_CHANNELS, cue.period_us, cue.duty, cue.intensity_pct)
             return self._vibration(cue.intensity_pct, 1e6 / cue.period_us)
+        if isinstance(cue, Stiffness):
+            if how is Display.DIRECT:
+                return self._refuse(cue, "no_capability", "device protocol v1 has no normal-force command; "
+                                    "declare stiffness as shown by vibration in its profile")
+            if "pulse" not in caps:
+                return self._refuse(cue, "no_capability", "its firmware has no pulse-train command")
+            enc = self.stiffness
+            return "pattern", SetPattern.pulse(ALL_CHANNELS, enc.t_on_ms, enc.t_off_ms(cue.relative),
+                                               enc.intensity_pct, 0)
         if isinstance(cue, Temperature):
             return "temperature", SetTemperature.from_celsius(ALL_CHANNELS, cue.celsius)
         return "friction", SetFriction.from_coefficient(ALL_CHANNELS, cue.coefficient)

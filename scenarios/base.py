@@ -2,31 +2,185 @@
 
 A scenario builds its static Scene once, then is stepped by the loop every tick with a read-only
 TickContext (what the haptic renderer found) and answers with device-independent cues, HUD text,
-values worth showing or recording, and poses of objects it moved. It does no I/O and reads no
+values worth showing or recording, and changes to its objects. It does no I/O and reads no
 clock: time comes in the context, so a study replays identically on the virtual clock.
+
+Besides the per-tick contract, a scenario declares as class data what the experiment engine,
+the console and the hub need without running it:
+- PARAMS: constructor parameters (a study condition's scenario settings);
+- TRIAL_PARAMS: what one trial sets (`set_trial`), e.g. the angle to present;
+- CONTROLS: the keys and experimenter commands it reacts to, who may send them, and the value a
+  command carries (the hub checks role and value before anything reaches the loop);
+- SUBTASKS: the thesis's study parts with their conditions and answer scales (spec.md);
+- REQUIRES: the tactile dimensions (thesis Table 2.2) of which a device must show at least one.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import Protocol
+from types import MappingProxyType
+from typing import Any, ClassVar, Mapping, Protocol
 
 from devices.cues import Cue
 from server.haptics.primitives import Pose
 from server.haptics.vec import Vec3
 from server.scene import Scene
 
+PHASES = ("training", "trial", "main")  # spec.md: training → trial phase → main trials
+PARAM_KINDS = ("number", "int", "choice", "bool", "text")
+ROLES_FOR_CONTROLS = ("participant", "operator")
+
+
+class ParamError(ValueError):
+    """A parameter, trial setting or command value that cannot be used; the message names it."""
+
+
+@dataclass(frozen=True)
+class Param:
+    name: str
+    kind: str               # one of PARAM_KINDS
+    doc: str
+    default: Any = None     # None: required, unless optional
+    low: float | None = None
+    high: float | None = None
+    choices: tuple = ()
+    unit: str = ""
+    labels: Mapping[int, str] = field(default_factory=dict)  # anchor labels of a rating scale
+    optional: bool = False  # may be left out (then None)
+
+    def __post_init__(self) -> None:
+        if self.kind not in PARAM_KINDS:
+            raise ValueError(f"parameter {self.name}: kind must be one of {', '.join(PARAM_KINDS)}")
+
+    def check(self, value: Any, where: str = "") -> Any:
+        """The value converted to its kind, or ParamError naming the parameter and the rule."""
+        name = f"{where}.{self.name}" if where else self.name
+        if value is None and self.optional:
+            return None
+        if self.kind == "bool":
+            if not isinstance(value, bool):
+                raise ParamError(f"{name} must be true or false, got {value!r}")
+            return value
+        if self.kind == "text":
+            if not isinstance(value, str) or len(value) > 200:
+                raise ParamError(f"{name} must be a string of at most 200 characters")
+            return value
+        if self.kind == "choice":
+            if value not in self.choices or isinstance(value, bool):
+                raise ParamError(f"{name} must be one of {', '.join(map(str, self.choices))}, got {value!r}")
+            return self.choices[self.choices.index(value)]  # 3000 → 3000.0: the declared form
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ParamError(f"{name} must be a finite number, got {value!r}")
+        if self.kind == "int":
+            if value != int(value):
+                raise ParamError(f"{name} must be a whole number, got {value!r}")
+            value = int(value)
+        else:
+            value = float(value)
+        if (self.low is not None and value < self.low) or (self.high is not None and value > self.high):
+            raise ParamError(f"{name} must be in [{self.low}, {self.high}]{' ' + self.unit if self.unit else ''}, "
+                             f"got {value!r}")
+        return value
+
+    def to_dict(self) -> dict:
+        d: dict[str, Any] = {"name": self.name, "kind": self.kind, "doc": self.doc, "default": self.default,
+                             "optional": self.optional}
+        if self.low is not None or self.high is not None:
+            d["low"], d["high"] = self.low, self.high
+        if self.choices:
+            d["choices"] = list(self.choices)
+        if self.unit:
+            d["unit"] = self.unit
+        if self.labels:
+            d["labels"] = {str(k): v for k, v in self.labels.items()}
+        return d
+
+
+def check_params(specs: tuple[Param, ...], given: Mapping[str, Any] | None, where: str) -> dict[str, Any]:
+    """Validate `given` against `specs` and fill in defaults; unknown or missing names are errors."""
+    given = dict(given or {})
+    known = {p.name: p for p in specs}
+    unknown = sorted(set(given) - set(known))
+    if unknown:
+        allowed = ", ".join(known) or "none"
+        raise ParamError(f"{where}: unknown parameter(s) {', '.join(unknown)}; allowed: {allowed}")
+    out = {}
+    for p in specs:
+        if p.name in given:
+            out[p.name] = p.check(given[p.name], where)
+        elif p.default is None and not p.optional:
+            raise ParamError(f"{where}: parameter {p.name} is required ({p.doc})")
+        else:
+            out[p.name] = p.default
+    return out
+
+
+@dataclass(frozen=True)
+class Control:
+    key: str                # a DOM KeyboardEvent.key ("ArrowUp", "r") or a command name ("tap_angle")
+    doc: str
+    who: str = "participant"  # "participant": any client that may send input; "operator": operators only
+    value: Param | None = None  # the value a command carries (None: no value)
+
+    def to_dict(self) -> dict:
+        return {"key": self.key, "doc": self.doc, "who": self.who,
+                "value": self.value.to_dict() if self.value else None}
+
+
+def find_control(controls: tuple[Control, ...], key: str) -> Control | None:
+    return next((c for c in controls if c.key == key), None)
+
+
+@dataclass(frozen=True)
+class SubTask:
+    """One part of a scenario's study (spec.md "Study"): main-trial conditions and the answer scale.
+    The experiment engine orders the conditions; this is the design, not the order."""
+    name: str
+    title: str
+    conditions: tuple[Mapping[str, Any], ...]  # TRIAL_PARAMS of each main trial
+    answer: Param | None                       # None: the scenario records the result itself
+    practice_trials: int = 0                   # trial-phase trials before the main ones
+    training_s: float = 0.0                    # suggested training time
+    time_limit_s: float | None = None          # per main trial
+    question: str = ""
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "title": self.title, "conditions": [dict(c) for c in self.conditions],
+                "answer": self.answer.to_dict() if self.answer else None, "practice_trials": self.practice_trials,
+                "training_s": self.training_s, "time_limit_s": self.time_limit_s, "question": self.question}
+
+
+@dataclass(frozen=True)
+class Trial:
+    phase: str                      # one of PHASES
+    params: Mapping[str, Any]       # validated TRIAL_PARAMS
+    index: int = 0                  # trial number within its phase, for the HUD
+
+    @classmethod
+    def parse(cls, specs: tuple[Param, ...], phase: Any, params: Mapping[str, Any] | None, index: Any = 0,
+              where: str = "trial") -> Trial:
+        if phase not in PHASES:
+            raise ParamError(f"{where}.phase must be one of {', '.join(PHASES)}, got {phase!r}")
+        if isinstance(index, bool) or not isinstance(index, int) or index < 0:
+            raise ParamError(f"{where}.index must be an integer >= 0")
+        return cls(phase, MappingProxyType(check_params(specs, params, where)), index)
+
+    def to_dict(self) -> dict:
+        return {"phase": self.phase, "params": dict(self.params), "index": self.index}
+
 
 @dataclass(frozen=True)
 class TickContext:
     tick: int              # loop tick counter
     t_s: float             # simulation time = tick / tick_hz, seconds
-    hip: Vec3              # tracked HIP, scene frame
+    hip: Vec3              # tracked HIP (or the held HIP, see ScenarioOutput.hold_hip), scene frame
     proxy: Vec3            # god-object proxy
     contact: bool          # debounced contact (hysteresis gate)
     touching: frozenset[str]  # bodies the proxy touches this tick (raw)
     nearest: str | None    # haptic body nearest to the HIP
     refusals: tuple[str, ...] = ()  # cues a connected device refused, with reasons (devices.encoder)
+    sticking: bool = False  # the proxy is held by static friction (god-object friction cone)
 
 
 @dataclass(frozen=True)
@@ -34,17 +188,50 @@ class ScenarioOutput:
     cues: tuple[Cue, ...] = ()
     hud: str = ""
     values: dict = field(default_factory=dict)
-    poses: dict[str, Pose] = field(default_factory=dict)  # objects moved this tick
+    poses: dict[str, Pose] = field(default_factory=dict)        # objects moved this tick
+    visible: dict[str, bool] = field(default_factory=dict)      # objects/overlays shown or hidden this tick
+    haptic: dict[str, bool] = field(default_factory=dict)       # bodies made touchable or not this tick
+    stiffness: dict[str, float] = field(default_factory=dict)   # bodies whose spring k changed this tick
+    hold_hip: Vec3 | None = None  # hold the HIP here from the next tick on (experimenter's tap); None: tracker
+    events: tuple[dict, ...] = ()  # things worth recording with their tick (key presses, taps)
 
 
 class Scenario(Protocol):
     id: str      # versioned id, e.g. "contact-angle-v1"
     title: str
+    PARAMS: ClassVar[tuple[Param, ...]]
+    TRIAL_PARAMS: ClassVar[tuple[Param, ...]]
+    CONTROLS: ClassVar[tuple[Control, ...]]
+    SUBTASKS: ClassVar[tuple[SubTask, ...]]
+    REQUIRES: ClassVar[tuple[str, ...]]
 
     def build_scene(self) -> Scene: ...
 
     def reset(self, seed: int) -> None: ...
 
+    def set_trial(self, trial: Trial | None) -> None: ...
+
     def step(self, ctx: TickContext) -> ScenarioOutput: ...
 
-    def on_input(self, key: str, action: str) -> None: ...
+    def on_input(self, key: str, action: str, value: Any = None) -> None: ...
+
+
+def describe(cls) -> dict:
+    """What a scenario class declares, as plain data (REST, console, docs)."""
+    return {"id": cls.id, "title": cls.title, "params": [p.to_dict() for p in cls.PARAMS],
+            "trial_params": [p.to_dict() for p in cls.TRIAL_PARAMS],
+            "controls": [c.to_dict() for c in cls.CONTROLS], "subtasks": [s.to_dict() for s in cls.SUBTASKS],
+            "requires": list(cls.REQUIRES)}
+
+
+def in_contact_with(ctx: TickContext, body_ids) -> str | None:
+    """The body of `body_ids` the HIP is in (debounced) contact with, or None.
+
+    Touched bodies come first; at a crease (sphere on the ground) the proxy may touch both, and
+    after the raw contact drops inside the hysteresis dwell only `nearest` still names one."""
+    if not ctx.contact:
+        return None
+    for body in body_ids:
+        if body in ctx.touching:
+            return body
+    return ctx.nearest if ctx.nearest in body_ids else None

@@ -7,7 +7,7 @@ through it without writing a scenario.
 
 from __future__ import annotations
 
-from scenarios.base import ScenarioOutput, TickContext
+from scenarios.base import ScenarioOutput, TickContext, Trial
 from server.scene import Scene
 
 _NOTHING = ScenarioOutput()
@@ -16,6 +16,11 @@ _NOTHING = ScenarioOutput()
 class FreeExploration:
     id = "free-v1"
     title = "Free exploration of a scene file (no cues)"
+    PARAMS = ()
+    TRIAL_PARAMS = ()
+    CONTROLS = ()
+    SUBTASKS = ()
+    REQUIRES = ()
 
     def __init__(self, scene: Scene | None = None):
         self.scene = scene
@@ -31,5 +36,8 @@ class FreeExploration:
     def step(self, ctx: TickContext) -> ScenarioOutput:
         return _NOTHING
 
-    def on_input(self, key: str, action: str) -> None:
+    def set_trial(self, trial: Trial | None) -> None:
+        """No trials."""
+
+    def on_input(self, key: str, action: str, value=None) -> None:
         """No keys."""

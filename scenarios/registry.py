@@ -12,8 +12,12 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Callable
 
-from scenarios.base import Scenario
+from scenarios.base import ParamError, Scenario, check_params
 from scenarios.contact_angle import ContactAngle
+from scenarios.friction_temperature import FrictionTemperature
+from scenarios.shape import ShapeScenario
+from scenarios.stiffness import StiffnessScenario
+from scenarios.texture import TextureScenario
 
 
 @dataclass(frozen=True)
@@ -23,8 +27,8 @@ class ScenarioSpec:
     factory: Callable[..., Scenario]
 
 
-SCENARIOS = MappingProxyType({spec.id: spec for spec in (
-    ScenarioSpec(ContactAngle.id, ContactAngle.title, ContactAngle),
+SCENARIOS = MappingProxyType({cls.id: ScenarioSpec(cls.id, cls.title, cls) for cls in (
+    ContactAngle, TextureScenario, StiffnessScenario, ShapeScenario, FrictionTemperature,
 )})
 
 
@@ -46,5 +50,16 @@ def resolve(name: str) -> ScenarioSpec:
     raise UnknownScenario(f"unknown scenario {name!r}{hint} (known: {', '.join(SCENARIOS)})")
 
 
+def check_scenario_params(spec: ScenarioSpec, params: dict) -> dict:
+    """The parameters checked against the scenario's PARAMS, defaults filled in (ParamError)."""
+    return check_params(spec.factory.PARAMS, params, spec.id)
+
+
 def create(name: str, **params) -> Scenario:
-    return resolve(name).factory(**params)
+    """A scenario with its parameters checked against its PARAMS (ParamError names the problem)."""
+    spec = resolve(name)
+    checked = check_scenario_params(spec, params)
+    try:
+        return spec.factory(**checked)
+    except ValueError as exc:  # a combination the single-parameter checks cannot see (e.g. a bad skin path)
+        raise ParamError(f"{spec.id}: {exc}") from None

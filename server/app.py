@@ -23,7 +23,8 @@ def create_app(settings: Settings) -> FastAPI:
     supervisor = LoopSupervisor(settings.loop_config(), hub.on_loop_record)
     hub.send_to_loop = supervisor.send
 
-    rig = SimulatedRig(directory=default_rig_dir()) if settings.simulated_rig and not settings.devices else None
+    rig = (SimulatedRig(settings.rig_models, directory=default_rig_dir())
+           if settings.simulated_rig and not settings.devices else None)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):

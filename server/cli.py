@@ -8,6 +8,7 @@ import logging
 import socket
 import sys
 
+from scenarios.base import ParamError
 from scenarios.registry import UnknownScenario
 from server.scene import SceneError
 
@@ -27,10 +28,21 @@ def _serve(args: argparse.Namespace) -> int:
     except DeviceConfigError as exc:
         print(f"viestac serve: {exc}", file=sys.stderr)
         return 2
-    settings = Settings(host=args.host, port=args.port, scenario=args.scenario, scene_file=args.scene,
-                        state_hz=args.state_hz, realtime=not args.no_realtime, gate_band=args.gate_band,
-                        gate_dwell_s=args.gate_dwell_ms / 1000.0, devices=tuple(devices),
-                        simulated_rig=not args.no_rig)
+    from devices.profiles import ProfileError
+
+    try:
+        settings = Settings(host=args.host, port=args.port, scenario=args.scenario,
+                            scenario_params=_scenario_params(args.param), scene_file=args.scene,
+                            state_hz=args.state_hz, realtime=not args.no_realtime, gate_band=args.gate_band,
+                            gate_dwell_s=args.gate_dwell_ms / 1000.0, devices=tuple(devices),
+                            simulated_rig=not args.no_rig, rig_models=tuple(m for m in args.rig.split(",") if m))
+    except (ParamError, ProfileError) as exc:
+        print(f"viestac serve: {exc}", file=sys.stderr)
+        return 2
+    report = settings.capability()
+    if not report.ok and not args.force:
+        print(f"viestac serve: {report.message} (--force runs it anyway)", file=sys.stderr)
+        return 2
     app = create_app(settings)
     family = socket.AF_INET6 if ":" in settings.host else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_STREAM)
@@ -44,6 +56,20 @@ def _serve(args: argparse.Namespace) -> int:
                             ws_per_message_deflate=False, log_level=args.log_level, access_log=False)
     uvicorn.Server(config).run(sockets=[sock])
     return 0
+
+
+def _scenario_params(pairs: list[str]) -> dict:
+    """KEY=VALUE pairs; VALUE is read as JSON when it parses (30, true, "x"), else as a string."""
+    params = {}
+    for pair in pairs:
+        key, sep, raw = pair.partition("=")
+        if not sep or not key:
+            raise ParamError(f"--param {pair!r}: expected KEY=VALUE")
+        try:
+            params[key] = json.loads(raw)
+        except json.JSONDecodeError:
+            params[key] = raw
+    return params
 
 
 def _devices(args: argparse.Namespace) -> int:
@@ -155,6 +181,10 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--host", default="127.0.0.1")
     serve.add_argument("--port", type=int, default=8000, help="0 picks a free port (printed)")
     serve.add_argument("--scenario", default="contact-angle")
+    serve.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
+                       help="a scenario parameter, e.g. --param period_us=3000 (repeatable; GET /api/scenarios lists them)")
+    serve.add_argument("--force", action="store_true",
+                       help="run the scenario even when no device can show its tactile dimension")
     serve.add_argument("--scene", default=None, help="a scene JSON file to explore instead of the scenario's scene")
     serve.add_argument("--state-hz", type=float, default=60.0)
     serve.add_argument("--gate-band", type=float, default=0.002,
@@ -166,7 +196,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="a tactile device, e.g. ferrovibe@/dev/ttyUSB0 or left=fingertac@usb:303a:1001 "
                             "(repeatable; replaces the simulated rig)")
     serve.add_argument("--devices", metavar="FILE", help="a TOML file of [[device]] tables (docs/devices.md)")
-    serve.add_argument("--no-rig", action="store_true", help="no simulated rig (emulated FingerTac + FerroVibe)")
+    serve.add_argument("--no-rig", action="store_true", help="no simulated rig (emulated devices)")
+    serve.add_argument("--rig", default="fingertac,ferrovibe", metavar="MODEL[,MODEL...]",
+                       help="the simulated rig's emulated devices (default fingertac,ferrovibe; devkit adds "
+                            "temperature and friction)")
     serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     serve.set_defaults(func=_serve)
 
@@ -176,7 +209,7 @@ def build_parser() -> argparse.ArgumentParser:
     devices.add_argument("--json", action="store_true")
     devices.set_defaults(func=_devices)
 
-    emulate = sub.add_parser("emulate", help="emulate fingertac|ferrovibe on a pseudo-terminal",
+    emulate = sub.add_parser("emulate", help="emulate fingertac|ferrovibe|devkit on a pseudo-terminal",
                              add_help=False)
     emulate.add_argument("rest", nargs=argparse.REMAINDER)
     emulate.set_defaults(func=_emulate)

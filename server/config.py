@@ -5,7 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from devices.capability import CapabilityReport, check
 from devices.manager import DeviceConfig, check_unique
+from devices.profiles import profile_by_model
 from scenarios import registry
 from server.loop.process import LoopConfig
 from server.scene import Scene
@@ -18,6 +20,7 @@ class Settings:
     host: str = "127.0.0.1"
     port: int = 8000
     scenario: str = "contact-angle"
+    scenario_params: dict = field(default_factory=dict)  # the scenario's PARAMS (docs/scenarios.md)
     scene_file: str | None = None
     tick_hz: int = 1000
     state_hz: float = 60.0
@@ -27,7 +30,8 @@ class Settings:
     web_root: Path = field(default=WEB_ROOT)
     max_frame_bytes: int = 1 << 20  # frames above this close the connection (1009); 64 KiB+ get an error
     devices: tuple[DeviceConfig, ...] = ()  # real devices (docs/devices.md)
-    simulated_rig: bool = True      # FingerTac + FerroVibe emulators on ptys, when no device is configured
+    simulated_rig: bool = True      # device emulators on ptys, when no device is configured
+    rig_models: tuple[str, ...] = ("fingertac", "ferrovibe")
 
     def __post_init__(self) -> None:
         if not 0 <= self.port <= 65535:
@@ -38,12 +42,29 @@ class Settings:
             raise ValueError("state_hz must be in 1..tick_hz")
         if not (0.0 <= self.gate_band <= 0.1 and 0.0 <= self.gate_dwell_s <= 1.0):
             raise ValueError("gate band must be in [0, 0.1] scene units and dwell in [0, 1] s")
-        object.__setattr__(self, "scenario", registry.resolve(self.scenario).id)  # fails early, with a hint
+        spec = registry.resolve(self.scenario)  # fails early, with a hint
+        object.__setattr__(self, "scenario", spec.id)
+        object.__setattr__(self, "scenario_params", registry.check_scenario_params(spec, self.scenario_params))
+        for model in self.rig_models:
+            profile_by_model(model)
         check_unique(list(self.devices))
         if self.scene_file is not None:
             Scene.load(self.scene_file)  # fails early with the offending field
 
     def loop_config(self) -> LoopConfig:
-        return LoopConfig(scenario=self.scenario, scene_file=self.scene_file, tick_hz=self.tick_hz,
+        return LoopConfig(scenario=self.scenario, scenario_params=self.scenario_params, scene_file=self.scene_file,
+                          tick_hz=self.tick_hz,
                           state_hz=self.state_hz, realtime=self.realtime, gate_band=self.gate_band,
                           gate_min_on_s=self.gate_dwell_s, gate_min_off_s=self.gate_dwell_s)
+
+    def device_profiles(self) -> dict:
+        """The profiles the server will drive: the configured devices, else the simulated rig's."""
+        if self.devices:
+            return {d.name: d.profile for d in self.devices}
+        if self.simulated_rig:
+            return {model: profile_by_model(model) for model in self.rig_models}
+        return {}
+
+    def capability(self) -> CapabilityReport:
+        cls = registry.resolve(self.scenario).factory
+        return check(cls.id, tuple(cls.REQUIRES), self.device_profiles())

@@ -13,12 +13,13 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from server.haptics.primitives import Body, Pose, shape_from_dict
 
 _COLOR = re.compile(r"^#[0-9a-fA-F]{6}$")
 _ID = re.compile(r"^[A-Za-z0-9_.:-]{1,64}$")
+_SKIN_URL = re.compile(r"^/[A-Za-z0-9_/.-]{1,200}\.(png|jpg|jpeg|svg|webp)$")
 PROJECTIONS = ("orthographic", "perspective")
 
 
@@ -57,26 +58,140 @@ def _known(d: dict, allowed: set[str], where: str) -> None:
 
 
 @dataclass(frozen=True)
+class Skin:
+    """An image drawn on a surface (e.g. an LMT haptic texture database photo on the texture
+    plane), repeated every `tile` scene units along the shape's local x and y."""
+    image: str                 # URL path on this server, e.g. "/skins/cork.svg"
+    tile: tuple[float, float] = (0.5, 0.5)
+
+    def __post_init__(self) -> None:
+        if not _SKIN_URL.match(self.image) or ".." in self.image:
+            raise SceneError(f"skin image {self.image!r} must be a path on this server like /skins/cork.svg "
+                             "(png, jpg, svg or webp)")
+        if not all(math.isfinite(t) and t > 0 for t in self.tile):
+            raise SceneError("skin tile must be two numbers > 0")
+
+    @classmethod
+    def from_dict(cls, d: Any, where: str) -> Skin:
+        if not isinstance(d, dict):
+            raise SceneError(f"{where} must be an object with 'image' and 'tile'")
+        _known(d, {"image", "tile"}, where)
+        image = d.get("image")
+        if not isinstance(image, str):
+            raise SceneError(f"{where}.image must be a string")
+        return cls(image, _vec(d, "tile", where, 2, (0.5, 0.5)))  # type: ignore[arg-type]
+
+    def to_dict(self) -> dict:
+        return {"image": self.image, "tile": list(self.tile)}
+
+
+@dataclass(frozen=True)
 class Material:
     color: str = "#8c8c8c"
     opacity: float = 1.0
     stiffness_n_per_m: float = 1000.0  # god-object spring k; notional for trackers (no force device)
     static_friction: float = 0.0
     dynamic_friction: float = 0.0
+    skin: Skin | None = None
 
     @classmethod
     def from_dict(cls, d: dict, where: str) -> Material:
-        _known(d, {"color", "opacity", "stiffness_n_per_m", "static_friction", "dynamic_friction"}, where)
+        _known(d, {"color", "opacity", "stiffness_n_per_m", "static_friction", "dynamic_friction", "skin"}, where)
         opacity = _num(d, "opacity", where, 1.0, 0.0)
         if opacity > 1.0:
             raise SceneError(f"{where}.opacity must be in [0, 1]")
+        skin = Skin.from_dict(d["skin"], f"{where}.skin") if d.get("skin") is not None else None
         return cls(_color(d, "color", where, cls.color), opacity,
                    _num(d, "stiffness_n_per_m", where, 1000.0, 0.0),
-                   _num(d, "static_friction", where, 0.0, 0.0), _num(d, "dynamic_friction", where, 0.0, 0.0))
+                   _num(d, "static_friction", where, 0.0, 0.0), _num(d, "dynamic_friction", where, 0.0, 0.0), skin)
 
     def to_dict(self) -> dict:
-        return {"color": self.color, "opacity": self.opacity, "stiffness_n_per_m": self.stiffness_n_per_m,
-                "static_friction": self.static_friction, "dynamic_friction": self.dynamic_friction}
+        d = {"color": self.color, "opacity": self.opacity, "stiffness_n_per_m": self.stiffness_n_per_m,
+             "static_friction": self.static_friction, "dynamic_friction": self.dynamic_friction}
+        if self.skin is not None:
+            d["skin"] = self.skin.to_dict()
+        return d
+
+
+@dataclass(frozen=True)
+class AngleScale:
+    """A protractor drawn around an arc in the y-z plane (the contact-angle training aid): angle a
+    sits at centre + radius·(0, sin a, cos a), so −90 is left, 0 the top and +90 right, as in
+    Algorithm 1. Ticks every `minor_deg`, labelled every `major_deg`."""
+    id: str
+    centre: tuple[float, float, float]
+    radius: float
+    from_deg: float = -90.0
+    to_deg: float = 90.0
+    minor_deg: float = 10.0
+    major_deg: float = 30.0
+    color: str = "#1b1b1b"
+    visible: bool = True
+    kind: ClassVar[str] = "angle_scale"
+
+    def to_dict(self) -> dict:
+        return {"id": self.id, "kind": self.kind, "centre": list(self.centre), "radius": self.radius,
+                "from_deg": self.from_deg, "to_deg": self.to_deg, "minor_deg": self.minor_deg,
+                "major_deg": self.major_deg, "color": self.color, "visible": self.visible}
+
+    @classmethod
+    def from_dict(cls, d: dict, where: str) -> AngleScale:
+        _known(d, {"id", "kind", "centre", "radius", "from_deg", "to_deg", "minor_deg", "major_deg", "color",
+                   "visible"}, where)
+        scale = cls(d["id"], _vec(d, "centre", where), _num(d, "radius", where, None, 1e-6),  # type: ignore[arg-type]
+                    _num(d, "from_deg", where, -90.0), _num(d, "to_deg", where, 90.0),
+                    _num(d, "minor_deg", where, 10.0, 0.5), _num(d, "major_deg", where, 30.0, 0.5),
+                    _color(d, "color", where, "#1b1b1b"), _flag(d, "visible", where))
+        if scale.to_deg <= scale.from_deg:
+            raise SceneError(f"{where}: to_deg must be greater than from_deg")
+        return scale
+
+
+@dataclass(frozen=True)
+class Label:
+    """Text at a scene position, facing the camera (reference names, training labels)."""
+    id: str
+    pos: tuple[float, float, float]
+    text: str
+    size: float = 0.12   # letter height, scene units
+    color: str = "#1b1b1b"
+    visible: bool = True
+    kind: ClassVar[str] = "label"
+
+    def to_dict(self) -> dict:
+        return {"id": self.id, "kind": self.kind, "pos": list(self.pos), "text": self.text, "size": self.size,
+                "color": self.color, "visible": self.visible}
+
+    @classmethod
+    def from_dict(cls, d: dict, where: str) -> Label:
+        _known(d, {"id", "kind", "pos", "text", "size", "color", "visible"}, where)
+        text = d.get("text")
+        if not isinstance(text, str) or not 0 < len(text) <= 200:
+            raise SceneError(f"{where}.text must be a string of 1..200 characters")
+        return cls(d["id"], _vec(d, "pos", where), text, _num(d, "size", where, 0.12, 1e-4),  # type: ignore[arg-type]
+                   _color(d, "color", where, "#1b1b1b"), _flag(d, "visible", where))
+
+
+OVERLAY_KINDS = {cls.kind: cls for cls in (AngleScale, Label)}
+Overlay = AngleScale | Label
+
+
+def _flag(d: dict, key: str, where: str, default: bool = True) -> bool:
+    value = d.get(key, default)
+    if not isinstance(value, bool):
+        raise SceneError(f"{where}.{key} must be true or false")
+    return value
+
+
+def overlay_from_dict(d: Any, where: str) -> Overlay:
+    if not isinstance(d, dict):
+        raise SceneError(f"{where} must be an object")
+    kind = d.get("kind")
+    if kind not in OVERLAY_KINDS:
+        raise SceneError(f"{where}.kind must be one of {', '.join(OVERLAY_KINDS)}")
+    if not isinstance(d.get("id"), str) or not _ID.match(d["id"]):
+        raise SceneError(f"{where}.id must be 1-64 characters of letters, digits, _ . : -")
+    return OVERLAY_KINDS[kind].from_dict(d, where)
 
 
 @dataclass(frozen=True)
@@ -135,12 +250,13 @@ class Scene:
     proxy_radius: float = 0.06  # god-object contact radius; 0 = point proxy
     hip_color: str = "#ffd400"
     hud_text: str = ""
+    overlays: tuple[Overlay, ...] = ()  # drawn aids (angle scale, labels); no collision
     _hash: str = field(default="", init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        ids = [o.id for o in self.objects]
+        ids = [o.id for o in self.objects] + [o.id for o in self.overlays]
         if len(set(ids)) != len(ids):
-            raise SceneError("object ids must be unique")
+            raise SceneError("object and overlay ids must be unique")
         canonical = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
         object.__setattr__(self, "_hash", hashlib.sha256(canonical.encode()).hexdigest()[:16])
 
@@ -158,16 +274,22 @@ class Scene:
                 return o
         raise KeyError(object_id)
 
+    def has_id(self, element_id: str) -> bool:
+        return any(o.id == element_id for o in self.objects) or any(o.id == element_id for o in self.overlays)
+
     def to_dict(self) -> dict:
-        return {"name": self.name, "camera": self.camera.to_dict(),
-                "hip": {"radius": self.hip_radius, "proxy_radius": self.proxy_radius, "color": self.hip_color},
-                "objects": [o.to_dict() for o in self.objects], "hud": {"text": self.hud_text}}
+        d = {"name": self.name, "camera": self.camera.to_dict(),
+             "hip": {"radius": self.hip_radius, "proxy_radius": self.proxy_radius, "color": self.hip_color},
+             "objects": [o.to_dict() for o in self.objects], "hud": {"text": self.hud_text}}
+        if self.overlays:
+            d["overlays"] = [o.to_dict() for o in self.overlays]
+        return d
 
     @classmethod
     def from_dict(cls, d: Any) -> Scene:
         if not isinstance(d, dict):
             raise SceneError("a scene must be a JSON object")
-        _known(d, {"name", "camera", "hip", "objects", "hud"}, "scene")
+        _known(d, {"name", "camera", "hip", "objects", "hud", "overlays"}, "scene")
         name = d.get("name")
         if not isinstance(name, str) or not name:
             raise SceneError("scene.name must be a non-empty string")
@@ -200,9 +322,13 @@ class Scene:
         hud = d.get("hud", {})
         if not isinstance(hud, dict) or not isinstance(hud.get("text", ""), str):
             raise SceneError("scene.hud must be an object with a string 'text'")
+        raw_overlays = d.get("overlays", [])
+        if not isinstance(raw_overlays, list):
+            raise SceneError("scene.overlays must be an array")
+        overlays = tuple(overlay_from_dict(o, f"overlays[{i}]") for i, o in enumerate(raw_overlays))
         return cls(name, tuple(objects), Camera.from_dict(d.get("camera", {})),
                    _num(hip, "radius", "hip", 0.06, 0.0), _num(hip, "proxy_radius", "hip", 0.06, 0.0),
-                   _color(hip, "color", "hip", "#ffd400"), hud.get("text", ""))
+                   _color(hip, "color", "hip", "#ffd400"), hud.get("text", ""), overlays)
 
     @classmethod
     def load(cls, path: str | Path) -> Scene:

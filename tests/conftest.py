@@ -17,8 +17,11 @@ class LiveServer:
     def get(self, path: str):
         return get_json(self.http_url + path)
 
-    def post(self, path: str):
-        return get_json(self.http_url + path, "POST")
+    def post(self, path: str, body: dict | None = None):
+        return get_json(self.http_url + path, "POST", body=body)
+
+    def delete(self, path: str):
+        return get_json(self.http_url + path, "DELETE")
 
 
 @pytest.fixture(scope="session")

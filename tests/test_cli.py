@@ -97,3 +97,27 @@ def test_viestac_emulate_prints_its_port_and_records_the_timeline(tmp_path):
         rows = list(csv.DictReader(f))
     pulses = [r for r in rows if r["mode"] == "pulse" and r["gate"] == "1" and r["cause"] == "schedule"]
     assert len(pulses) >= 8 and {r["channel"] for r in pulses} == {"0", "1"} and pulses[0]["carrier_hz"] == "235"
+
+
+def test_a_scenario_no_device_of_the_rig_can_show_is_refused_at_start():
+    result = _serve("--scenario", "friction-temperature")
+    assert result.returncode == 2
+    assert "needs a device that shows friction or temperature" in result.stderr and "--force" in result.stderr
+    assert "ferrovibe (ferrovibe) cannot show the temperature cue" in result.stderr
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--scenario", "texture", "--param", "period_us=3500"], "texture-v1.period_us must be one of"),
+    (["--scenario", "texture", "--param", "speed=1"], "unknown parameter(s) speed"),
+    (["--scenario", "texture", "--param", "period_us"], "expected KEY=VALUE"),
+    (["--rig", "fingertac,thermotac"], "no built-in profile 'thermotac'"),
+])
+def test_bad_scenario_parameters_and_rig_models_are_named(args, message):
+    result = _serve(*args)
+    assert result.returncode == 2 and message in result.stderr, result.stderr
+
+
+def test_scenario_parameters_reach_the_loop():
+    config = Settings(scenario="texture", scenario_params={"period_us": 3000, "velocity": -0.2}).loop_config()
+    assert config.scenario_params["period_us"] == 3000.0 and config.scenario_params["velocity"] == -0.2
+    assert config.scenario_params["skin"] == "", "defaults are filled in"

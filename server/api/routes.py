@@ -5,11 +5,15 @@ from __future__ import annotations
 import time
 from typing import Annotated
 
-from fastapi import APIRouter, Depends, HTTPException, Request
+from typing import Any, Literal
 
-from scenarios.registry import SCENARIOS
+from fastapi import APIRouter, Depends, HTTPException, Request
+from pydantic import BaseModel, Field
+
+from scenarios.base import ParamError, describe
+from scenarios.registry import SCENARIOS, UnknownScenario
 from server import __version__
-from server.hub.hub import Hub
+from server.hub.hub import BusyError, Hub, ScenarioRefused
 from server.hub.supervisor import LoopSupervisor
 
 router = APIRouter()
@@ -41,9 +45,82 @@ def health(hub: HubDep, supervisor: SupervisorDep) -> dict:
             "warnings": [r["text"] for r in hub.log_records if r["level"] == "warning"][-5:]}
 
 
-@router.get("/scenarios", summary="Scenarios this server can run")
-def scenarios() -> list[dict]:
-    return [{"id": spec.id, "title": spec.title} for spec in SCENARIOS.values()]
+@router.get("/scenarios", summary="Scenarios this server can run, with their parameters, controls, study "
+                                  "parts and required tactile dimensions, and whether the configured devices can run them")
+def scenarios(hub: HubDep) -> list[dict]:
+    return [{**describe(spec.factory), "capability": hub.capability(spec.factory).to_dict()}
+            for spec in SCENARIOS.values()]
+
+
+class ScenarioRequest(BaseModel):
+    name: str = Field(description="scenario id or bare name, e.g. 'texture' or 'texture-v1'")
+    params: dict[str, Any] = Field(default_factory=dict, description="the scenario's PARAMS (GET /api/scenarios)")
+    seed: int = Field(0, ge=0, description="seed of the scenario's random choices (e.g. the stiffness 'n' key)")
+    force: bool = Field(False, description="switch even when no configured device can show the scenario")
+
+
+class TrialRequest(BaseModel):
+    phase: Literal["training", "trial", "main"]
+    params: dict[str, Any] = Field(default_factory=dict, description="the scenario's TRIAL_PARAMS")
+    index: int = Field(0, ge=0, description="trial number within its phase (shown to the participant)")
+
+
+class CommandRequest(BaseModel):
+    key: str = Field(min_length=1, max_length=32, description="a key or command of the scenario's CONTROLS")
+    action: Literal["down", "up", "press"] = "press"
+    value: bool | float | str | None = None
+
+
+def _busy_or_bad(exc: Exception) -> HTTPException:
+    if isinstance(exc, BusyError):
+        return HTTPException(503, str(exc))
+    return HTTPException(422, str(exc))
+
+
+@router.get("/scenario", summary="The running scenario: id, parameters, trial, declaration, capability check")
+def scenario(hub: HubDep) -> dict:
+    info = hub.scenario_info()
+    if not info:
+        raise HTTPException(503, "the loop has not announced its scenario yet")
+    return info
+
+
+@router.post("/scenario", summary="Switch the running scenario (the new scene goes to every client); 409 when no "
+                                  "configured device can show it, unless force")
+def switch_scenario(body: ScenarioRequest, hub: HubDep) -> dict:
+    try:
+        return hub.switch_scenario(body.name, body.params, body.seed, body.force)
+    except UnknownScenario as exc:
+        raise HTTPException(404, str(exc)) from None
+    except ScenarioRefused as exc:
+        raise HTTPException(409, exc.report.message) from None
+    except (ParamError, BusyError) as exc:
+        raise _busy_or_bad(exc) from None
+
+
+@router.post("/trial", summary="Start a trial of the running scenario (phase and trial parameters)")
+def start_trial(body: TrialRequest, hub: HubDep) -> dict:
+    try:
+        return {"trial": hub.set_trial(body.phase, body.params, body.index)}
+    except (ParamError, BusyError) as exc:
+        raise _busy_or_bad(exc) from None
+
+
+@router.delete("/trial", summary="End the running trial (back to free exploration)")
+def end_trial(hub: HubDep) -> dict:
+    try:
+        return {"trial": hub.set_trial(None)}
+    except BusyError as exc:
+        raise _busy_or_bad(exc) from None
+
+
+@router.post("/command", summary="Send a key or experimenter command to the running scenario, as an operator")
+def command(body: CommandRequest, hub: HubDep) -> dict:
+    try:
+        hub.command(body.key, body.action, body.value, role="operator")
+    except (ParamError, BusyError) as exc:
+        raise _busy_or_bad(exc) from None
+    return {"ok": True}
 
 
 @router.get("/scene", summary="The current static scene (docs/protocol.md scene format)")

@@ -19,9 +19,12 @@ import urllib.request
 import psutil
 
 
-def get_json(url: str, method: str = "GET", timeout: float = 5.0) -> dict:
-    """GET (or POST) a URL of the server and decode its JSON body."""
-    request = urllib.request.Request(url, method=method)
+def get_json(url: str, method: str = "GET", timeout: float = 5.0, body: dict | None = None) -> dict:
+    """GET (or POST, DELETE with an optional JSON body) a URL of the server and decode its JSON
+    answer; HTTP errors raise urllib.error.HTTPError (its .code and .read() carry the detail)."""
+    data = json.dumps(body).encode() if body is not None else None
+    headers = {"Content-Type": "application/json"} if data is not None else {}
+    request = urllib.request.Request(url, data=data, method=method, headers=headers)
     with urllib.request.urlopen(request, timeout=timeout) as response:
         return json.loads(response.read())
 

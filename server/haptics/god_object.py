@@ -195,6 +195,11 @@ class GodObject:
     def proxy(self) -> Vec3 | None:
         return self._proxy
 
+    @property
+    def sticking(self) -> bool:
+        """The proxy is held in place by static friction (inside the friction cone)."""
+        return self._sticking
+
     def reset(self, position: Vec3, bodies: Sequence[Body] = ()) -> None:
         """Place the proxy at ``position``, pushed out of any body it is inside of; forgets the
         friction state."""

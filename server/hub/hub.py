@@ -22,7 +22,10 @@ from typing import Any
 
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
+from devices.capability import CapabilityReport, check
 from devices.cues import cue_from_wire
+from scenarios import registry
+from scenarios.base import ParamError, Trial, describe, find_control
 from server.hub.telemetry import LoopTelemetry
 from server.wire import codec, messages
 from server.wire.codec import WireError
@@ -58,6 +61,14 @@ class ClientSession:
                 "tracker_count": self.tracker_count, "last_tracker": self.last_tracker, "errors": self.errors}
 
 
+class ScenarioRefused(Exception):
+    """A scenario switch that the capability check refuses (no device shows what it is about)."""
+
+    def __init__(self, report: CapabilityReport):
+        super().__init__(report.message)
+        self.report = report
+
+
 class Hub:
     def __init__(self, *, server_name: str, tick_hz: int, state_hz: float):
         self.server_name = server_name
@@ -83,6 +94,8 @@ class Hub:
         self._frame_seq = 0
         self._broadcaster: asyncio.Task | None = None
         self.send_to_loop = lambda record: False  # wired by the app to the loop supervisor
+        self.scenario_state: dict | None = None  # what the loop runs: id, params, seed, trial
+        self.scenario_cls = None
 
     # ---- records from the loop process -------------------------------------------------
     def on_loop_record(self, record: list) -> None:
@@ -96,6 +109,9 @@ class Hub:
             self.telemetry.rt = bool(record[1].get("rt"))
             if self._device_report is not None:  # a (re)started loop learns the refusals again
                 self.send_to_loop(["devices", self._device_report])
+        elif kind == "scenario":
+            self.scenario_state = record[1]
+            self.scenario_cls = registry.resolve(record[1]["id"]).factory
         elif kind == "fail_safe":  # a tick failed: every actuator off until a good tick says otherwise
             self._submit_cues([])
         elif kind == "log":
@@ -135,7 +151,8 @@ class Hub:
     def _devices_changed(self) -> None:
         if self.devices is None:
             return
-        report = {"refusals": [r.reason for r in self.devices.refusals], "status": self.devices.status()}
+        report = {"refusals": unshown_refusals(self.devices.refusals, len(self.devices.devices)),
+                  "status": self.devices.status()}
         if report != self._device_report:
             self._device_report = report
             self.send_to_loop(["devices", report])
@@ -152,7 +169,7 @@ class Hub:
             frame=rec["frame"], tick=rec["tick"], t=rec["t"], scene=self.scene_hash, hip=rec["hip"],
             proxy=rec["proxy"], force=rec["force"], contact=rec["contact"], contacts=rec["contacts"],
             objects=rec["objects"], cues=rec["cues"], hud=rec["hud"], values=rec["values"],
-            telemetry=self.telemetry_summary())
+            telemetry=self.telemetry_summary(), visible=rec.get("visible"), events=rec.get("events"))
         self.last_state = message
         formats = {s.fmt for s in self.sessions.values() if s.welcomed}
         self._frames = {fmt: codec.encode(message, fmt) for fmt in formats}
@@ -268,8 +285,71 @@ class Hub:
             if not self.send_to_loop(record):
                 self._error(s, "busy", "the loop's input mailbox is full; tracker sample dropped")
         elif isinstance(message, messages.Input):
-            if not self.send_to_loop(["input", s.id, message.key, message.action]):
-                self._error(s, "busy", "the loop's input mailbox is full; input dropped")
+            try:
+                self.command(message.key, message.action, message.value, role=s.role, client_id=s.id)
+            except PermissionError as exc:
+                self._error(s, "forbidden", str(exc))
+            except ParamError as exc:
+                self._error(s, "bad_message", str(exc))
+            except BusyError as exc:
+                self._error(s, "busy", str(exc))
+
+    # ---- scenario control (WebSocket input and REST share these) -----------------------
+    def command(self, key: str, action: str, value=None, *, role: str = "operator", client_id: int = 0) -> None:
+        """A key or experimenter command for the running scenario, checked against its CONTROLS:
+        operator-only commands from other roles are forbidden, a command's value must fit its
+        spec. Keys the scenario does not declare pass through (keyboards send every key)."""
+        control = find_control(self.scenario_cls.CONTROLS, key) if self.scenario_cls else None
+        if control is None:
+            if value is not None:
+                raise ParamError(f"the running scenario has no command {key!r} that takes a value")
+        else:
+            if control.who == "operator" and role != "operator":
+                raise PermissionError(f"{key!r} is an experimenter command; a {role} may not send it")
+            if control.value is None and value is not None:
+                raise ParamError(f"{key!r} takes no value")
+            if control.value is not None and action != "up":
+                if value is None:
+                    raise ParamError(f"{key!r} needs a value: {control.value.doc}")
+                value = control.value.check(value, key)
+        record = ["input", client_id, key, action] + ([value] if value is not None else [])
+        if not self.send_to_loop(record):
+            raise BusyError("the loop's input mailbox is full; input dropped")
+
+    def capability(self, scenario_cls=None) -> CapabilityReport:
+        cls = scenario_cls or self.scenario_cls
+        profiles = {name: d.profile for name, d in self.devices.devices.items()} if self.devices else {}
+        return check(cls.id, tuple(cls.REQUIRES), profiles)
+
+    def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
+        """Ask the loop to run another scenario (registry.UnknownScenario, ParamError,
+        ScenarioRefused on bad requests; nothing is sent then)."""
+        spec = registry.resolve(name)
+        checked = registry.check_scenario_params(spec, params or {})
+        registry.create(spec.id, **checked)  # constructing is cheap and finds what per-parameter checks cannot
+        report = self.capability(spec.factory)
+        if not report.ok and not force:
+            raise ScenarioRefused(report)
+        if not self.send_to_loop(["scenario", spec.id, checked, seed]):
+            raise BusyError("the loop's input mailbox is full; try again")
+        return {"id": spec.id, "params": checked, "seed": seed, "capability": report.to_dict()}
+
+    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None:
+        """Start a trial of the running scenario (phase None ends it)."""
+        trial = None
+        if phase is not None:
+            if self.scenario_cls is None:
+                raise ParamError("no scenario is running yet")
+            trial = Trial.parse(self.scenario_cls.TRIAL_PARAMS, phase, params, index).to_dict()
+        if not self.send_to_loop(["trial", trial]):
+            raise BusyError("the loop's input mailbox is full; try again")
+        return trial
+
+    def scenario_info(self) -> dict:
+        if self.scenario_cls is None or self.scenario_state is None:
+            return {}
+        return {**self.scenario_state, "info": describe(self.scenario_cls),
+                "capability": self.capability().to_dict()}
 
     def _on_hello(self, s: ClientSession, hello: messages.Hello, first_frame: bool) -> None:
         if hello.version != messages.PROTOCOL_VERSION:
@@ -287,6 +367,20 @@ class Hub:
 
     def clients(self) -> list[dict]:
         return [s.info() for s in self.sessions.values()]
+
+
+def unshown_refusals(refusals, device_count: int) -> list[str]:
+    """The reasons for cues that NO device shows: what the participant would otherwise miss
+    without a word. A cue one device refuses and another shows (a FingerTac beside a FerroVibe
+    in the contact-angle task) stays in /api/devices but does not clutter the participant's HUD."""
+    by_cue: dict[str, list] = {}
+    for r in refusals:
+        by_cue.setdefault(r.cue, []).append(r)
+    return [r.reason for cue, rs in by_cue.items() if len({r.device for r in rs}) >= device_count for r in rs]
+
+
+class BusyError(RuntimeError):
+    """The loop's mailbox is full; the request was dropped."""
 
 
 def frame_type(message) -> str:

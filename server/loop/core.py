@@ -1,7 +1,9 @@
 """LoopCore: what the 1 kHz loop does each tick, between the mailbox and the simulation.
 
-Records in (tracker samples, keys, device reports) are applied between ticks; then one
-simulation step; then, if a publish is due, one state record goes out. A state record is due on
+Records in (tracker samples, keys and commands, trials, scenario switches, device reports) are
+applied between ticks; then one simulation step; then, if a publish is due, one state record goes
+out. Scenario events (key presses, taps) ride with the next state record, each stamped with its
+tick, so none is lost between publishes. A state record is due on
 the regular cadence (state_hz, 60 by default) AND in any tick whose cues changed: the hub hands
 the cues of every such record to the device manager (serial I/O lives in the hub process, never
 here), so the device command and the picture of the same tick leave together and a tactile cue
@@ -14,9 +16,11 @@ priority and sleeping; tests drive this class directly on a virtual clock.
 from __future__ import annotations
 
 from array import array
-from typing import Any
+from typing import Any, Callable
 
 from devices.cues import cue_to_wire
+from scenarios import registry
+from scenarios.base import Trial
 from server.loop.simulation import Simulation, TickResult
 
 
@@ -25,10 +29,15 @@ def _round(v, digits: int = 9) -> list[float]:
 
 
 class LoopCore:
-    def __init__(self, sim: Simulation, *, state_hz: float = 60.0):
+    def __init__(self, sim: Simulation, *, state_hz: float = 60.0,
+                 make_sim: Callable[..., Simulation] | None = None):
         if not 0 < state_hz <= sim.tick_hz:
             raise ValueError("state_hz must be in (0, tick_hz]")
         self.sim = sim
+        self.make_sim = make_sim or (lambda scenario, seed: Simulation(scenario, tick_hz=sim.tick_hz, seed=seed))
+        self.params: dict = {}
+        self.seed = 0
+        self.outbox: list[list] = []  # records for the hub besides state (scene and scenario changes)
         self.state_hz = state_hz
         self._publish_slot = -1      # index of the last cadence slot published
         self.samples = array("q")    # (period_ns, cost_ns) pairs since the last state record
@@ -42,17 +51,45 @@ class LoopCore:
             _, client_id, seq, t_ms, pos, _quat, recv_ns = record
             self.sim.set_hip((float(pos[0]), float(pos[1]), float(pos[2])))
             self.tracker_applied.append([client_id, seq, t_ms, recv_ns, now_ns])
-        elif kind == "input":
-            _, _client_id, key, action = record
-            self.sim.input(key, action)
+        elif kind == "input":  # ["input", client_id, key, action, value?]; checked by the hub
+            self.sim.input(record[2], record[3], record[4] if len(record) > 4 else None)
+        elif kind == "trial":  # ["trial", {"phase", "params", "index"} | None]; checked by the hub
+            body = record[1]
+            trial = None if body is None else Trial.parse(type(self.sim.scenario).TRIAL_PARAMS, body.get("phase"),
+                                                          body.get("params"), body.get("index", 0))
+            self.sim.set_trial(trial)
+            self.outbox.append(self.scenario_record())
+        elif kind == "scenario":  # ["scenario", name, params, seed]: switch between trials
+            _, name, params, seed = record
+            self.load_scenario(name, params, seed)
         elif kind == "devices":  # the device manager's refusals, for the scenario (TickContext.refusals)
             self.sim.refusals = tuple(str(text) for text in record[1].get("refusals", ()))
+
+    def load_scenario(self, name: str, params: dict, seed: int) -> None:
+        """A new scenario and simulation (tick counter continues); announces the new scene."""
+        refusals = self.sim.refusals
+        sim = self.make_sim(registry.create(name, **params), seed)
+        sim.tick = self.sim.tick
+        sim.refusals = refusals
+        self.sim, self.params, self.seed = sim, dict(params), seed
+        self.outbox.extend(self.announce())
+
+    def scenario_record(self) -> list:
+        sim = self.sim
+        return ["scenario", {"id": sim.scenario.id, "params": self.params, "seed": self.seed,
+                             "trial": sim.trial.to_dict() if sim.trial else None}]
+
+    def announce(self) -> list[list]:
+        """The records a hub needs to know what runs: the scene, then the scenario."""
+        scene = self.sim.scene
+        return [["scene", scene.to_dict(), scene.hash], self.scenario_record()]
 
     def step(self, now_ns: int) -> tuple[TickResult, dict | None]:
         """One tick; returns the result and the state record to publish, if one is due."""
         result = self.sim.step()
         slot = int(result.tick * self.state_hz // self.sim.tick_hz)
-        due = slot != self._publish_slot or result.cues_changed or result.poses_changed
+        # Moving objects do not force a frame: a plane sliding under the HIP moves every tick.
+        due = slot != self._publish_slot or result.cues_changed
         if not due:
             return result, None
         self._publish_slot = slot
@@ -71,10 +108,13 @@ class LoopCore:
             "contact": r.contact,
             "contacts": [[c.body_id, _round(c.normal, 6), round(c.depth, 9)] for c in r.contacts],
             "objects": [[oid, _round(p.pos), [round(q, 9) for q in p.quat]] for oid, p in self.sim.moved.items()],
+            "visible": dict(self.sim.visibility),
             "cues": [cue_to_wire(c) for c in out.cues], "hud": out.hud, "values": out.values,
+            "events": self.sim.events,
             "samples": self.samples.tobytes(),
             "trackers": self.tracker_applied,
         }
         self.samples = array("q")
         self.tracker_applied = []
+        self.sim.events = []
         return record

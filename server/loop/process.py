@@ -22,7 +22,7 @@ import os
 import socket
 import sys
 import traceback
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 from scenarios import registry
 from server.haptics.contact_gate import ContactGate
@@ -37,6 +37,7 @@ from server.scene import Scene
 @dataclass(frozen=True)
 class LoopConfig:
     scenario: str = "contact-angle"
+    scenario_params: dict = field(default_factory=dict)
     scene_file: str | None = None  # a custom scene (docs/protocol.md format) instead of the scenario's
     tick_hz: int = 1000
     state_hz: float = 60.0
@@ -57,11 +58,15 @@ class LoopConfig:
 
 
 def build_core(config: LoopConfig) -> LoopCore:
-    scenario = registry.create(config.scenario)
+    def make_sim(scenario, seed: int, scene: Scene | None = None) -> Simulation:
+        gate = ContactGate(config.gate_band, config.gate_min_on_s, config.gate_min_off_s)
+        return Simulation(scenario, tick_hz=config.tick_hz, gate=gate, seed=seed, scene=scene)
+
+    scenario = registry.create(config.scenario, **config.scenario_params)
     scene = Scene.load(config.scene_file) if config.scene_file else None
-    gate = ContactGate(config.gate_band, config.gate_min_on_s, config.gate_min_off_s)
-    sim = Simulation(scenario, tick_hz=config.tick_hz, gate=gate, seed=config.seed, scene=scene)
-    return LoopCore(sim, state_hz=config.state_hz)
+    core = LoopCore(make_sim(scenario, config.seed, scene), state_hz=config.state_hz, make_sim=make_sim)
+    core.params, core.seed = dict(config.scenario_params), config.seed
+    return core
 
 
 def try_realtime(priority: int) -> str | None:
@@ -89,8 +94,8 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
                                      "state_hz": config.state_hz, "scenario": core.sim.scenario.id}])
     if rt_warning:
         ipc.send_record(sock, ["log", "warning", rt_warning])
-    scene = core.sim.scene
-    ipc.send_record(sock, ["scene", scene.to_dict(), scene.hash])
+    for record in core.announce():
+        ipc.send_record(sock, record)
     # Everything built so far lives for the whole run: keep it out of the collector's sight so
     # a collection never walks it inside a tick.
     gc.collect()
@@ -106,7 +111,14 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
         for record in records:
             if record[0] == "stop":
                 return
-            core.apply(record, start)
+            try:
+                core.apply(record, start)
+            except Exception:  # noqa: BLE001 - a bad switch or trial must not kill the loop
+                ipc.send_record(sock, ["log", "error", f"record {record[0]} failed: {traceback.format_exc()}"])
+        if core.outbox:
+            for record in core.outbox:
+                ipc.send_record(sock, record)
+            core.outbox.clear()
         try:
             _, state = core.step(start)
         except Exception:  # noqa: BLE001 - a scenario bug must not kill the loop: fail safe, report

@@ -1,18 +1,21 @@
 """One tick of the haptic simulation, with no I/O (MuJoCo's mj_step for ViESTac).
 
-Pipeline per tick: latest tracker sample (held between samples: zero-order hold) → god-object
-proxy against the scene's analytic bodies → debounced contact (hysteresis gate, for
-vibration-only devices) → scenario step → device-independent cues. Time is the tick counter
+Pipeline per tick: latest tracker sample (held between samples: zero-order hold; or the point
+the scenario holds the HIP at, for the experimenter's "tap") → god-object proxy against the
+scene's analytic bodies → debounced contact (hysteresis gate, for vibration-only devices) →
+scenario step → device-independent cues, plus the scenario's changes to its objects (poses,
+visibility, touchability, stiffness), applied for the next tick. Time is the tick counter
 (t = tick / tick_hz), never a clock read, so the same inputs give the same outputs whether the
 loop runs in real time, on a virtual clock, or replays a recorded trajectory.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 from devices.cues import Cue
-from scenarios.base import Scenario, ScenarioOutput, TickContext
+from scenarios.base import Scenario, ScenarioOutput, TickContext, Trial
 from server.haptics.contact_gate import ContactGate
 from server.haptics.god_object import Contact, GodObject
 from server.haptics.primitives import Pose
@@ -31,7 +34,7 @@ class TickResult:
     contact: bool            # debounced
     output: ScenarioOutput
     cues_changed: bool       # the active cue set differs from the previous tick's
-    poses_changed: bool      # some object moved this tick
+    scene_changed: bool      # an object moved, appeared, vanished or changed stiffness this tick
 
 
 def home_position(scene: Scene) -> Vec3:
@@ -51,13 +54,18 @@ class Simulation:
         self.tick_hz = tick_hz
         self.gate = gate if gate is not None else ContactGate()
         self.god = GodObject(self.scene.proxy_radius)
-        self.bodies = list(self.scene.bodies())
-        self._body_slot = {b.id: i for i, b in enumerate(self.bodies)}
+        self._all_bodies = {b.id: b for b in self.scene.bodies()}
+        self.bodies = list(self._all_bodies.values())  # the touchable ones, in scene order
         self.moved: dict[str, Pose] = {}  # objects whose pose differs from the scene's
+        self.visibility: dict[str, bool] = {}  # objects/overlays shown or hidden against the scene
+        self.untouchable: set[str] = set()
         self.tick = 0
         self.hip: Vec3 = home_position(self.scene)
+        self.held: Vec3 | None = None  # where the scenario holds the HIP, overriding the tracker
         self.cues: tuple[Cue, ...] = ()
         self.refusals: tuple[str, ...] = ()  # reported by the hub's device manager
+        self.events: list[dict] = []  # scenario events not yet published, stamped with their tick
+        self.trial: Trial | None = None
         self._settled = None  # (hip, ProxyStep) of a verified fixed point; reused while nothing moves
         self._last_step = None
         scenario.reset(seed)
@@ -66,8 +74,12 @@ class Simulation:
         """Latest tracker sample; applied at the next step (parameters change between ticks only)."""
         self.hip = position
 
-    def input(self, key: str, action: str) -> None:
-        self.scenario.on_input(key, action)
+    def input(self, key: str, action: str, value: Any = None) -> None:
+        self.scenario.on_input(key, action, value)
+
+    def set_trial(self, trial: Trial | None) -> None:
+        self.trial = trial
+        self.scenario.set_trial(trial)
 
     def _nearest_body(self, hip: Vec3) -> str | None:
         best, best_d = None, float("inf")
@@ -80,7 +92,7 @@ class Simulation:
     def step(self) -> TickResult:
         tick = self.tick
         t_s = tick / self.tick_hz
-        hip = self.hip
+        hip = self.held if self.held is not None else self.hip
         settled = self._settled
         if settled is not None and settled[0] == hip:
             # The HIP is held between tracker samples (~8 ticks per 120 Hz sample) and nothing
@@ -98,18 +110,47 @@ class Simulation:
         contact = self.gate.update(t_s, bool(contacts), proxy_step.separation)
         touching = frozenset(c.body_id for c in contacts)
         nearest = self._nearest_body(hip) if contact else None
-        ctx = TickContext(tick, t_s, hip, proxy_step.proxy, contact, touching, nearest, self.refusals)
+        ctx = TickContext(tick, t_s, hip, proxy_step.proxy, contact, touching, nearest, self.refusals,
+                          self.god.sticking)
         output = self.scenario.step(ctx)
-        poses_changed = False
-        for object_id, pose in output.poses.items():
+        scene_changed = False
+        if output.poses or output.haptic or output.stiffness or output.visible:
+            scene_changed = self._apply_changes(output)
+        if output.hold_hip != self.held:
+            if output.hold_hip is not None:
+                # A tap lands from outside: put the proxy on the surface nearest the held point
+                # instead of dragging it there from wherever the tracker left it.
+                self.god.reset(output.hold_hip, self.bodies)
             self._settled = self._last_step = None
-            slot = self._body_slot.get(object_id)
-            if slot is not None:
-                self.bodies[slot] = self.scene.object(object_id).body(pose)
-            self.moved[object_id] = pose
-            poses_changed = True
+            self.held = output.hold_hip
+        if output.events:
+            self.events.extend({"tick": tick, "t": t_s, **event} for event in output.events)
         cues_changed = output.cues != self.cues
         self.cues = output.cues
         self.tick = tick + 1
         return TickResult(tick, t_s, hip, proxy_step.proxy, proxy_step.force, contacts, contact,
-                          output, cues_changed, poses_changed)
+                          output, cues_changed, scene_changed)
+
+    def _apply_changes(self, output: ScenarioOutput) -> bool:
+        for object_id, pose in output.poses.items():
+            self._all_bodies[object_id] = replace(self._body(object_id), pose=pose)
+            self.moved[object_id] = pose
+        for object_id, k in output.stiffness.items():
+            self._all_bodies[object_id] = replace(self._body(object_id), stiffness_n_per_m=k)
+        for object_id, on in output.haptic.items():
+            self._body(object_id)
+            (self.untouchable.discard if on else self.untouchable.add)(object_id)
+        for element_id, shown in output.visible.items():
+            if not self.scene.has_id(element_id):
+                raise KeyError(f"scenario shows/hides {element_id!r}, which is not in scene {self.scene.name!r}")
+            self.visibility[element_id] = shown
+        self.bodies = [b for b in self._all_bodies.values() if b.id not in self.untouchable]
+        self._settled = self._last_step = None  # the fixed point may have moved with the bodies
+        return True
+
+    def _body(self, object_id: str):
+        try:
+            return self._all_bodies[object_id]
+        except KeyError:
+            raise KeyError(f"scenario changes {object_id!r}, which is not a haptic object of scene "
+                           f"{self.scene.name!r}") from None

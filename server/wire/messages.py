@@ -106,13 +106,22 @@ class Tracker:
 class Input:
     key: str
     action: str
+    value: bool | float | str | None = None  # a command's argument, e.g. tap_angle 30
 
     @classmethod
     def parse(cls, body: dict) -> Input:
-        return cls(_string(body, "key", _MAX_KEY), _string(body, "action", 8, INPUT_ACTIONS))
+        value = body.get("value")
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            value = _number(body, "value")
+        elif value is not None and not isinstance(value, bool) and not (isinstance(value, str) and len(value) <= 200):
+            raise WireError("bad_message", "'value' must be a number, a boolean or a string of at most 200 characters")
+        return cls(_string(body, "key", _MAX_KEY), _string(body, "action", 8, INPUT_ACTIONS), value)
 
     def to_wire(self) -> dict:
-        return {"type": "input", "key": self.key, "action": self.action}
+        msg: dict[str, Any] = {"type": "input", "key": self.key, "action": self.action}
+        if self.value is not None:
+            msg["value"] = self.value
+        return msg
 
 
 CLIENT_MESSAGES = {"hello": Hello, "tracker": Tracker, "input": Input}
@@ -137,11 +146,12 @@ def scene_message(scene: dict, scene_hash: str) -> dict:
 
 
 def state_message(*, frame: int, tick: int, t: float, scene: str, hip, proxy, force, contact: bool,
-                  contacts, objects, cues, hud: str, values: dict, telemetry: dict) -> dict:
+                  contacts, objects, cues, hud: str, values: dict, telemetry: dict, visible: dict | None = None,
+                  events: list | None = None) -> dict:
     return {"type": "state", "frame": frame, "tick": tick, "t": t, "scene": scene,
             "hip": list(hip), "proxy": list(proxy), "force": list(force), "contact": contact,
             "contacts": contacts, "objects": objects, "cues": cues, "hud": hud, "values": values,
-            "telemetry": telemetry}
+            "telemetry": telemetry, "visible": visible or {}, "events": events or []}
 
 
 def error(code: str, message: str) -> dict:

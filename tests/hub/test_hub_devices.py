@@ -13,6 +13,7 @@ class FakeManager:
         self.listeners = []
         self.submitted = []
         self.refusals = ()
+        self.devices = {"tac": None}  # one device: whatever it refuses, nobody shows
 
     def submit(self, cues):
         self.submitted.append(cues)
@@ -60,3 +61,15 @@ def test_cues_reach_the_devices_once_per_change_and_refusals_reach_the_loop():
         assert to_loop == [["devices", {"refusals": ["tac refuses tilt"], "status": {"tac": "connected"}}]]
 
     asyncio.run(go())
+
+
+def test_only_cues_no_device_shows_reach_the_participant():
+    from server.hub.hub import unshown_refusals
+
+    tac = Refusal("tac", "fingertac", "tilt", "macro_roughness", "not_displayed", "tac refuses tilt")
+    ferro_heat = Refusal("ferro", "ferrovibe", "temperature", "temperature", "not_displayed", "ferro refuses heat")
+    tac_heat = Refusal("tac", "fingertac", "temperature", "temperature", "not_displayed", "tac refuses heat")
+    # the FerroVibe shows the tilt the FingerTac refuses; neither shows a temperature
+    assert unshown_refusals((tac, ferro_heat, tac_heat), 2) == ["ferro refuses heat", "tac refuses heat"]
+    assert unshown_refusals((tac,), 1) == ["tac refuses tilt"]
+    assert unshown_refusals((), 2) == []

@@ -151,10 +151,11 @@ def test_tracker_along_the_arc_moves_angle_and_tilt_commands(live_server):
         directions = [float(row["direction_deg"]) for row in csv.DictReader(f) if float(row["magnitude_pct"]) > 0]
     for angle in angles:
         assert any(abs(d - (-angle) % 360) < 0.6 for d in directions), f"no tilt near {(-angle) % 360} in the timeline"
-    # The FingerTac cannot show a tilt: it says so (console, scenario HUD), it does not stay silent.
+    # The FingerTac cannot show a tilt: it says so in the console; the participant is not told,
+    # because the FerroVibe beside it shows the tilt (only cues no device shows reach the HUD).
     refusals = [r for r in devices["refusals"] if r["device"] == "fingertac"]
     assert refusals and refusals[0]["code"] == "not_displayed" and refusals[0]["cue"] == "tilt"
-    assert any(refusals[0]["reason"] in s["hud"] for s in seen.values()), "the scenario did not show the refusal"
+    assert not any(refusals[0]["reason"] in s["hud"] for s in seen.values())
 
 
 def test_tracker_reaches_server_counters(live_server):

@@ -120,3 +120,37 @@ def test_mailbox_doorbell_rings_once_per_change_across_processes():
     assert out.strip() == "True"
     assert bell.rung() and not bell.rung()
     bell.close()
+
+
+def test_scenario_switch_announces_the_new_scene_and_keeps_the_tick():
+    core = make_core()
+    for t in range(10):
+        core.step(t * MS)
+    core.apply(["scenario", "stiffness", {"middle_level": 3}, 5], 10 * MS)
+    scene, scenario = core.outbox
+    assert scene[0] == "scene" and scene[1]["name"] == "stiffness" and scene[2] == core.sim.scene.hash
+    assert scenario == ["scenario", {"id": "stiffness-v1", "params": {"middle_level": 3}, "seed": 5, "trial": None}]
+    result, _ = core.step(10 * MS)
+    assert result.tick == 10, "the tick counter continues across scenarios"
+
+
+def test_trial_record_reaches_the_scenario_and_is_announced():
+    core = make_core()
+    core.apply(["trial", {"phase": "main", "params": {"angle_deg": -50}, "index": 1}], 0)
+    assert core.outbox[-1][1]["trial"] == {"phase": "main", "params": {"angle_deg": -50.0, "time_limit_s": 30.0},
+                                           "index": 1}
+    state = None
+    for t in range(40):
+        _, rec = core.step(t * MS)
+        state = rec or state
+    assert state["visible"] == {"angle_scale": False}, "main trials hide the angle scale"
+    assert state["values"]["angle_deg"] == -50.0 and state["cues"][0]["direction_deg"] == 50.0
+
+
+def test_events_ride_with_the_next_state_record_stamped_with_their_tick():
+    core = make_core()
+    core.apply(["input", 1, "tap_angle", "press", 30.0], 0)
+    _, first = core.step(0)  # a publish is due in tick 0 anyway (first cadence slot)
+    assert [(e["name"], e["tick"], e["angle_deg"]) for e in first["events"]] == [("tap", 0, 30.0)]
+    later = [rec for t in range(1, 40) if (rec := core.step(t * MS)[1]) is not None]
+    assert all(rec["events"] == [] for rec in later), "each event is published once"
