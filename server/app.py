@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import gc
+from dataclasses import replace
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, WebSocket
@@ -22,6 +23,10 @@ def create_app(settings: Settings) -> FastAPI:
     hub = Hub(server_name=f"viestac/{__version__}", tick_hz=settings.tick_hz, state_hz=settings.state_hz)
     supervisor = LoopSupervisor(settings.loop_config(), hub.on_loop_record)
     hub.send_to_loop = supervisor.send
+    # A restarted loop comes back with what ran, not with the start-up scenario.
+    hub.on_scenario = lambda state: setattr(supervisor, "config", replace(
+        supervisor.config, scenario=state["id"], scenario_params=state["params"], seed=state["seed"],
+        trial=state["trial"]))
 
     rig = (SimulatedRig(settings.rig_models, directory=default_rig_dir())
            if settings.simulated_rig and not settings.devices else None)

@@ -96,6 +96,7 @@ class Hub:
         self.send_to_loop = lambda record: False  # wired by the app to the loop supervisor
         self.scenario_state: dict | None = None  # what the loop runs: id, params, seed, trial
         self.scenario_cls = None
+        self.on_scenario = lambda state: None  # wired by the app: a restarted loop resumes this
 
     # ---- records from the loop process -------------------------------------------------
     def on_loop_record(self, record: list) -> None:
@@ -112,6 +113,7 @@ class Hub:
         elif kind == "scenario":
             self.scenario_state = record[1]
             self.scenario_cls = registry.resolve(record[1]["id"]).factory
+            self.on_scenario(record[1])
         elif kind == "fail_safe":  # a tick failed: every actuator off until a good tick says otherwise
             self._submit_cues([])
         elif kind == "log":

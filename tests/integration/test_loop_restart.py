@@ -42,3 +42,36 @@ def test_killed_loop_is_restarted_and_clients_get_the_scene_again():
         assert after["loop"]["pid"] != loop_pid
     finally:
         stop_server(proc)
+
+
+def test_a_restarted_loop_resumes_the_switched_scenario_and_its_trial():
+    proc, base = start_server("contact-angle")
+    try:
+        get_json(base + "/api/scenario", "POST", body={"name": "stiffness", "params": {"middle_level": 3}, "seed": 4})
+        trial = {"phase": "main", "params": {"mode": "production", "level": 7, "start_level": 2}, "index": 5}
+        deadline = time.monotonic() + 5
+        while get_json(base + "/api/scenario").get("id") != "stiffness-v1":
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        get_json(base + "/api/trial", "POST", body=trial)
+        while get_json(base + "/api/scenario").get("trial") != trial:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        time.sleep(1.0)
+        loop_pid = get_json(base + "/api/health")["loop"]["pid"]
+        tick_before = get_json(base + "/api/state")["tick"]
+        os.kill(loop_pid, signal.SIGKILL)
+        deadline = time.monotonic() + 15
+        while get_json(base + "/api/health")["loop"]["pid"] in (loop_pid, None):
+            assert time.monotonic() < deadline, "the loop was not restarted"
+            time.sleep(0.1)
+        while (state := get_json(base + "/api/state"))["tick"] >= tick_before:  # the new loop counts from 0
+            assert time.monotonic() < deadline, "no state from the restarted loop"
+            time.sleep(0.05)
+        assert state["values"]["right_level"] == 2 and state["values"]["middle_level"] == 7, \
+            "the restarted loop resumed the production trial"
+        now = get_json(base + "/api/scenario")
+        assert (now["id"], now["params"]["middle_level"], now["seed"], now["trial"]) == ("stiffness-v1", 3, 4, trial)
+        assert get_json(base + "/api/scene")["scene"]["name"] == "stiffness"
+    finally:
+        stop_server(proc)
