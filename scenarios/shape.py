@@ -96,13 +96,13 @@ class ShapeScenario:
     def build_scene(self) -> Scene:
         material = Material("#e08a2c")
         shapes = {"cube": Box((SIDE, SIDE, SIDE)), "sphere": Sphere(SPHERE_R), "cone": Cone(CONE_R, CONE_H)}
-        objects = [SceneObject("ground", Plane((5.0, 2.0)), Pose(), Material("#d9d4c7"))]
+        objects = [SceneObject("ground", Plane((2.0, 5.0)), Pose(), Material("#d9d4c7"))]  # 2 deep, 5 wide
         objects += [SceneObject(name, shape, origin_pose(name, GALLERY_Y[name]), material)
                     for name, shape in shapes.items()]
         overlays = tuple(Label(f"{name}_label", (0.0, GALLERY_Y[name], 1.25), name) for name in SHAPES) \
             if self.labels else ()
         camera = Camera("orthographic", position=(5.0, 0.0, 0.6), target=(0.0, 0.0, 0.6), up=(0.0, 0.0, 1.0),
-                        height=2.6)
+                        height=3.2)
         return Scene("shape", tuple(objects), camera, hud_text="Explore the shapes", overlays=overlays)
 
     def reset(self, seed: int) -> None:

@@ -80,12 +80,12 @@ class StiffnessScenario:
         self.reset(0)
 
     def build_scene(self) -> Scene:
-        ground = SceneObject("ground", Plane((4.0, 2.0)), Pose(), Material("#d9d4c7"))
+        ground = SceneObject("ground", Plane((2.0, 4.0)), Pose(), Material("#d9d4c7"))  # 2 deep, 4 wide
         spheres = tuple(SceneObject(sid, Sphere(SPHERE_RADIUS), Pose((0.0, y, SPHERE_RADIUS)),
                                     Material(color, stiffness_n_per_m=level_k(self._initial_level(sid))))
                         for sid, (y, color) in SPHERES.items())
         camera = Camera("orthographic", position=(5.0, 0.0, 0.55), target=(0.0, 0.0, 0.55), up=(0.0, 0.0, 1.0),
-                        height=2.2)
+                        height=2.6)
         overlays = ()
         if self.labels:
             overlays = (Label("left_label", (0.0, -SPACING, 1.05), "1"), Label("right_label", (0.0, SPACING, 1.05), "10"))

@@ -125,7 +125,7 @@ class AngleScale:
     to_deg: float = 90.0
     minor_deg: float = 10.0
     major_deg: float = 30.0
-    color: str = "#1b1b1b"
+    color: str = "#f2f2f2"  # light: clients draw on a dark background
     visible: bool = True
     kind: ClassVar[str] = "angle_scale"
 
@@ -141,7 +141,7 @@ class AngleScale:
         scale = cls(d["id"], _vec(d, "centre", where), _num(d, "radius", where, None, 1e-6),  # type: ignore[arg-type]
                     _num(d, "from_deg", where, -90.0), _num(d, "to_deg", where, 90.0),
                     _num(d, "minor_deg", where, 10.0, 0.5), _num(d, "major_deg", where, 30.0, 0.5),
-                    _color(d, "color", where, "#1b1b1b"), _flag(d, "visible", where))
+                    _color(d, "color", where, "#f2f2f2"), _flag(d, "visible", where))
         if scale.to_deg <= scale.from_deg:
             raise SceneError(f"{where}: to_deg must be greater than from_deg")
         return scale
@@ -154,7 +154,7 @@ class Label:
     pos: tuple[float, float, float]
     text: str
     size: float = 0.12   # letter height, scene units
-    color: str = "#1b1b1b"
+    color: str = "#f2f2f2"
     visible: bool = True
     kind: ClassVar[str] = "label"
 
@@ -169,7 +169,7 @@ class Label:
         if not isinstance(text, str) or not 0 < len(text) <= 200:
             raise SceneError(f"{where}.text must be a string of 1..200 characters")
         return cls(d["id"], _vec(d, "pos", where), text, _num(d, "size", where, 0.12, 1e-4),  # type: ignore[arg-type]
-                   _color(d, "color", where, "#1b1b1b"), _flag(d, "visible", where))
+                   _color(d, "color", where, "#f2f2f2"), _flag(d, "visible", where))
 
 
 OVERLAY_KINDS = {cls.kind: cls for cls in (AngleScale, Label)}

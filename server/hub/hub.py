@@ -350,7 +350,8 @@ class Hub:
     def scenario_info(self) -> dict:
         if self.scenario_cls is None or self.scenario_state is None:
             return {}
-        return {**self.scenario_state, "info": describe(self.scenario_cls),
+        # the scene hash names the scene this scenario announced (the loop sends the scene first)
+        return {**self.scenario_state, "scene": self.scene_hash, "info": describe(self.scenario_cls),
                 "capability": self.capability().to_dict()}
 
     def _on_hello(self, s: ClientSession, hello: messages.Hello, first_frame: bool) -> None:

@@ -2,7 +2,9 @@
 
 Needs the `live_server` fixture (tests/conftest.py): a real server on an ephemeral port running
 the contact-angle scenario, with `http_url` and `ws_url`. Chromium is Debian's /usr/bin/chromium
-rendering WebGL through SwiftShader; Playwright downloads no browser.
+rendering WebGL through SwiftShader; Playwright downloads no browser. Tests that switch the
+server's scenario put contact-angle back when they finish (`contact_angle_after`): the server is
+shared by the whole session.
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from server.bench.loop_bench import get_json
 
 pytestmark = pytest.mark.browser
 
@@ -35,6 +39,7 @@ ARTIFACTS = ROOT / "tests" / "artifacts" / "browser"
 WEB_DEPS = [ROOT / "clients/web/node_modules/three/build/three.module.js",
             ROOT / "clients/web/node_modules/@msgpack/msgpack/dist.esm/index.mjs"]
 READY_TIMEOUT_MS = 20_000
+REBUILD_TIMEOUT_MS = 15_000
 
 
 # -- fixtures ---------------------------------------------------------------------------------
@@ -88,6 +93,24 @@ class Client:
         p = self.page.evaluate("(p) => window.__viestac.screenPosition(p)", list(scene_pos))
         return p["x"], p["y"]
 
+    def wait_rebuilt(self, scene_hash: str) -> None:
+        """Wait until the page has drawn the scene `scene_hash` with its skins loaded and one state
+        frame of that scene applied (visibility overrides come with state frames)."""
+        self.page.wait_for_function(
+            """(h) => { const v = window.__viestac;
+                return v.renderedHash === h && v.skins().pending === 0 && v.stats.lastStateFrame !== null; }""",
+            arg=scene_hash, timeout=REBUILD_TIMEOUT_MS)
+        frame = self.hook("stats.lastStateFrame")
+        wait_for(lambda: self.hook("stats.lastStateFrame") > frame, what="a state frame of the new scene")
+        self.page.wait_for_timeout(100)  # a few more frames drawn
+
+
+@pytest.fixture
+def contact_angle_after(live_server):
+    """Put the session's server back on contact-angle (default parameters) after the test."""
+    yield
+    switch_scenario(live_server, "contact-angle")
+
 
 @pytest.fixture
 def open_client(browser, live_server):
@@ -127,6 +150,21 @@ def wait_for(predicate, timeout=5.0, interval=0.05, what="condition"):
             return last
         time.sleep(interval)
     raise AssertionError(f"timed out after {timeout} s waiting for {what} (last: {last!r})")
+
+
+def switch_scenario(server, name: str, params: dict | None = None) -> str:
+    """POST /api/scenario (forced: the test rig's devices cannot show every dimension), wait until
+    the loop runs it and return its scene hash. The loop publishes the scene before announcing
+    the scenario, so once GET /api/scenario names it, GET /api/scene is the new scene."""
+    answer = get_json(f"{server.http_url}/api/scenario", "POST",
+                      body={"name": name, "params": params or {}, "seed": 0, "force": True})
+
+    def running():
+        now = server.get("/api/scenario")
+        return now.get("id") == answer["id"] and now.get("params") == answer["params"]
+
+    wait_for(running, timeout=10, what=f"the server to run {answer['id']}")
+    return server.get("/api/scene")["hash"]
 
 
 def wait_tracker(server, client_id: int, expect=None, timeout=5.0) -> dict:
@@ -300,3 +338,196 @@ def test_observer_sends_no_tracker(open_client, live_server):
     assert view["tracker_count"] == 0
     assert client.hook("stats.trackerSent") == 0
     assert client.hook("stats.lastError") is None  # nothing was sent, so nothing was forbidden
+
+
+# -- scenarios, overlays, skins, operator panel -------------------------------------------------
+
+SKIN = "/skins/stripes.svg"
+SCENARIOS = [
+    ("contact-angle-v1", {}),
+    ("texture-v1", {"skin": SKIN}),
+    ("stiffness-v1", {}),
+    ("shape-v1", {}),
+    ("friction-temperature-v1", {}),
+]
+
+
+def scene_of(three_pos) -> np.ndarray:
+    """three.js (X, Y, Z) → scene (x, y, z) = (Z, X, Y)."""
+    return np.array([three_pos[2], three_pos[0], three_pos[1]], float)
+
+
+def probe_points(obj: dict) -> list[np.ndarray]:
+    """Scene points inside an object's silhouette, seen from the front, for colour sampling."""
+    c = scene_of(obj["position"])
+    s = obj["shape"]
+    if s["type"] == "sphere":
+        r = s["radius"]
+        offsets = [(0, 0, 0), (0, -r / 2, 0), (0, r / 2, 0), (0, 0, r / 2), (0, 0, -r / 2)]
+    elif s["type"] == "box":
+        _, sy, sz = s["size"]
+        offsets = [(0, 0, 0), (0, -sy / 4, 0), (0, sy / 4, 0), (0, 0, sz / 4), (0, 0, -sz / 4)]
+    elif s["type"] == "cone":
+        r, h = s["radius"], s["height"]
+        offsets = [(0, 0, h / 4), (0, -r / 3, h / 4), (0, r / 3, h / 4), (0, 0, h / 2), (0, 0, h / 8)]
+    elif s["type"] == "hemisphere":
+        r = s["radius"]
+        offsets = [(0, 0, r / 2), (0, -r / 2, r / 3), (0, r / 2, r / 3), (0, 0, r / 4), (0, 0, 3 * r / 4)]
+    else:
+        return []
+    return [c + np.array(o, float) for o in offsets]
+
+
+def patch(px: np.ndarray, x: float, y: float, half: int = 2) -> np.ndarray:
+    return px[int(y) - half : int(y) + half + 1, int(x) - half : int(x) + half + 1].reshape(-1, 3)
+
+
+def shows_colour(px: np.ndarray, client: Client, obj: dict) -> int:
+    """How many of an object's probe points show its colour (hue, and not the background)."""
+    want = chroma(hex_rgb(obj["color"]))
+    background = px[5, 5]
+    hits = 0
+    for p in probe_points(obj):
+        mean = patch(px, *client.screen(p)).mean(axis=0)
+        if np.abs(chroma(mean) - want).max() < 0.06 and np.abs(mean - background).max() > 20:
+            hits += 1
+    return hits
+
+
+def label_drawn(px: np.ndarray, x: float, y: float) -> bool:
+    """A label at (x, y): its light outline and its dark letters both show around there."""
+    box = px[int(y) - 10 : int(y) + 11, int(x) - 14 : int(x) + 15].reshape(-1, 3)
+    light = (box.min(axis=1) > 190).sum()
+    dark = (box.max(axis=1) < 60).sum()
+    return light >= 10 and dark >= 5
+
+
+@pytest.mark.parametrize("scenario,params", SCENARIOS, ids=[s for s, _ in SCENARIOS])
+def test_scenario_screenshots(open_client, live_server, contact_angle_after, scenario, params):
+    client = open_client()
+    page = client.page
+    scene_hash = switch_scenario(live_server, scenario, params)
+    client.wait_rebuilt(scene_hash)
+    assert client.hook("sceneHash") == scene_hash
+
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    png = page.screenshot(path=str(ARTIFACTS / f"{scenario}.png"))
+    px = screenshot_pixels(page, png)[:, :, :3].astype(float)
+    w, h = VIEWPORT["width"], VIEWPORT["height"]
+
+    graph = client.graph()
+    scene = live_server.get("/api/scene")["scene"]
+    assert {o["id"] for o in scene["objects"]} <= set(graph), graph.keys()
+    assert {o["id"] for o in scene.get("overlays", [])} == {o["id"] for o in graph.values() if o["type"] == "overlay"}
+
+    # Every solid object shows its colour and lies within the viewport (ground planes may not).
+    solids = [o for o in graph.values() if o["type"] in ("sphere", "box", "cone", "hemisphere")]
+    for obj in solids:
+        assert obj["visible"], obj
+        hits = shows_colour(px, client, obj)
+        assert hits >= 3, f"{obj['id']} ({obj['color']}) shows its colour at only {hits}/5 points"
+        for p in probe_points(obj):
+            x, y = client.screen(p)
+            assert 0 <= x < w and 0 <= y < h, f"{obj['id']} is cut off: {p} is drawn at ({x:.0f}, {y:.0f})"
+
+    # Every label of every visible overlay is drawn where the scene graph says.
+    for overlay in (o for o in graph.values() if o["type"] == "overlay" and o["visible"]):
+        for label in overlay["labels"]:
+            x, y = client.screen(scene_of(label["position"]))
+            assert 0 <= x < w and 0 <= y < h, label
+            assert label_drawn(px, x, y), f"label {label['text']!r} of {overlay['id']} not drawn at ({x:.0f}, {y:.0f})"
+
+    if scenario == "contact-angle-v1":
+        # Default (training) state: the scale is shown, labelled -90..90 every 30, -90 on the left.
+        scale = graph["angle_scale"]
+        assert scale["visible"], scale
+        texts = [label["text"] for label in scale["labels"]]
+        assert texts == ["-90°", "-60°", "-30°", "0°", "30°", "60°", "90°"]
+        xs = {label["text"]: client.screen(scene_of(label["position"])) for label in scale["labels"]}
+        dome = graph["hemisphere"]
+        cx, cy = client.screen(scene_of(dome["position"]))
+        r_px = client.screen(scene_of(dome["position"]) + [0, dome["shape"]["radius"], 0])[0] - cx
+        assert xs["-90°"][0] < cx - r_px < cx + r_px < xs["90°"][0], xs
+        assert xs["0°"][1] < cy - r_px, "the 0° label sits above the top of the dome"
+        assert xs["-60°"][0] < xs["-30°"][0] < xs["0°"][0] < xs["30°"][0] < xs["60°"][0]
+
+    if scenario == "texture-v1":
+        plane = graph["plane"]
+        assert plane["skin"] == SKIN
+        assert client.hook("skins()") == {"pending": 0, "failed": []}
+        # The skin's stripes: a patch of the plane near the viewer varies a lot, around the tint.
+        x, y = client.screen([0.8, 0.4, 0.0])
+        box = px[int(y) - 40 : int(y) + 40, int(x) - 40 : int(x) + 40].reshape(-1, 3)
+        luminance = box @ [0.2126, 0.7152, 0.0722]
+        assert luminance.std() > 12, f"the skinned plane looks flat (luminance std {luminance.std():.1f})"
+        assert np.abs(chroma(box.mean(axis=0)) - chroma(hex_rgb(plane["color"]))).max() < 0.05
+
+    assert client.hook("stats.lastError") is None, client.hook("stats.lastError")
+    assert not client.page_errors, client.page_errors
+    assert not client.console_errors, client.console_errors
+
+
+def test_scenario_switches_rebuild_without_leaks(open_client, live_server, contact_angle_after):
+    client = open_client()
+    client.wait_rebuilt(switch_scenario(live_server, "contact-angle"))
+    ids = set(client.graph())
+    memory = client.hook("memory()")
+    assert memory["geometries"] > 0 and memory["textures"] > 0, memory
+
+    for name, params in [("texture", {"skin": SKIN}), ("shape", {}), ("contact-angle", {})] * 2:
+        client.wait_rebuilt(switch_scenario(live_server, name, params))
+        graph = client.graph()
+        scene = live_server.get("/api/scene")["scene"]
+        drawn = {o["id"] for o in graph.values() if o["type"] not in ("hip", "proxy")}
+        assert drawn == {o["id"] for o in scene["objects"] + scene.get("overlays", [])}, "left-over elements"
+
+    assert set(client.graph()) == ids
+    assert client.hook("memory()") == memory, "GPU geometries/textures leaked across rebuilds"
+    assert not client.page_errors, client.page_errors
+
+
+def test_operator_panel_sends_commands(open_client, live_server, contact_angle_after):
+    client = open_client("?role=operator")
+    page = client.page
+    client.wait_rebuilt(switch_scenario(live_server, "contact-angle"))
+    wait_for(lambda: client.hook("panelKeys()") == ["tap_angle", "release", "scale"], what="the operator panel")
+    panel = page.locator("#operator")
+    assert panel.is_visible()
+
+    def state():
+        return live_server.get("/api/state")
+
+    # A value out of range is refused in the page: nothing is sent.
+    page.fill("#operator input[data-key=tap_angle]", "120")
+    page.click("#operator button[data-key=tap_angle]")
+    assert "must be in [-90, 90]" in panel.locator(".panel-status").inner_text()
+    page.wait_for_timeout(200)
+    assert "tap_deg" not in state()["values"]
+
+    # tap_angle -30: the server holds the HIP on the arc at -30° (left of the top).
+    page.fill("#operator input[data-key=tap_angle]", "-30")
+    page.click("#operator button[data-key=tap_angle]")
+    wait_for(lambda: state()["values"].get("tap_deg") == -30, what="the tap at -30°")
+    hip = state()["hip"]
+    assert hip[1] < -0.2 and hip[2] > 0.4, hip
+    wait_for(lambda: "tap" in page.inner_text("#events"), what="the tap event in the events line")
+
+    # scale off: the server's visibility override reaches the scene graph.
+    page.uncheck("#operator input[data-key=scale]")
+    page.click("#operator button[data-key=scale]")
+    wait_for(lambda: state()["visible"].get("angle_scale") is False, what="the scale override")
+    wait_for(lambda: client.graph()["angle_scale"]["visible"] is False, what="the page to hide the scale")
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(ARTIFACTS / "operator_panel.png"))
+
+    page.check("#operator input[data-key=scale]")
+    page.click("#operator button[data-key=scale]")
+    page.click("#operator button[data-key=release]")
+    wait_for(lambda: client.graph()["angle_scale"]["visible"] is True, what="the page to show the scale again")
+    wait_for(lambda: "tap_deg" not in state()["values"], what="the release")
+    assert client.hook("stats.lastError") is None, client.hook("stats.lastError")
+    assert not client.page_errors, client.page_errors
+
+    participant = open_client()
+    assert participant.hook("panelKeys()") is None
+    assert not participant.page.locator("#operator").is_visible()

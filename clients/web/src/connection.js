@@ -99,10 +99,10 @@ export class Connection {
     return true;
   }
 
-  /** Send a key/command event. Returns true if sent. */
-  sendInput(key, action) {
+  /** Send a key/command event; `value` (a command's argument) only when given. Returns true if sent. */
+  sendInput(key, action, value = undefined) {
     if (!this.isOpen || !this.canSend) return false;
-    this._send(protocol.input(key, action));
+    this._send(protocol.input(key, action, value));
     return true;
   }
 

@@ -1,17 +1,32 @@
 // DOM overlay: scenario HUD text, connection status and a telemetry line. Desktop only (DOM
 // labels do not show inside an immersive WebXR session; that client draws into the scene).
 
+const EVENTS_SHOWN = 3;
+
 function fmtUs(us) {
   return typeof us === 'number' ? `${(us / 1000).toFixed(2)} ms` : '–';
 }
 
+const fmtValue = (v) => (typeof v === 'number' ? String(+v.toFixed(3)) : JSON.stringify(v));
+
+/** One scenario event as "12.34 s tap angle_deg -30 by experimenter". */
+export function formatEvent({ tick, t, name, ...rest }) {
+  const when = typeof t === 'number' ? `${t.toFixed(2)} s ` : '';
+  const extra = Object.entries(rest).filter(([, v]) => v !== null).map(([k, v]) => `${k} ${typeof v === 'string' ? v : fmtValue(v)}`);
+  return [`${when}${name ?? '?'}`, ...extra].join(' ');
+}
+
 export class Hud {
-  /** @param {{hud: HTMLElement, status: HTMLElement, telemetry: HTMLElement, values?: HTMLElement}} els */
+  /**
+   * @param {{hud: HTMLElement, status: HTMLElement, telemetry: HTMLElement, values?: HTMLElement,
+   *          events?: HTMLElement}} els
+   */
   constructor(els, { showValues = false } = {}) {
     this.els = els;
     this.showValues = showValues;
     this._text = null;
     this._values = null;
+    this._events = []; // the last EVENTS_SHOWN, formatted
   }
 
   setText(text) {
@@ -42,10 +57,17 @@ export class Hud {
   setValues(values) {
     if (!this.showValues || !this.els.values) return;
     const text = Object.entries(values ?? {})
-      .map(([k, v]) => `${k} ${typeof v === 'number' ? +v.toFixed(3) : JSON.stringify(v)}`)
+      .map(([k, v]) => `${k} ${fmtValue(v)}`)
       .join(' · ');
     if (text === this._values) return;
     this._values = text;
     this.els.values.textContent = text;
+  }
+
+  /** Scenario events of one state frame: the last few stay on show (operators/observers only). */
+  addEvents(events) {
+    if (!this.showValues || !this.els.events || !events?.length) return;
+    this._events = [...this._events, ...events.map(formatEvent)].slice(-EVENTS_SHOWN);
+    this.els.events.textContent = this._events.join('\n');
   }
 }

@@ -1,4 +1,5 @@
-// Entry point: wires the connection, the three.js view, input and the HUD together.
+// Entry point: wires the connection, the three.js view, input, the HUD and (operators only) the
+// operator panel together.
 // URL query: ?ws=ws://host:port/ws  ?role=participant|operator|observer  ?format=msgpack|json
 //            ?depth_step=0.02 (scene units per wheel notch / PageUp/PageDown)
 
@@ -6,6 +7,7 @@ import { Connection } from './connection.js';
 import { SceneView } from './scene_view.js';
 import { PointerInput, KeyForwarder, DEPTH_KEYS } from './input.js';
 import { Hud } from './hud.js';
+import { OperatorPanel, httpBase } from './operator_panel.js';
 import { ROLES } from './protocol.js';
 
 const CLIENT_NAME = 'viestac-web/0.1';
@@ -31,6 +33,7 @@ function main() {
     status: document.getElementById('status'),
     telemetry: document.getElementById('telemetry'),
     values: document.getElementById('values'),
+    events: document.getElementById('events'),
   }, { showValues: opts.role !== 'participant' });
 
   const stats = { framesReceived: 0, trackerSent: 0, trackerDropped: 0, lastStateFrame: null, lastError: null };
@@ -44,13 +47,24 @@ function main() {
     })
     : null;
 
+  // Only operators get the panel: participants must not see the commands (they could give the
+  // answer away), and observers may not send.
+  const panel = opts.role === 'operator'
+    ? new OperatorPanel(document.getElementById('operator'), (key, value) => conn.sendInput(key, 'press', value),
+      () => refreshPanel())
+    : null;
+
   const hook = {
     ready: false,
     role: opts.role,
     clientId: null,
     sceneHash: null,
+    renderedHash: null, // hash of the scene last drawn
     stats,
     renderer: view.rendererInfo(),
+    memory: () => ({ ...view.renderer.info.memory }),
+    skins: () => ({ pending: view.skins.pending, failed: [...view.skins.failed] }),
+    panelKeys: () => panel?.keys() ?? null,
     sceneGraph: () => view.sceneGraph(),
     screenPosition: (scenePos) => view.screenPosition(scenePos),
     hipTarget: () => pointer.position(),
@@ -83,6 +97,7 @@ function main() {
     sceneHudText = m.scene.hud?.text ?? '';
     hud.setText(sceneHudText);
     sceneBuilt = true;
+    if (panel) refreshPanel();
   };
   conn.onState = (s) => {
     stats.framesReceived++;
@@ -91,6 +106,7 @@ function main() {
     if (view.built) view.applyState(s);
     hud.setText(s.hud || sceneHudText); // an empty state hud shows the scene's hud text
     hud.setValues(s.values);
+    hud.addEvents(s.events);
     lastTelemetry = s.telemetry;
   };
   conn.onError = (e, source) => {
@@ -100,6 +116,21 @@ function main() {
   };
 
   window.addEventListener('resize', () => view.resize());
+
+  const api = httpBase(opts.url);
+  let panelRequests = 0;
+  async function refreshPanel() {
+    const n = ++panelRequests;
+    try {
+      const r = await fetch(`${api}/api/scenario`);
+      if (!r.ok) throw new Error(`GET /api/scenario: HTTP ${r.status}`);
+      const body = await r.json();
+      if (n !== panelRequests) return; // a newer scene came in meanwhile
+      panel.show(body);
+    } catch (e) {
+      if (n === panelRequests) panel.showError(String(e.message || e));
+    }
+  }
 
   let sceneBuilt = false;
   let sceneHudText = '';
@@ -123,6 +154,7 @@ function main() {
       }
     }
     view.render();
+    hook.renderedHash = view.hash;
     if (sceneBuilt && !hook.ready) hook.ready = true; // built and drawn at least once
 
     frames++;

@@ -12,6 +12,7 @@ export const ROLES = Object.freeze(['participant', 'operator', 'observer']);
 export const INPUT_ACTIONS = Object.freeze(['down', 'up', 'press']);
 export const MAX_CLIENT_NAME = 64;
 export const MAX_KEY_NAME = 32;
+export const MAX_INPUT_TEXT = 200; // longest string `input.value`
 export const ERROR_CODES = Object.freeze([
   'bad_encoding', 'bad_message', 'non_finite', 'unknown_type',
   'too_large', 'forbidden', 'unsupported_version', 'busy',
@@ -140,15 +141,28 @@ export function tracker(seq, tMs, pos, quat = null) {
   return msg;
 }
 
-/** `input`: a key (DOM KeyboardEvent.key) or command name going down/up or pressed. */
-export function input(key, action) {
+const isInputValue = (x) => (typeof x === 'number' && Number.isFinite(x)) || typeof x === 'boolean'
+  || (typeof x === 'string' && x.length <= MAX_INPUT_TEXT);
+
+/**
+ * `input`: a key (DOM KeyboardEvent.key) or command name going down/up or pressed. `value` (a
+ * number, boolean or string: a command's argument) is sent only when given (not undefined/null).
+ */
+export function input(key, action, value = undefined) {
   if (typeof key !== 'string' || key.length === 0 || key.length > MAX_KEY_NAME) {
     throw new ProtocolError('bad_message', `key must be a non-empty string of at most ${MAX_KEY_NAME} chars`);
   }
   if (!INPUT_ACTIONS.includes(action)) {
     throw new ProtocolError('bad_message', `action must be one of ${INPUT_ACTIONS.join(', ')}`);
   }
-  return { type: 'input', key, action };
+  const msg = { type: 'input', key, action };
+  if (value == null) return msg;
+  if (typeof value === 'number' && !Number.isFinite(value)) throw new ProtocolError('non_finite', `value is ${value}`);
+  if (!isInputValue(value)) {
+    throw new ProtocolError('bad_message', `value must be a number, a bool or a string of at most ${MAX_INPUT_TEXT} chars`);
+  }
+  msg.value = value;
+  return msg;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -187,6 +201,7 @@ const SCHEMAS = {
   input: {
     key: check((x) => isStr(x) && x.length > 0 && x.length <= MAX_KEY_NAME, `a string of 1..${MAX_KEY_NAME} chars`),
     action: check(oneOf(INPUT_ACTIONS), `one of ${INPUT_ACTIONS.join('|')}`),
+    value: check(isInputValue, `a number, a bool or a string of at most ${MAX_INPUT_TEXT} chars`, { optional: true }),
   },
   // server → client
   welcome: {
@@ -218,6 +233,8 @@ const SCHEMAS = {
     hud: check(isStr, 'a string'),
     values: check(isMap, 'a map'),
     telemetry: check(isMap, 'a map'),
+    visible: check((x) => isMap(x) && Object.values(x).every(isBool), 'a map of element id → bool', { optional: true }),
+    events: check(arrayOf(isMap), 'an array of maps', { optional: true }),
   },
   error: {
     code: check(isStr, 'a string'),
@@ -341,8 +358,73 @@ export function validateScene(scene, path = 'scene') {
         return err(`${p}.pose must be {pos: [x,y,z], quat: [w,x,y,z]}`);
       }
     }
-    if (o.material !== undefined && !isMap(o.material)) return err(`${p}.material must be a map`);
+    if (o.material !== undefined) {
+      if (!isMap(o.material)) return err(`${p}.material must be a map`);
+      const skinErr = checkSkin(o.material.skin);
+      if (skinErr) return err(`${p}.material.skin ${skinErr}`);
+    }
     if (o.visible !== undefined && !isBool(o.visible)) return err(`${p}.visible must be a bool`);
+  }
+  if (scene.overlays !== undefined) {
+    if (!Array.isArray(scene.overlays)) return err('.overlays must be an array');
+    for (let i = 0; i < scene.overlays.length; i++) {
+      const o = scene.overlays[i];
+      const p = `.overlays[${i}]`;
+      if (!isMap(o)) return err(`${p} must be a map`);
+      // Objects and overlays share one id space: state.visible names either.
+      if (!isStr(o.id) || o.id === '') return err(`${p}.id must be a non-empty string`);
+      if (ids.has(o.id)) return err(`${p}.id ${JSON.stringify(o.id)} is not unique`);
+      ids.add(o.id);
+      if (!isStr(o.kind)) return err(`${p}.kind must be a string`);
+      if (o.visible !== undefined && !isBool(o.visible)) return err(`${p}.visible must be a bool`);
+      const fieldErr = checkFields(o, OVERLAY_FIELDS[o.kind] ?? {});
+      if (fieldErr) return err(`${p}.${fieldErr}`);
+      if (o.kind === 'angle_scale' && (o.to_deg ?? 90) <= (o.from_deg ?? -90)) {
+        return err(`${p}.to_deg must be greater than from_deg`);
+      }
+    }
+  }
+  return null;
+}
+
+const isPos = (x) => isNum(x) && x > 0;
+const isColor = (x) => isStr(x) && /^#[0-9a-fA-F]{6}$/.test(x);
+
+// Per overlay kind: field → [checker, expected, optional]. Kinds this client does not know are
+// allowed (a newer server may add some); the view skips them.
+const OVERLAY_FIELDS = {
+  angle_scale: {
+    centre: [isVec3, '[x, y, z]'],
+    radius: [isPos, 'a number > 0'],
+    from_deg: [isNum, 'a number', true],
+    to_deg: [isNum, 'a number', true],
+    minor_deg: [isPos, 'a number > 0', true],
+    major_deg: [isPos, 'a number > 0', true],
+    color: [isColor, '"#rrggbb"', true],
+  },
+  label: {
+    pos: [isVec3, '[x, y, z]'],
+    text: [isStr, 'a string'],
+    size: [isPos, 'a number > 0', true],
+    color: [isColor, '"#rrggbb"', true],
+  },
+};
+
+/** The first field of `obj` that breaks `fields`, as "name must be ...", or null. */
+function checkFields(obj, fields) {
+  for (const [f, [fn, expected, optional]] of Object.entries(fields)) {
+    if (obj[f] === undefined && optional) continue;
+    if (!fn(obj[f])) return `${f} must be ${expected}`;
+  }
+  return null;
+}
+
+function checkSkin(skin) {
+  if (skin === undefined || skin === null) return null;
+  if (!isMap(skin)) return 'must be a map';
+  if (!isStr(skin.image) || skin.image === '') return 'image must be a URL string';
+  if (skin.tile !== undefined && !(isVec(2)(skin.tile) && skin.tile.every((t) => t > 0))) {
+    return 'tile must be 2 numbers > 0';
   }
   return null;
 }

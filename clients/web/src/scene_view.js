@@ -1,5 +1,6 @@
-// three.js view of a ViESTac scene: builds meshes from a `scene` message and applies `state`
-// frames (HIP, proxy, moved objects). It draws what the server says and decides nothing.
+// three.js view of a ViESTac scene: builds meshes and overlays from a `scene` message and applies
+// `state` frames (HIP, proxy, moved objects, visibility). It draws what the server says and
+// decides nothing.
 //
 // Frames: the wire is in the scene frame (x toward the viewer, y right, z up); three.js is
 // (X right, Y up, Z toward the viewer). Poses go through protocol.sceneToThree/quatSceneToThree.
@@ -7,13 +8,17 @@
 // local +z (cylinder/cone axis, plane normal, dome) is three's local +Y, local x is +Z, y is +X.
 
 import * as THREE from 'three';
-import { sceneToThree, quatSceneToThree } from './protocol.js';
+import { sceneToThree, quatSceneToThree, SHAPE_TYPES } from './protocol.js';
+import { buildOverlay } from './overlays.js';
+import { makeMaterials, SkinLoader } from './skins.js';
+import { Visibility } from './visibility.js';
 
 const SEGMENTS = 64;
 const DEFAULT_HIP = { radius: 0.06, color: '#ffd400' };
 const PROXY_COLOR = '#ff2d55';
 const PROXY_SCALE = 0.5; // a point proxy (proxy_radius 0) is drawn at half the HIP radius
 const SAME_POINT = 1e-6; // proxy within this distance of the HIP is hidden
+const HIP_RENDER_ORDER = 3; // after the overlays (overlays.RENDER_ORDER), which skip the depth test
 
 /** Thickness of the slab drawn for a `plane` shape (its top face is at local z = 0). */
 export function planeThickness(size) {
@@ -62,14 +67,14 @@ export function buildShape(shape, material) {
   }
 }
 
-function makeMaterial(spec = {}) {
-  const opacity = typeof spec.opacity === 'number' ? Math.min(1, Math.max(0, spec.opacity)) : 1;
-  return new THREE.MeshStandardMaterial({
-    color: new THREE.Color(spec.color ?? '#b0b0b0'),
-    roughness: 0.75,
-    metalness: 0.0,
-    transparent: opacity < 1,
-    opacity,
+/** Free the GPU resources under `root`: geometries, materials (or arrays of them) and their maps. */
+function disposeTree(root) {
+  root.traverse((o) => {
+    if (o.geometry && !o.isSprite) o.geometry.dispose(); // all sprites share three's one quad
+    for (const m of [o.material ?? []].flat()) {
+      if (m.map) m.map.dispose();
+      m.dispose();
+    }
   });
 }
 
@@ -96,6 +101,36 @@ export function makeCamera(cam, aspect) {
   return { camera, target };
 }
 
+/**
+ * Visible height of an orthographic view: the scene's `height`, grown when a viewport narrower
+ * than the scene was laid out for would cut drawn things off at the sides. `halfWidth` is their
+ * extent either side of the camera target, across the view.
+ */
+export function orthoHeight(height, aspect, halfWidth, margin = 1.05) {
+  return Math.max(height, (2 * halfWidth * margin) / aspect);
+}
+
+/**
+ * How far `objects` reach either side of the camera target, across the view (along the camera's
+ * right axis), from their world bounding boxes.
+ */
+export function halfWidthAcross(objects, camera, target) {
+  const right = new THREE.Vector3(1, 0, 0).applyQuaternion(camera.quaternion);
+  const box = new THREE.Box3();
+  const corner = new THREE.Vector3();
+  let half = 0;
+  for (const obj of objects) {
+    obj.updateMatrixWorld(true);
+    box.setFromObject(obj);
+    if (box.isEmpty()) continue;
+    for (let i = 0; i < 8; i++) {
+      corner.set(i & 1 ? box.max.x : box.min.x, i & 2 ? box.max.y : box.min.y, i & 4 ? box.max.z : box.min.z);
+      half = Math.max(half, Math.abs(corner.sub(target).dot(right)));
+    }
+  }
+  return half;
+}
+
 function setPose(obj, pos, quat) {
   obj.position.fromArray(sceneToThree(pos));
   const [w, x, y, z] = quatSceneToThree(quat);
@@ -112,9 +147,13 @@ export class SceneView {
     this.scene = new THREE.Scene();
     this.camera = new THREE.OrthographicCamera(-1, 1, 1, -1, 0.01, 100);
     this.cameraSpec = null;
+    this.contentHalfWidth = 0; // see orthoHeight
     this.cameraTarget = new THREE.Vector3(); // three frame
     this.objects = new Map(); // id → {object3d, spec}
-    this.world = new THREE.Group(); // scene objects; rebuilt on each scene message
+    this.overlays = new Map(); // id → {object3d, spec}
+    this.visibility = new Visibility();
+    this.skins = new SkinLoader();
+    this.world = new THREE.Group(); // scene objects and overlays; rebuilt on each scene message
     this.hash = null;
     this.sceneSpec = null;
     this.built = false;
@@ -134,6 +173,8 @@ export class SceneView {
     this.hip.add(this.hipGhost);
     this.proxy = new THREE.Mesh(new THREE.SphereGeometry(1, 24, 12),
       new THREE.MeshStandardMaterial({ color: new THREE.Color(PROXY_COLOR), roughness: 0.4 }));
+    this.hip.renderOrder = HIP_RENDER_ORDER;
+    this.proxy.renderOrder = HIP_RENDER_ORDER;
     this.hip.visible = false;
     this.proxy.visible = false;
     this.scene.add(this.hip, this.proxy);
@@ -145,28 +186,39 @@ export class SceneView {
   build(spec, hash = null) {
     for (const child of [...this.world.children]) {
       this.world.remove(child);
-      child.traverse((o) => {
-        if (o.geometry) o.geometry.dispose();
-        if (o.material) o.material.dispose();
-      });
+      disposeTree(child);
     }
     this.objects.clear();
+    this.overlays.clear();
+    this.visibility.clear();
+    this.skins.cancel(); // images of the old scene still loading are dropped
+    this.skins = new SkinLoader();
     this.sceneSpec = spec;
     this.hash = hash;
 
     for (const o of spec.objects) {
-      const material = makeMaterial(o.material);
-      const obj = buildShape(o.shape, material);
-      if (obj === null) {
+      if (!SHAPE_TYPES.includes(o.shape.type)) {
         console.warn(`viestac: shape type ${o.shape.type} of ${o.id} is not supported; not drawn`);
         continue;
       }
+      const obj = buildShape(o.shape, makeMaterials(o.material, o.shape, this.skins));
       obj.name = o.id;
       const pose = o.pose ?? { pos: [0, 0, 0], quat: [1, 0, 0, 0] };
       setPose(obj, pose.pos, pose.quat);
-      obj.visible = o.visible !== false;
       this.world.add(obj);
       this.objects.set(o.id, { object3d: obj, spec: o });
+      this.visibility.add(o.id, obj, o.visible !== false);
+    }
+    for (const o of spec.overlays ?? []) {
+      const obj = buildOverlay(o);
+      if (obj === null) {
+        console.warn(`viestac: overlay kind ${o.kind} of ${o.id} is not supported; not drawn`);
+        continue;
+      }
+      obj.name = o.id;
+      this.world.add(obj);
+      this.overlays.set(o.id, { object3d: obj, spec: o });
+      this.visibility.add(o.id, obj, o.visible !== false);
     }
 
     this.hipSpec = { ...DEFAULT_HIP, ...(spec.hip ?? {}) };
@@ -180,6 +232,10 @@ export class SceneView {
     this.proxy.scale.setScalar(pr);
 
     this._setCamera(spec.camera);
+    // Ground planes are meant to run off-screen; everything else should stay in view.
+    const fitted = [...this.objects.values()].filter(({ spec: o }) => o.shape.type !== 'plane')
+      .concat([...this.overlays.values()]).map((e) => e.object3d);
+    this.contentHalfWidth = halfWidthAcross(fitted, this.camera, this.cameraTarget);
     this.built = true;
   }
 
@@ -211,7 +267,7 @@ export class SceneView {
     this.renderer.setSize(w, h, false);
     const aspect = w / h;
     if (this.camera.isOrthographicCamera) {
-      const half = (this.cameraSpec?.height ?? 2) / 2;
+      const half = orthoHeight(this.cameraSpec?.height ?? 2, aspect, this.contentHalfWidth) / 2;
       this.camera.top = half;
       this.camera.bottom = -half;
       this.camera.left = -half * aspect;
@@ -222,7 +278,7 @@ export class SceneView {
     this.camera.updateProjectionMatrix();
   }
 
-  /** Apply one `state` frame: HIP, proxy, poses of moved objects. */
+  /** Apply one `state` frame: HIP, proxy, poses of moved objects, visibility overrides. */
   applyState(state) {
     this.hip.position.fromArray(sceneToThree(state.hip));
     this.proxy.position.fromArray(sceneToThree(state.proxy));
@@ -233,13 +289,18 @@ export class SceneView {
       const entry = this.objects.get(id);
       if (entry) setPose(entry.object3d, pos, quat);
     }
+    this.visibility.apply(state.visible);
   }
 
   render() {
     this.renderer.render(this.scene, this.camera);
   }
 
-  /** Scene objects plus HIP and proxy: {id, type, visible, position (three), color, shape | radius}. */
+  /**
+   * Scene objects, overlays, HIP and proxy: {id, type, visible, position (three), color, and
+   * shape + skin (objects) | kind + labels [{text, position (three)}] (overlays, type "overlay") |
+   * radius (HIP, proxy)}.
+   */
   sceneGraph() {
     const out = [];
     for (const [id, { object3d, spec }] of this.objects) {
@@ -250,7 +311,12 @@ export class SceneView {
         position: object3d.position.toArray(),
         color: spec.material?.color ?? null,
         shape: spec.shape,
+        skin: spec.material?.skin?.image ?? null,
       });
+    }
+    for (const [id, { object3d, spec }] of this.overlays) {
+      out.push({ id, type: 'overlay', kind: spec.kind, visible: object3d.visible,
+        position: sceneToThree(spec.centre ?? spec.pos), color: spec.color ?? null, labels: object3d.userData.labels });
     }
     out.push({ id: 'hip', type: 'hip', visible: this.hip.visible, position: this.hip.position.toArray(),
       color: this.hipSpec.color, radius: this.hip.scale.x });

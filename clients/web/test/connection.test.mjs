@@ -108,6 +108,21 @@ describe('Connection', () => {
     assert.deepStrictEqual(FakeSocket.instances[0].decoded()[1], { type: 'input', key: 'ArrowUp', action: 'down' });
   });
 
+  test('sendInput carries a command value only when given', () => {
+    const { c } = make({ role: 'operator' });
+    c.connect();
+    const ws = FakeSocket.instances[0];
+    ws.open();
+    c.sendInput('tap_angle', 'press', -30);
+    c.sendInput('scale', 'press', false);
+    c.sendInput('release', 'press');
+    assert.deepStrictEqual(ws.decoded().slice(1), [
+      { type: 'input', key: 'tap_angle', action: 'press', value: -30 },
+      { type: 'input', key: 'scale', action: 'press', value: false },
+      { type: 'input', key: 'release', action: 'press' },
+    ]);
+  });
+
   test('json subprotocol: text frames both ways', () => {
     const { c, seen } = make({ format: 'json' });
     c.connect();

@@ -25,7 +25,7 @@ function build(msg) {
   switch (msg.type) {
     case 'hello': return P.hello(msg.role, msg.client);
     case 'tracker': return P.tracker(msg.seq, msg.t, msg.pos, msg.quat ?? null);
-    case 'input': return P.input(msg.key, msg.action);
+    case 'input': return P.input(msg.key, msg.action, msg.value);
     default: throw new Error(`no builder for ${msg.type}`);
   }
 }
@@ -35,6 +35,17 @@ describe('shared message vectors (tests/vectors/messages.json)', () => {
   test('file format', () => {
     assert.equal(file.version, 1);
     assert.ok(Array.isArray(file.vectors) && file.vectors.length > 0);
+  });
+  test('covers overlays, skins, visibility, events and command values', () => {
+    const byName = Object.fromEntries(file.vectors.map((v) => [v.name, v.message]));
+    const scene = byName['scene-overlays-skin']?.scene;
+    assert.ok(scene, 'scene-overlays-skin is missing');
+    assert.deepStrictEqual(scene.overlays.map((o) => o.kind).sort(), ['angle_scale', 'label']);
+    assert.ok(scene.objects.some((o) => o.material?.skin?.image), 'no skinned object');
+    const states = file.vectors.filter((v) => v.message.type === 'state').map((v) => v.message);
+    assert.ok(states.some((m) => Object.keys(m.visible ?? {}).length > 0), 'no state with visible overrides');
+    assert.ok(states.some((m) => m.events?.length > 0), 'no state with events');
+    assert.equal(byName['input-command-value']?.value, -30);
   });
   for (const v of file.vectors) {
     if (v.direction === 'client_to_server') {
@@ -99,6 +110,20 @@ describe('builders', () => {
     assert.deepStrictEqual(Object.keys(P.hello('observer', 'x')), ['type', 'v', 'role', 'client']);
     assert.deepStrictEqual(Object.keys(P.tracker(0, 1, [1, 2, 3], [1, 0, 0, 0])), ['type', 'seq', 't', 'pos', 'quat']);
     assert.deepStrictEqual(Object.keys(P.input('r', 'down')), ['type', 'key', 'action']);
+    assert.deepStrictEqual(Object.keys(P.input('tap_angle', 'press', -30)), ['type', 'key', 'action', 'value']);
+  });
+  test('input value: number, bool or string when given, omitted otherwise', () => {
+    assert.ok(!('value' in P.input('release', 'press')));
+    assert.ok(!('value' in P.input('release', 'press', null)));
+    assert.equal(P.input('scale', 'press', false).value, false);
+    assert.equal(P.input('note', 'press', 'x'.repeat(200)).value.length, 200);
+    assert.equal(P.input('tap_angle', 'press', 12.5).value, 12.5);
+    // {type, key, action, value: -30}: -30 is a negative fixint (0xe2)
+    assert.ok(hex(P.encode(P.input('tap_angle', 'press', -30))).endsWith('a576616c7565' + 'e2'));
+    assert.throws(() => P.input('tap_angle', 'press', NaN), { code: 'non_finite' });
+    assert.throws(() => P.input('tap_angle', 'press', { a: 1 }), { code: 'bad_message' });
+    assert.throws(() => P.input('tap_angle', 'press', [1]), { code: 'bad_message' });
+    assert.throws(() => P.input('note', 'press', 'x'.repeat(201)), { code: 'bad_message' });
   });
   test('quat is omitted when absent; typed arrays become plain arrays', () => {
     const m = P.tracker(1, 2, new Float64Array([0.5, 1, 2]));
@@ -129,6 +154,14 @@ describe('decode and validate', () => {
   test('a complete state is valid, extra fields are ignored', () => {
     assert.equal(P.validate(state), null);
     assert.equal(P.validate({ ...state, future_field: 1 }), null);
+  });
+  test('visible and events are optional; when present they are checked', () => {
+    const withBoth = { ...state, visible: { angle_scale: false, dome: true }, events: [{ tick: 3, t: 0.003, name: 'tap' }] };
+    assert.equal(P.validate(withBoth), null);
+    assert.match(P.validate({ ...state, visible: { angle_scale: 0 } }).message, /state\.visible/);
+    assert.match(P.validate({ ...state, visible: [] }).message, /state\.visible/);
+    assert.match(P.validate({ ...state, events: [1] }).message, /state\.events/);
+    assert.match(P.validate({ type: 'input', key: 'k', action: 'press', value: { a: 1 } }).message, /input\.value/);
   });
   test('clear errors name the field', () => {
     const { hip, ...noHip } = state;
@@ -177,6 +210,39 @@ describe('decode and validate', () => {
     const cam = structuredClone(msg);
     cam.scene.camera.projection = 'fisheye';
     assert.match(P.validate(cam).message, /camera\.projection/);
+  });
+  test('scene overlays and skins', () => {
+    const scene = {
+      camera: { projection: 'orthographic', position: [5, 0, 0.35], target: [0, 0, 0.35], up: [0, 0, 1], height: 1.6 },
+      objects: [{ id: 'plane', shape: { type: 'plane', size: [3, 3] },
+        material: { color: '#b89f7a', skin: { image: '/skins/stripes.svg', tile: [0.5, 0.25] } } }],
+      overlays: [
+        { id: 'angle_scale', kind: 'angle_scale', centre: [0, 0, 0], radius: 0.62 },
+        { id: 'name', kind: 'label', pos: [0, -1, 1], text: '1 (softest)', size: 0.12, color: '#1b1b1b', visible: false },
+        { id: 'future', kind: 'hologram', beam: 3 },
+      ],
+    };
+    const msg = { type: 'scene', v: 1, hash: 'ab', scene };
+    assert.equal(P.validate(msg), null);
+    const cases = [
+      [(s) => { s.overlays = {}; }, /overlays must be an array/],
+      [(s) => { s.overlays[0].id = 'plane'; }, /overlays\[0\]\.id "plane" is not unique/],
+      [(s) => { delete s.overlays[0].radius; }, /overlays\[0\]\.radius must be a number > 0/],
+      [(s) => { s.overlays[0].to_deg = -90; }, /to_deg must be greater than from_deg/],
+      [(s) => { s.overlays[1].text = 5; }, /overlays\[1\]\.text must be a string/],
+      [(s) => { s.overlays[1].color = 'red'; }, /overlays\[1\]\.color/],
+      [(s) => { s.overlays[1].visible = 'no'; }, /overlays\[1\]\.visible must be a bool/],
+      [(s) => { delete s.overlays[2].kind; }, /overlays\[2\]\.kind must be a string/],
+      [(s) => { s.objects[0].material.skin.tile = [0.5, 0]; }, /skin tile must be 2 numbers > 0/],
+      [(s) => { s.objects[0].material.skin = { tile: [1, 1] }; }, /skin image/],
+    ];
+    for (const [breakIt, message] of cases) {
+      const bad = structuredClone(msg);
+      breakIt(bad.scene);
+      const e = P.validate(bad);
+      assert.ok(e, `expected an error matching ${message}`);
+      assert.match(e.message, message);
+    }
   });
 });
 

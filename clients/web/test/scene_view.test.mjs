@@ -3,7 +3,7 @@
 import { test, describe } from 'node:test';
 import assert from 'node:assert/strict';
 import * as THREE from 'three';
-import { buildShape, makeCamera, planeThickness } from '../src/scene_view.js';
+import { buildShape, makeCamera, planeThickness, orthoHeight, halfWidthAcross } from '../src/scene_view.js';
 import { threeToScene, sceneToThree } from '../src/protocol.js';
 
 /** Bounding box of a shape's meshes in its local scene frame: {min: [x,y,z], max: [x,y,z]}. */
@@ -86,5 +86,25 @@ describe('camera', () => {
     assert.ok(camera.isPerspectiveCamera);
     assert.equal(camera.fov, 40);
     assert.equal(camera.aspect, 1.5);
+  });
+});
+
+describe('orthographic fit', () => {
+  const spec = { projection: 'orthographic', position: [5, 0, 0.55], target: [0, 0, 0.55], up: [0, 0, 1], height: 2.2 };
+  const sphereAt = (y) => {
+    const m = buildShape({ type: 'sphere', radius: 0.4 }, new THREE.MeshBasicMaterial());
+    m.position.fromArray(sceneToThree([0, y, 0.4]));
+    return m;
+  };
+  test('extent across the view from the camera target', () => {
+    const { camera, target } = makeCamera(spec, 4 / 3);
+    const half = halfWidthAcross([sphereAt(-1.1), sphereAt(0), sphereAt(1.1)], camera, target);
+    assert.ok(Math.abs(half - 1.5) < 1e-6, half);
+    assert.equal(halfWidthAcross([], camera, target), 0);
+  });
+  test('the scene height holds unless a narrow view would clip objects at the sides', () => {
+    assert.equal(orthoHeight(2.2, 16 / 9, 1.5), 2.2); // 3.9 units wide: everything fits
+    assert.ok(Math.abs(orthoHeight(2.2, 4 / 3, 1.5) - (2 * 1.5 * 1.05) / (4 / 3)) < 1e-12);
+    assert.equal(orthoHeight(1.6, 4 / 3, 0.6), 1.6); // contact angle: the dome fits at 4:3
   });
 });
