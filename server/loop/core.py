@@ -71,6 +71,7 @@ class LoopCore:
         sim = self.make_sim(registry.create(name, **params), seed)
         sim.tick = self.sim.tick
         sim.refusals = refusals
+        sim.events = self.sim.events  # unpublished events of the old scenario still go out
         self.sim, self.params, self.seed = sim, dict(params), seed
         self.outbox.extend(self.announce())
 
