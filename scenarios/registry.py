@@ -15,6 +15,7 @@ from typing import Callable
 from scenarios.base import ParamError, Scenario, check_params
 from scenarios.contact_angle import ContactAngle
 from scenarios.friction_temperature import FrictionTemperature
+from scenarios.positioning import Positioning
 from scenarios.shape import ShapeScenario
 from scenarios.stiffness import StiffnessScenario
 from scenarios.texture import TextureScenario
@@ -28,7 +29,7 @@ class ScenarioSpec:
 
 
 SCENARIOS = MappingProxyType({cls.id: ScenarioSpec(cls.id, cls.title, cls) for cls in (
-    ContactAngle, TextureScenario, StiffnessScenario, ShapeScenario, FrictionTemperature,
+    ContactAngle, TextureScenario, StiffnessScenario, ShapeScenario, FrictionTemperature, Positioning,
 )})
 
 

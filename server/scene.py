@@ -57,6 +57,50 @@ def _known(d: dict, allowed: set[str], where: str) -> None:
         raise SceneError(f"{where}: unknown field(s) {', '.join(unknown)}; allowed: {', '.join(sorted(allowed))}")
 
 
+MAX_MESH_VERTICES = 20_000
+MAX_MESH_FACES = 40_000
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A display-only triangle mesh (e.g. a hollow tube built with trimesh) for shapes without an
+    analytic primitive. Never touched: collision stays on primitives (docs/haptics.md), so an
+    object with a mesh shape must have `haptic: false`. Vertices in the object's local frame;
+    faces are counter-clockwise seen from outside."""
+    vertices: tuple[tuple[float, float, float], ...]
+    faces: tuple[tuple[int, int, int], ...]
+    type: ClassVar[str] = "mesh"
+
+    def __post_init__(self) -> None:
+        n = len(self.vertices)
+        if not 3 <= n <= MAX_MESH_VERTICES or not 1 <= len(self.faces) <= MAX_MESH_FACES:
+            raise SceneError(f"a mesh needs 3..{MAX_MESH_VERTICES} vertices and 1..{MAX_MESH_FACES} faces")
+        if any(not (0 <= i < n) for face in self.faces for i in face):
+            raise SceneError(f"mesh face indices must be in 0..{n - 1}")
+
+    @classmethod
+    def from_trimesh(cls, mesh) -> Mesh:
+        return cls(tuple(tuple(round(float(c), 9) for c in v) for v in mesh.vertices),
+                   tuple(tuple(int(i) for i in f) for f in mesh.faces))
+
+    @classmethod
+    def from_dict(cls, d: dict, where: str) -> Mesh:
+        vertices, faces = d.get("vertices"), d.get("faces")
+        if not isinstance(vertices, list) or not isinstance(faces, list):
+            raise SceneError(f"{where}: a mesh needs 'vertices' [[x, y, z], ...] and 'faces' [[i, j, k], ...]")
+        try:
+            v = tuple(_vec({"v": p}, "v", where) for p in vertices)
+        except SceneError:
+            raise SceneError(f"{where}: mesh vertices must be arrays of 3 finite numbers") from None
+        if not all(isinstance(f, list) and len(f) == 3 and all(isinstance(i, int) and not isinstance(i, bool)
+                                                                 for i in f) for f in faces):
+            raise SceneError(f"{where}: mesh faces must be arrays of 3 integer vertex indices")
+        return cls(v, tuple(tuple(f) for f in faces))  # type: ignore[arg-type]
+
+    def to_dict(self) -> dict:
+        return {"type": "mesh", "vertices": [list(v) for v in self.vertices], "faces": [list(f) for f in self.faces]}
+
+
 @dataclass(frozen=True)
 class Skin:
     """An image drawn on a surface (e.g. an LMT haptic texture database photo on the texture
@@ -203,6 +247,11 @@ class SceneObject:
     haptic: bool = True   # False: drawn only (e.g. table legs)
     visible: bool = True  # False: touched only
 
+    def __post_init__(self) -> None:
+        if isinstance(self.shape, Mesh) and self.haptic:
+            raise SceneError(f"object {self.id!r}: a mesh is drawn only; give it haptic: false and touch "
+                             "primitives instead")
+
     def body(self, pose: Pose | None = None) -> Body:
         m = self.material
         return Body(self.id, self.shape, pose or self.pose, m.stiffness_n_per_m, m.static_friction, m.dynamic_friction)
@@ -310,7 +359,11 @@ class Scene:
             if not isinstance(oid, str) or not _ID.match(oid):
                 raise SceneError(f"{where}.id must be 1-64 characters of letters, digits, _ . : -")
             try:
-                shape = shape_from_dict(o.get("shape"))
+                raw_shape = o.get("shape")
+                if isinstance(raw_shape, dict) and raw_shape.get("type") == "mesh":
+                    shape = Mesh.from_dict(raw_shape, f"{where}.shape")
+                else:
+                    shape = shape_from_dict(raw_shape)
                 pose = Pose.from_dict(o.get("pose", {"pos": [0, 0, 0], "quat": [1, 0, 0, 0]}))
             except (ValueError, TypeError, KeyError) as exc:
                 raise SceneError(f"{where} ({oid}): {exc}") from None

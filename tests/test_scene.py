@@ -31,3 +31,19 @@ def test_bad_scenes_name_the_field(patch, message):
     with pytest.raises(SceneError) as info:
         Scene.from_dict({**BASE, **patch})
     assert message in str(info.value)
+
+
+def test_mesh_objects_round_trip_are_drawn_only_and_checked():
+    from server.scene import Mesh, Scene, SceneError
+
+    tri = {"type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "faces": [[0, 1, 2]]}
+    base = {"name": "m", "objects": [{"id": "tri", "shape": tri, "haptic": False}]}
+    scene = Scene.from_dict(base)
+    assert isinstance(scene.object("tri").shape, Mesh) and scene.bodies() == ()
+    assert Scene.from_dict(scene.to_dict()) == scene
+    touched = {"name": "m", "objects": [{"id": "tri", "shape": tri}]}
+    with pytest.raises(SceneError, match="a mesh is drawn only"):
+        Scene.from_dict(touched)
+    bad = {"name": "m", "objects": [{"id": "tri", "shape": {**tri, "faces": [[0, 1, 3]]}, "haptic": False}]}
+    with pytest.raises(SceneError, match="face indices must be in 0..2"):
+        Scene.from_dict(bad)

@@ -133,7 +133,10 @@ class Simulation:
 
     def _apply_changes(self, output: ScenarioOutput) -> bool:
         for object_id, pose in output.poses.items():
-            self._all_bodies[object_id] = replace(self._body(object_id), pose=pose)
+            if object_id in self._all_bodies:
+                self._all_bodies[object_id] = replace(self._all_bodies[object_id], pose=pose)
+            elif not self.scene.has_id(object_id):  # drawn-only objects move too, they just have no body
+                raise KeyError(f"scenario moves {object_id!r}, which is not in scene {self.scene.name!r}")
             self.moved[object_id] = pose
         for object_id, k in output.stiffness.items():
             self._all_bodies[object_id] = replace(self._body(object_id), stiffness_n_per_m=k)
