@@ -60,10 +60,10 @@ class Item:
 
 SQUARE = Hole("square", 0.15, 0.2, 0.5)
 ROUND = Hole("round", 0.15, 0.2, 0.4)
-ITEMS = (
-    Item("cube_a", 0.15, (-0.8, 1.6), SQUARE, (0.9, -1.4)),
-    Item("sphere", 0.15, (0.2, 1.15), ROUND, (-0.7, -0.5)),
-    Item("cube_b", 0.15, (0.9, 0.7), SQUARE, (0.2, 0.35)),
+ITEMS = (  # objects on the right, holes on the left, each at its own depth
+    Item("cube_a", 0.15, (-0.8, 1.8), SQUARE, (0.9, -1.6)),
+    Item("sphere", 0.15, (0.2, 1.4), ROUND, (-0.7, -0.9)),
+    Item("cube_b", 0.15, (0.9, 1.0), SQUARE, (0.2, -0.2)),
 )
 ITEM_IDS = tuple(i.id for i in ITEMS)
 

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from server.bench.loop_bench import get_json
+from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.conftest import LiveServer
 
 pytestmark = pytest.mark.browser
 
@@ -116,10 +117,10 @@ def contact_angle_after(live_server):
 def open_client(browser, live_server):
     contexts = []
 
-    def make(query: str = "") -> Client:
+    def make(query: str = "", server: LiveServer | None = None) -> Client:
         ctx = browser.new_context(viewport=VIEWPORT)
         contexts.append(ctx)
-        return Client(ctx.new_page(), live_server).open(query)
+        return Client(ctx.new_page(), server or live_server).open(query)
 
     yield make
     for ctx in contexts:
@@ -349,6 +350,7 @@ SCENARIOS = [
     ("stiffness-v1", {}),
     ("shape-v1", {}),
     ("friction-temperature-v1", {}),
+    ("positioning-v1", {}),
 ]
 
 
@@ -420,8 +422,11 @@ def test_scenario_screenshots(open_client, live_server, contact_angle_after, sce
     assert {o["id"] for o in scene["objects"]} <= set(graph), graph.keys()
     assert {o["id"] for o in scene.get("overlays", [])} == {o["id"] for o in graph.values() if o["type"] == "overlay"}
 
-    # Every solid object shows its colour and lies within the viewport (ground planes may not).
-    solids = [o for o in graph.values() if o["type"] in ("sphere", "box", "cone", "hemisphere")]
+    # Every solid object the scene shows has its colour and lies within the viewport (ground planes
+    # may not; touched-only objects such as the positioning task's tube rims are not drawn).
+    hidden = {o["id"] for o in scene["objects"] if not o["visible"]}
+    hidden |= {oid for oid, shown in live_server.get("/api/state")["visible"].items() if not shown}
+    solids = [o for o in graph.values() if o["type"] in ("sphere", "box", "cone", "hemisphere") and o["id"] not in hidden]
     for obj in solids:
         assert obj["visible"], obj
         hits = shows_colour(px, client, obj)
@@ -461,6 +466,13 @@ def test_scenario_screenshots(open_client, live_server, contact_angle_after, sce
         luminance = box @ [0.2126, 0.7152, 0.0722]
         assert luminance.std() > 12, f"the skinned plane looks flat (luminance std {luminance.std():.1f})"
         assert np.abs(chroma(box.mean(axis=0)) - chroma(hex_rgb(plane["color"]))).max() < 0.05
+
+    if scenario == "positioning-v1":
+        # The tubes are meshes, drawn; the objects stand on the table, the arrow waits for a pick.
+        for tube in ("cube_a_hole", "sphere_hole", "cube_b_hole"):
+            assert graph[tube]["type"] == "mesh" and graph[tube]["visible"], graph[tube]
+        assert not graph["arrow_head"]["visible"] and not graph["cube_a_rim"]["visible"]
+        assert {"cube_a", "sphere", "cube_b"} <= {o["id"] for o in solids}
 
     assert client.hook("stats.lastError") is None, client.hook("stats.lastError")
     assert not client.page_errors, client.page_errors
@@ -531,3 +543,91 @@ def test_operator_panel_sends_commands(open_client, live_server, contact_angle_a
     participant = open_client()
     assert participant.hook("panelKeys()") is None
     assert not participant.page.locator("#operator").is_visible()
+
+
+# -- mesh shapes --------------------------------------------------------------------------------
+
+TUBE_COLOR = "#2f6fdf"
+GROUND_COLOR = "#8c8c8c"
+
+
+def square_tube(outer: float, inner: float, height: float) -> tuple[list, list]:
+    """A square tube standing on z = 0 around the z axis: its outer and inner walls and its top and
+    bottom rims, each quad as two triangles counter-clockwise seen from outside the material."""
+    vertices = []
+    for half in (outer / 2, inner / 2):
+        for z in (0.0, height):
+            # corners counter-clockwise seen from +z
+            vertices += [[half, -half, z], [half, half, z], [-half, half, z], [-half, -half, z]]
+
+    def v(ring: int, top: int, k: int) -> int:  # ring 0 outer, 1 inner
+        return ring * 8 + top * 4 + k % 4
+
+    faces = []
+    for k in range(4):
+        for a, b, c, d in [(v(0, 0, k), v(0, 0, k + 1), v(0, 1, k + 1), v(0, 1, k)),  # outer wall
+                           (v(1, 0, k), v(1, 1, k), v(1, 1, k + 1), v(1, 0, k + 1)),  # inner wall, faces the hole
+                           (v(0, 1, k), v(0, 1, k + 1), v(1, 1, k + 1), v(1, 1, k)),  # top rim
+                           (v(0, 0, k), v(1, 0, k), v(1, 0, k + 1), v(0, 0, k + 1))]:  # bottom rim
+            faces += [[a, b, c], [a, c, d]]
+    return vertices, faces
+
+
+@pytest.fixture
+def mesh_server(tmp_path):
+    """A server of its own exploring a scene file: a ground plane and a 0.4 x 0.4 / 0.3 x 0.3 square
+    tube 0.5 high, seen from above and in front so that the ground shows through the hole."""
+    vertices, faces = square_tube(0.4, 0.3, 0.5)
+    scene = {
+        "name": "mesh-tube",
+        "camera": {"projection": "perspective", "position": [0.5, 0.2, 2.2], "target": [0, 0, 0.2],
+                   "up": [0, 0, 1], "fov_deg": 40},
+        "objects": [
+            {"id": "ground", "shape": {"type": "plane", "size": [2, 2]}, "material": {"color": GROUND_COLOR}},
+            {"id": "tube", "shape": {"type": "mesh", "vertices": vertices, "faces": faces},
+             "material": {"color": TUBE_COLOR}, "haptic": False},
+        ],
+    }
+    path = tmp_path / "mesh_scene.json"
+    path.write_text(json.dumps(scene))
+    proc, base = start_server("contact-angle", extra=["--scene", str(path)])
+    try:
+        yield LiveServer(base, base.replace("http://", "ws://") + "/ws")
+    finally:
+        stop_server(proc)
+
+
+def test_mesh_object_renders_and_is_freed(open_client, mesh_server):
+    client = open_client(server=mesh_server)
+    page = client.page
+    tube = client.graph()["tube"]
+    assert tube["type"] == "mesh" and tube["visible"], tube
+
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    png = page.screenshot(path=str(ARTIFACTS / "mesh.png"))
+    px = screenshot_pixels(page, png)[:, :, :3].astype(float)
+
+    def colour_at(scene_pos, color: str) -> bool:
+        mean = patch(px, *client.screen(scene_pos)).mean(axis=0)
+        return bool(np.abs(chroma(mean) - chroma(hex_rgb(color))).max() < 0.06)
+
+    tube_px = (np.abs(px / np.maximum(px.sum(axis=2, keepdims=True), 1) - chroma(hex_rgb(TUBE_COLOR))).max(axis=2)
+               < 0.06).sum()
+    assert tube_px > 5000, f"the tube's colour {TUBE_COLOR} covers only {tube_px} pixels"
+    # The top rim all round and the outer wall facing the camera are drawn (outward winding:
+    # culled faces would show the inside), and the ground shows through the hole.
+    rim = [(0.175, 0, 0.5), (-0.175, 0, 0.5), (0, 0.175, 0.5), (0, -0.175, 0.5)]
+    for p in rim + [(0.2, 0, 0.25)]:
+        assert colour_at(p, TUBE_COLOR), f"no tube colour at {p}"
+    assert colour_at((0, 0, 0), GROUND_COLOR), "the ground does not show through the tube's hole"
+    assert client.hook("stats.lastError") is None, client.hook("stats.lastError")
+    assert not client.page_errors, client.page_errors
+    assert not client.console_errors, client.console_errors
+
+    # Another scene: the mesh's geometry is freed like any shape's (same GPU memory as a page
+    # that never saw the tube).
+    client.wait_rebuilt(switch_scenario(mesh_server, "contact-angle"))
+    assert "tube" not in client.graph()
+    fresh = open_client(server=mesh_server)
+    fresh.wait_rebuilt(fresh.hook("sceneHash"))
+    assert client.hook("memory()") == fresh.hook("memory()"), "the mesh geometry leaked"

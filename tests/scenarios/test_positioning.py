@@ -61,10 +61,11 @@ def test_tube_meshes_have_the_spec_dimensions(hole):
 def test_grasp_attaches_the_object_shows_the_arrow_and_stops_touching_it():
     sim, sc = make()
     pick(sim)
-    last = run_path(sim, [(-0.8, 1.6, 0.9)] * 3)[-1]
+    x, y = ITEMS[0].start
+    last = run_path(sim, [(x, y, 0.9)] * 3)[-1]
     assert sc.phase == "carry" and last.output.hud == "Bring it to the arrow"
     assert "cube_a" in sim.untouchable and sim.visibility["arrow_head"] is True
-    assert sim.moved["cube_a"].pos == pytest.approx((-0.8, 1.6, 0.9 - HANG))
+    assert sim.moved["cube_a"].pos == pytest.approx((x, y, 0.9 - HANG))
     assert [e["name"] for e in sim.events] == ["pick"]
 
 

@@ -17,7 +17,9 @@ export const ERROR_CODES = Object.freeze([
   'bad_encoding', 'bad_message', 'non_finite', 'unknown_type',
   'too_large', 'forbidden', 'unsupported_version', 'busy',
 ]);
-export const SHAPE_TYPES = Object.freeze(['sphere', 'box', 'cylinder', 'cone', 'plane', 'hemisphere']);
+export const SHAPE_TYPES = Object.freeze(['sphere', 'box', 'cylinder', 'cone', 'plane', 'hemisphere', 'mesh']);
+export const MAX_MESH_VERTICES = 20000;
+export const MAX_MESH_FACES = 40000;
 
 /** A problem with a frame or a message. `code` uses the protocol's error codes. */
 export class ProtocolError extends Error {
@@ -425,6 +427,29 @@ function checkSkin(skin) {
   if (!isStr(skin.image) || skin.image === '') return 'image must be a URL string';
   if (skin.tile !== undefined && !(isVec(2)(skin.tile) && skin.tile.every((t) => t > 0))) {
     return 'tile must be 2 numbers > 0';
+  }
+  return null;
+}
+
+/**
+ * What is wrong with a `mesh` shape's data, as a sentence, or null. validateScene leaves meshes
+ * alone so that one bad mesh costs only its own object: the view checks each one with this.
+ */
+export function checkMesh(shape) {
+  const { vertices, faces } = shape;
+  if (!Array.isArray(vertices) || vertices.length < 3 || vertices.length > MAX_MESH_VERTICES) {
+    return `vertices must be an array of 3..${MAX_MESH_VERTICES} [x, y, z]`;
+  }
+  const badVertex = vertices.findIndex((v) => !isVec3(v));
+  if (badVertex >= 0) return `vertices[${badVertex}] must be [x, y, z], got ${describe(vertices[badVertex])}`;
+  if (!Array.isArray(faces) || faces.length < 1 || faces.length > MAX_MESH_FACES) {
+    return `faces must be an array of 1..${MAX_MESH_FACES} [i, j, k]`;
+  }
+  const n = vertices.length;
+  const badFace = faces.findIndex((f) => !(Array.isArray(f) && f.length === 3
+    && f.every((i) => Number.isInteger(i) && i >= 0 && i < n)));
+  if (badFace >= 0) {
+    return `faces[${badFace}] must be 3 vertex indices in 0..${n - 1}, got ${describe(faces[badFace])}`;
   }
   return null;
 }

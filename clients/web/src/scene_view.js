@@ -8,7 +8,7 @@
 // local +z (cylinder/cone axis, plane normal, dome) is three's local +Y, local x is +Z, y is +X.
 
 import * as THREE from 'three';
-import { sceneToThree, quatSceneToThree, SHAPE_TYPES } from './protocol.js';
+import { sceneToThree, quatSceneToThree, SHAPE_TYPES, checkMesh } from './protocol.js';
 import { buildOverlay } from './overlays.js';
 import { makeMaterials, SkinLoader } from './skins.js';
 import { Visibility } from './visibility.js';
@@ -23,6 +23,39 @@ const HIP_RENDER_ORDER = 3; // after the overlays (overlays.RENDER_ORDER), which
 /** Thickness of the slab drawn for a `plane` shape (its top face is at local z = 0). */
 export function planeThickness(size) {
   return Math.min(0.05, 0.02 * Math.min(size[0], size[1]));
+}
+
+// Per dominant axis of a mesh face's scene normal: the scene axes its u and v run along. u takes
+// the skin's tx period and v its ty, as on a box face (skins.BOX_FACE_AXES).
+const MESH_UV_AXES = [[2, 1], [0, 2], [0, 1]];
+
+/**
+ * Geometry of a `mesh` shape (data already passed protocol.checkMesh) in three.js axes.
+ * Non-indexed, so computeVertexNormals gives every triangle its own normal: flat shading keeps a
+ * tube's edges hard. The scene → three axis permutation is a rotation, so the counter-clockwise
+ * winding (outward normals) carries over. UVs are box-projected in scene units for skins.
+ */
+export function meshGeometry({ vertices, faces }) {
+  const positions = new Float32Array(faces.length * 9);
+  const uvs = new Float32Array(faces.length * 6);
+  const e1 = new THREE.Vector3();
+  const e2 = new THREE.Vector3();
+  faces.forEach((face, k) => {
+    const [a, b, c] = face.map((i) => vertices[i]);
+    e1.set(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+    e2.set(c[0] - a[0], c[1] - a[1], c[2] - a[2]);
+    const n = e1.cross(e2).toArray().map(Math.abs);
+    const [u, v] = MESH_UV_AXES[n.indexOf(Math.max(...n))];
+    [a, b, c].forEach((p, j) => {
+      positions.set(sceneToThree(p), k * 9 + j * 3);
+      uvs.set([p[u], p[v]], k * 6 + j * 2);
+    });
+  });
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(positions, 3));
+  g.setAttribute('uv', new THREE.BufferAttribute(uvs, 2));
+  g.computeVertexNormals();
+  return g;
 }
 
 /**
@@ -62,6 +95,8 @@ export function buildShape(shape, material) {
       group.add(new THREE.Mesh(dome, material), new THREE.Mesh(base, material));
       return group;
     }
+    case 'mesh':
+      return new THREE.Mesh(meshGeometry(shape), material);
     default:
       return null;
   }
@@ -137,6 +172,27 @@ function setPose(obj, pos, quat) {
   obj.quaternion.set(x, y, z, w).normalize();
 }
 
+/**
+ * The posed three.js object of one scene object, or null (with a console warning naming it) when
+ * this client cannot draw it: an unknown shape type, or mesh data that does not hold together.
+ */
+export function buildObject(o, skins) {
+  if (!SHAPE_TYPES.includes(o.shape.type)) {
+    console.warn(`viestac: shape type ${o.shape.type} of ${o.id} is not supported; not drawn`);
+    return null;
+  }
+  const problem = o.shape.type === 'mesh' ? checkMesh(o.shape) : null;
+  if (problem) {
+    console.warn(`viestac: mesh of ${o.id} is invalid (${problem}); not drawn`);
+    return null;
+  }
+  const obj = buildShape(o.shape, makeMaterials(o.material, o.shape, skins));
+  obj.name = o.id;
+  const pose = o.pose ?? { pos: [0, 0, 0], quat: [1, 0, 0, 0] };
+  setPose(obj, pose.pos, pose.quat);
+  return obj;
+}
+
 export class SceneView {
   /** @param {HTMLCanvasElement} canvas */
   constructor(canvas) {
@@ -197,14 +253,8 @@ export class SceneView {
     this.hash = hash;
 
     for (const o of spec.objects) {
-      if (!SHAPE_TYPES.includes(o.shape.type)) {
-        console.warn(`viestac: shape type ${o.shape.type} of ${o.id} is not supported; not drawn`);
-        continue;
-      }
-      const obj = buildShape(o.shape, makeMaterials(o.material, o.shape, this.skins));
-      obj.name = o.id;
-      const pose = o.pose ?? { pos: [0, 0, 0], quat: [1, 0, 0, 0] };
-      setPose(obj, pose.pos, pose.quat);
+      const obj = buildObject(o, this.skins);
+      if (obj === null) continue;
       this.world.add(obj);
       this.objects.set(o.id, { object3d: obj, spec: o });
       this.visibility.add(o.id, obj, o.visible !== false);

@@ -17,6 +17,7 @@ const PLANE_TOP_FACE = 2; // py: the plane's top face (scene +z)
  *   repeats every tx along local x and every ty along local y.
  * - box: every face, x → tx, y → ty, and z takes the entry the face's other axis leaves.
  * - round shapes: tx around the circumference, ty along the surface from base to top.
+ * - mesh: its UVs are in scene units (scene_view.meshGeometry), so one repeat per tile.
  */
 export function skinRepeats(shape, tile = DEFAULT_TILE) {
   const [tx, ty] = tile;
@@ -37,6 +38,7 @@ export function skinRepeats(shape, tile = DEFAULT_TILE) {
     case 'hemisphere': return [[(2 * Math.PI * r) / tx, (Math.PI * r) / 2 / ty]];
     case 'cylinder': return [[(2 * Math.PI * r) / tx, shape.height / ty]];
     case 'cone': return [[(2 * Math.PI * r) / tx, Math.hypot(r, shape.height) / ty]];
+    case 'mesh': return [[1 / tx, 1 / ty]];
     default: return [[1, 1]];
   }
 }

@@ -210,6 +210,10 @@ describe('decode and validate', () => {
     const cam = structuredClone(msg);
     cam.scene.camera.projection = 'fisheye';
     assert.match(P.validate(cam).message, /camera\.projection/);
+    // A bad mesh costs only its own object (the view skips it), not the whole scene.
+    const mesh = structuredClone(msg);
+    mesh.scene.objects.push({ id: 'tube', shape: { type: 'mesh', vertices: [[0, 0, 0]], faces: [[0, 1, 2]] }, haptic: false });
+    assert.equal(P.validate(mesh), null);
   });
   test('scene overlays and skins', () => {
     const scene = {

@@ -3,8 +3,10 @@
 import { test, describe } from 'node:test';
 import assert from 'node:assert/strict';
 import * as THREE from 'three';
-import { buildShape, makeCamera, planeThickness, orthoHeight, halfWidthAcross } from '../src/scene_view.js';
-import { threeToScene, sceneToThree } from '../src/protocol.js';
+import { buildShape, buildObject, meshGeometry, makeCamera, planeThickness, orthoHeight, halfWidthAcross }
+  from '../src/scene_view.js';
+import { threeToScene, sceneToThree, checkMesh } from '../src/protocol.js';
+import { SkinLoader } from '../src/skins.js';
 
 /** Bounding box of a shape's meshes in its local scene frame: {min: [x,y,z], max: [x,y,z]}. */
 function sceneBox(shape) {
@@ -58,6 +60,100 @@ describe('shapes in their local scene frame', () => {
   });
   test('unknown shapes are skipped', () => {
     assert.equal(buildShape({ type: 'torus' }, null), null);
+  });
+});
+
+// Unit cube [0, 1]^3 in the scene frame: vertex i has x = bit 0, y = bit 1, z = bit 2 of
+// [0, 1, 3, 2, 4, 5, 7, 6][i]; two triangles per side, counter-clockwise seen from outside.
+const CUBE = {
+  type: 'mesh',
+  vertices: [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]],
+  faces: [
+    [0, 3, 2], [0, 2, 1], // bottom, -z
+    [4, 5, 6], [4, 6, 7], // top, +z
+    [1, 2, 6], [1, 6, 5], // front, +x
+    [0, 4, 7], [0, 7, 3], // back, -x
+    [3, 7, 6], [3, 6, 2], // right, +y
+    [0, 1, 5], [0, 5, 4], // left, -y
+  ],
+};
+
+describe('mesh shape', () => {
+  const vertexAt = (attr, i) => [attr.getX(i), attr.getY(i), attr.getZ(i)];
+
+  test('positions are the scene vertices of each face, in three.js axes', () => {
+    const g = meshGeometry(CUBE);
+    const pos = g.attributes.position;
+    assert.equal(g.index, null, 'non-indexed: one normal per face');
+    assert.equal(pos.count, 36);
+    CUBE.faces.forEach((face, k) => face.forEach((v, j) => {
+      assert.deepStrictEqual(vertexAt(pos, 3 * k + j), sceneToThree(CUBE.vertices[v]), `face ${k} corner ${j}`);
+    }));
+  });
+
+  test('normals point outward; the scene +z face points to three.js +Y', () => {
+    const g = meshGeometry(CUBE);
+    const { position, normal } = g.attributes;
+    const centre = new THREE.Vector3(0.5, 0.5, 0.5);
+    for (let k = 0; k < CUBE.faces.length; k++) {
+      const centroid = new THREE.Vector3();
+      for (let j = 0; j < 3; j++) centroid.add(new THREE.Vector3(...vertexAt(position, 3 * k + j)));
+      const outward = centroid.divideScalar(3).sub(centre); // convex: away from the centre
+      for (let j = 0; j < 3; j++) {
+        const n = new THREE.Vector3(...vertexAt(normal, 3 * k + j));
+        assert.ok(Math.abs(n.length() - 1) < 1e-6 && n.dot(outward) > 0, `face ${k}: normal ${n.toArray()} points inward`);
+      }
+    }
+    for (const k of [2, 3]) { // the top (+z) triangles
+      for (let j = 0; j < 3; j++) near(vertexAt(normal, 3 * k + j), [0, 1, 0]);
+    }
+  });
+
+  test('uvs run in scene units along the axes a box face would use', () => {
+    const { uv } = meshGeometry(CUBE).attributes;
+    const uvOf = (k) => [0, 1, 2].map((j) => [uv.getX(3 * k + j), uv.getY(3 * k + j)]);
+    const along = (k, [u, v]) => CUBE.faces[k].map((i) => [CUBE.vertices[i][u], CUBE.vertices[i][v]]);
+    assert.deepStrictEqual(uvOf(2), along(2, [0, 1])); // top: x, y
+    assert.deepStrictEqual(uvOf(4), along(4, [2, 1])); // front: z, y
+    assert.deepStrictEqual(uvOf(8), along(8, [0, 2])); // right: x, z
+  });
+
+  test('buildShape: the cube spans [0, 1] on every scene axis', () => {
+    const b = sceneBox(CUBE);
+    near(b.min, [0, 0, 0]);
+    near(b.max, [1, 1, 1]);
+  });
+
+  test('bad mesh data is described', () => {
+    assert.equal(checkMesh(CUBE), null);
+    const cases = [
+      [{ faces: [[0, 1, 8]] }, /faces\[0\] must be 3 vertex indices in 0\.\.7, got \[0,1,8\]/],
+      [{ faces: [[0, 1, -1]] }, /faces\[0\] must be 3 vertex indices/],
+      [{ faces: [[0, 1.5, 2]] }, /faces\[0\] must be 3 vertex indices/],
+      [{ faces: [[0, 1]] }, /faces\[0\] must be 3 vertex indices/],
+      [{ faces: [] }, /faces must be an array of 1\.\.40000/],
+      [{ faces: null }, /faces must be an array/],
+      [{ vertices: [[0, 0, 0], [1, 0], [0, 1, 0]] }, /vertices\[1\] must be \[x, y, z\], got \[1,0\]/],
+      [{ vertices: [[0, 0, 0], [1, 0, 0], [0, 1, '0']] }, /vertices\[2\] must be \[x, y, z\]/],
+      [{ vertices: Array(20001).fill([0, 0, 0]) }, /vertices must be an array of 3\.\.20000/],
+      [{ vertices: 'cube' }, /vertices must be an array/],
+    ];
+    for (const [change, message] of cases) assert.match(checkMesh({ ...CUBE, ...change }) ?? '', message);
+  });
+
+  test('buildObject poses a good mesh and skips a bad one with a warning naming it', (t) => {
+    const warn = t.mock.method(console, 'warn', () => {});
+    const skins = new SkinLoader({ load: () => assert.fail('no skin to load') });
+    const good = buildObject({ id: 'tube', shape: CUBE, pose: { pos: [0.1, 0.2, 0.3], quat: [1, 0, 0, 0] },
+      material: { color: '#3a7bd5' }, haptic: false }, skins);
+    assert.equal(good.name, 'tube');
+    near(good.position.toArray(), sceneToThree([0.1, 0.2, 0.3]));
+    assert.equal(warn.mock.callCount(), 0);
+
+    const bad = buildObject({ id: 'hole', shape: { ...CUBE, faces: [[0, 1, 9]] }, haptic: false }, skins);
+    assert.equal(bad, null);
+    assert.equal(warn.mock.callCount(), 1);
+    assert.match(warn.mock.calls[0].arguments[0], /mesh of hole is invalid \(faces\[0\] must be 3 vertex indices in 0\.\.7/);
   });
 });
 

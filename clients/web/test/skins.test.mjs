@@ -42,6 +42,10 @@ describe('skin repeats', () => {
     near(skinRepeats({ type: 'cone', radius: 0.3, height: 0.4 }, [1, 0.5])[0], [0.6 * Math.PI, 1]);
   });
 
+  test('mesh: its uvs are scene units, so one repeat per tile', () => {
+    near(skinRepeats({ type: 'mesh', vertices: [], faces: [] }, [0.5, 0.25])[0], [2, 4]);
+  });
+
   test("BoxGeometry's faces run u and v along the axes the repeats assume", () => {
     // Correlate each face group's uv with its vertex positions (scene frame).
     const mesh = buildShape({ type: 'box', size: [1, 2, 3] }, new THREE.MeshBasicMaterial());
