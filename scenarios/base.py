@@ -192,6 +192,7 @@ class ScenarioOutput:
     visible: dict[str, bool] = field(default_factory=dict)      # objects/overlays shown or hidden this tick
     haptic: dict[str, bool] = field(default_factory=dict)       # bodies made touchable or not this tick
     stiffness: dict[str, float] = field(default_factory=dict)   # bodies whose spring k changed this tick
+    scales: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # drawn size factors (scene axes)
     hold_hip: Vec3 | None = None  # hold the HIP here from the next tick on (experimenter's tap); None: tracker
     events: tuple[dict, ...] = ()  # things worth recording with their tick (key presses, taps)
 

@@ -183,6 +183,7 @@ class Positioning:
         self._poses: dict[str, Pose] = {}
         self._visible: dict[str, bool] = {}
         self._haptic: dict[str, bool] = {}
+        self._scales: dict[str, tuple[float, float, float]] = {}
         self._begin(self.index)
 
     def _begin(self, index: int) -> None:
@@ -218,6 +219,8 @@ class Positioning:
         elif key == "hole_scale":
             self.scale = float(value)
             self._pending.append({"name": "hole_scale", "scale": self.scale})
+            # the tubes widen (not taller); the rims the fingertip rests on keep their size
+            self._scales.update({f"{item.id}_hole": (self.scale, self.scale, 1.0) for item in ITEMS})
 
     def hole_xy(self, item: Item) -> tuple[float, float]:
         return item.hole_at[0], item.hole_at[1] + self.hole_offset
@@ -251,8 +254,9 @@ class Positioning:
         if self._visible.get("arrow_shaft") or self.phase in ("carry", "go"):
             self._place_arrow(target)
         out = ScenarioOutput(cues=cues, hud=self._hud(ctx), values=self._values(target), poses=self._poses,
-                             visible=self._visible, haptic=self._haptic, events=tuple(self._pending))
-        self._poses, self._visible, self._haptic, self._pending = {}, {}, {}, []
+                             visible=self._visible, haptic=self._haptic, scales=self._scales,
+                             events=tuple(self._pending))
+        self._poses, self._visible, self._haptic, self._scales, self._pending = {}, {}, {}, {}, []
         return out
 
     def _grasp(self, ctx: TickContext, item: Item) -> None:

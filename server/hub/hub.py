@@ -171,7 +171,8 @@ class Hub:
             frame=rec["frame"], tick=rec["tick"], t=rec["t"], scene=self.scene_hash, hip=rec["hip"],
             proxy=rec["proxy"], force=rec["force"], contact=rec["contact"], contacts=rec["contacts"],
             objects=rec["objects"], cues=rec["cues"], hud=rec["hud"], values=rec["values"],
-            telemetry=self.telemetry_summary(), visible=rec.get("visible"), events=rec.get("events"))
+            telemetry=self.telemetry_summary(), visible=rec.get("visible"), events=rec.get("events"),
+            scales=rec.get("scales"))
         self.last_state = message
         formats = {s.fmt for s in self.sessions.values() if s.welcomed}
         self._frames = {fmt: codec.encode(message, fmt) for fmt in formats}

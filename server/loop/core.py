@@ -110,6 +110,7 @@ class LoopCore:
             "contacts": [[c.body_id, _round(c.normal, 6), round(c.depth, 9)] for c in r.contacts],
             "objects": [[oid, _round(p.pos), [round(q, 9) for q in p.quat]] for oid, p in self.sim.moved.items()],
             "visible": dict(self.sim.visibility),
+            "scales": {oid: list(s) for oid, s in self.sim.scales.items()},
             "cues": [cue_to_wire(c) for c in out.cues], "hud": out.hud, "values": out.values,
             "events": self.sim.events,
             "samples": self.samples.tobytes(),

@@ -58,6 +58,7 @@ class Simulation:
         self.bodies = list(self._all_bodies.values())  # the touchable ones, in scene order
         self.moved: dict[str, Pose] = {}  # objects whose pose differs from the scene's
         self.visibility: dict[str, bool] = {}  # objects/overlays shown or hidden against the scene
+        self.scales: dict[str, tuple[float, float, float]] = {}  # objects drawn scaled (never touched scaled)
         self.untouchable: set[str] = set()
         self.tick = 0
         self.hip: Vec3 = home_position(self.scene)
@@ -114,7 +115,7 @@ class Simulation:
                           self.god.sticking)
         output = self.scenario.step(ctx)
         scene_changed = False
-        if output.poses or output.haptic or output.stiffness or output.visible:
+        if output.poses or output.haptic or output.stiffness or output.visible or output.scales:
             scene_changed = self._apply_changes(output)
         if output.hold_hip != self.held:
             if output.hold_hip is not None:
@@ -143,6 +144,13 @@ class Simulation:
         for object_id, on in output.haptic.items():
             self._body(object_id)
             (self.untouchable.discard if on else self.untouchable.add)(object_id)
+        for object_id, factors in output.scales.items():
+            if not self.scene.has_id(object_id):
+                raise KeyError(f"scenario scales {object_id!r}, which is not in scene {self.scene.name!r}")
+            if tuple(factors) == (1.0, 1.0, 1.0):
+                self.scales.pop(object_id, None)
+            else:
+                self.scales[object_id] = tuple(factors)
         for element_id, shown in output.visible.items():
             if not self.scene.has_id(element_id):
                 raise KeyError(f"scenario shows/hides {element_id!r}, which is not in scene {self.scene.name!r}")

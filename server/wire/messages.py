@@ -147,11 +147,11 @@ def scene_message(scene: dict, scene_hash: str) -> dict:
 
 def state_message(*, frame: int, tick: int, t: float, scene: str, hip, proxy, force, contact: bool,
                   contacts, objects, cues, hud: str, values: dict, telemetry: dict, visible: dict | None = None,
-                  events: list | None = None) -> dict:
+                  events: list | None = None, scales: dict | None = None) -> dict:
     return {"type": "state", "frame": frame, "tick": tick, "t": t, "scene": scene,
             "hip": list(hip), "proxy": list(proxy), "force": list(force), "contact": contact,
             "contacts": contacts, "objects": objects, "cues": cues, "hud": hud, "values": values,
-            "telemetry": telemetry, "visible": visible or {}, "events": events or []}
+            "telemetry": telemetry, "visible": visible or {}, "events": events or [], "scales": scales or {}}
 
 
 def error(code: str, message: str) -> dict:

@@ -473,6 +473,15 @@ def test_scenario_screenshots(open_client, live_server, contact_angle_after, sce
             assert graph[tube]["type"] == "mesh" and graph[tube]["visible"], graph[tube]
         assert not graph["arrow_head"]["visible"] and not graph["cube_a_rim"]["visible"]
         assert {"cube_a", "sphere", "cube_b"} <= {o["id"] for o in solids}
+        # the experimenter widens the holes: the tubes are drawn 1.5 times as wide, not taller
+        live_server.post("/api/command", {"key": "hole_scale", "value": 1.5})
+        page.wait_for_function("() => window.__viestac.sceneGraph().find(o => o.id === 'cube_a_hole').scale[0] === 1.5",
+                               timeout=5000)
+        tube = next(o for o in client.graph().values() if o["id"] == "sphere_hole")
+        assert tube["scale"] == [1.5, 1.0, 1.5], "three.js axes: scene y → X, z → Y, x → Z"
+        live_server.post("/api/command", {"key": "hole_scale", "value": 1.0})
+        page.wait_for_function("() => window.__viestac.sceneGraph().find(o => o.id === 'cube_a_hole').scale[0] === 1",
+                               timeout=5000)
 
     assert client.hook("stats.lastError") is None, client.hook("stats.lastError")
     assert not client.page_errors, client.page_errors

@@ -174,3 +174,7 @@ def test_moving_holes_and_hole_scale():
     sim.input("hole_scale", "press", 1.5)
     sim.step()
     assert sc.scale == 1.5 and sim.events[-1]["name"] == "hole_scale"
+    assert sim.scales["cube_a_hole"] == (1.5, 1.5, 1.0) and sim.scales["sphere_hole"] == (1.5, 1.5, 1.0)
+    sim.input("hole_scale", "press", 1.0)
+    sim.step()
+    assert sim.scales == {}, "back at scene size: no override left"

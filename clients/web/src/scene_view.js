@@ -340,6 +340,19 @@ export class SceneView {
       if (entry) setPose(entry.object3d, pos, quat);
     }
     this.visibility.apply(state.visible);
+    this.applyScales(state.scales ?? {});
+  }
+
+  /** state.scales: the complete set of scaled objects (id → [sx, sy, sz], scene axes); an object
+   * no longer listed is back at its scene size. */
+  applyScales(scales) {
+    for (const id of this.scaled ?? []) {
+      if (!Object.hasOwn(scales, id)) this.objects.get(id)?.object3d.scale.set(1, 1, 1);
+    }
+    this.scaled = Object.keys(scales);
+    for (const [id, s] of Object.entries(scales)) {
+      this.objects.get(id)?.object3d.scale.fromArray(sceneToThree(s)); // a scale permutes like a position
+    }
   }
 
   render() {
@@ -347,7 +360,7 @@ export class SceneView {
   }
 
   /**
-   * Scene objects, overlays, HIP and proxy: {id, type, visible, position (three), color, and
+   * Scene objects, overlays, HIP and proxy: {id, type, visible, position and scale (three), color, and
    * shape + skin (objects) | kind + labels [{text, position (three)}] (overlays, type "overlay") |
    * radius (HIP, proxy)}.
    */
@@ -359,6 +372,7 @@ export class SceneView {
         type: spec.shape.type,
         visible: object3d.visible,
         position: object3d.position.toArray(),
+        scale: object3d.scale.toArray(),
         color: spec.material?.color ?? null,
         shape: spec.shape,
         skin: spec.material?.skin?.image ?? null,
