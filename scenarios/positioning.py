@@ -208,7 +208,11 @@ class Positioning:
         return self.cue
 
     def set_trial(self, trial: Trial | None) -> None:
+        """Every trial starts from a clean table: all objects back at their starts, touchable."""
         self.trial = trial
+        for item in ITEMS:
+            self._poses[item.id] = Pose((*item.start, item.half))
+            self._haptic[item.id] = True
         self._begin(ITEM_IDS.index(trial.params["object"]) if trial else 0)
 
     def on_input(self, key: str, action: str, value: Any = None) -> None:

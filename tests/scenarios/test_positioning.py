@@ -157,8 +157,12 @@ def test_3dof_guidance_on_the_carried_object():
 
 def test_trial_selects_object_and_cue_and_bad_values_are_named():
     sim, sc = make()
+    pick(sim)  # cube_a grasped and lifted away ...
+    run_path(sim, [(0.0, 0.0, 1.5)] * 3)
     sim.set_trial(Trial.parse(Positioning.TRIAL_PARAMS, "main", {"object": "sphere", "cue": "P2"}))
+    sim.step()
     assert sc.index == 1 and sc.guide.pattern == "P2"
+    assert sim.moved["cube_a"].pos == (*ITEMS[0].start, 0.15) and "cube_a" not in sim.untouchable, "a clean table"
     with pytest.raises(ParamError, match="object must be one of"):
         Trial.parse(Positioning.TRIAL_PARAMS, "main", {"object": "pyramid"})
 
