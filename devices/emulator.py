@@ -258,13 +258,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-wire", action="store_true", help="do not model the 115200-baud wire time")
     parser.add_argument("--exit-with-parent", action="store_true", help="stop when the parent process goes away")
     args = parser.parse_args(argv)
+    # Handlers before the path is printed: whoever reads it may stop us at once, and must get the
+    # orderly stop (timeline flushed, pty closed), not the default SIGTERM death.
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
     emulator = Emulator(args.model, link=args.link, timeline=args.timeline, wire=not args.no_wire)
     path = emulator.start()
     print(f"{args.model} emulator on {emulator.pty_path}" + (f" (link {path})" if args.link else ""), flush=True)
     print(path, flush=True)
-    stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
     parent = os.getppid()
     while not stop.wait(0.5):
         if args.exit_with_parent and os.getppid() != parent:
