@@ -169,6 +169,11 @@ class Trial:
     def to_dict(self) -> dict:
         return {"phase": self.phase, "params": dict(self.params), "index": self.index}
 
+    @property
+    def title(self) -> str:
+        """What the participant's HUD calls this trial: "Practice 2" (trial phase), "Trial 3"."""
+        return f"{'Practice' if self.phase == 'trial' else 'Trial'} {self.index + 1}"
+
 
 @dataclass(frozen=True)
 class TickContext:

@@ -163,5 +163,4 @@ class ContactAngle:
     def _hud(self, angle: float | None) -> str:
         if self._training():
             return "" if angle is None else f"Angle {angle:+.0f}°"
-        label = "Practice" if self.trial.phase == "trial" else "Trial"
-        return f"{label} {self.trial.index + 1}: which angle do you feel?"
+        return f"{self.trial.title}: which angle do you feel?"

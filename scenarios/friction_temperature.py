@@ -109,6 +109,5 @@ class FrictionTemperature:
             values.update(touching=touched, celsius=celsius)
         hud = "; ".join(ctx.refusals)
         if not hud and self.trial is not None and self.trial.phase != "training":
-            label = "Practice" if self.trial.phase == "trial" else "Trial"
-            hud = f"{label} {self.trial.index + 1}: how warm is the middle sphere?"
+            hud = f"{self.trial.title}: how warm is the middle sphere?"
         return ScenarioOutput(cues=cues, hud=hud, values=values)

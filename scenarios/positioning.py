@@ -250,11 +250,12 @@ class Positioning:
                 self.path_length += math.dist(self.position, position)
             self.position = position
             self._poses[item.id] = Pose(self.position)
-            self._track_target(ctx.t_s, self.position, target)
+            at = all(abs(a - b) <= self.threshold for a, b in zip(self.position, target))
+            self._track_target(ctx.t_s, self.position, target, at)
             if self.phase == "go" and inserted(item, self.position, self.hole_xy(item), self.scale):
                 self._insert(ctx.t_s, item)
             else:
-                cues = self._cues(self.position, target)
+                cues = self._cues(self.position, target, at)
         if self._visible.get("arrow_shaft") or self.phase in ("carry", "go"):
             self._place_arrow(target)
         out = ScenarioOutput(cues=cues, hud=self._hud(ctx), values=self._values(target), poses=self._poses,
@@ -275,8 +276,7 @@ class Positioning:
         p = ctx.proxy
         return p[0] + self.offset[0], p[1] + self.offset[1], max(item.half, p[2] + self.offset[2])
 
-    def _track_target(self, t: float, pos, target) -> None:
-        at = all(abs(a - b) <= self.threshold for a, b in zip(pos, target))
+    def _track_target(self, t: float, pos, target, at: bool) -> None:
         if at and self.t_first_target is None:
             self.t_first_target = t
             self._pending.append({"name": "reached", "object": ITEMS[self.index].id})
@@ -309,7 +309,7 @@ class Positioning:
             "hold_depth_error_mean": round(sum(d for _, d in errors) / len(errors), 9) if errors else None,
         }
 
-    def _cues(self, pos, target) -> tuple:
+    def _cues(self, pos, target, at: bool) -> tuple:
         cue = self._cue()
         if cue == "none":
             return ()
@@ -320,7 +320,6 @@ class Positioning:
         if cue in MODES:
             t_off = mode_t_off(cue, depth, in_zone, self.boundary, self.threshold)
         else:
-            at = all(abs(a - b) <= self.threshold for a, b in zip(pos, target))
             t_off = self.guide.t_off(depth, in_zone, at)
         made = pulse_cue(t_off, self.t_on_ms)
         return (made,) if made is not None else ()

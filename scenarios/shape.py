@@ -20,7 +20,7 @@ from __future__ import annotations
 from typing import Any
 
 from devices.cues import Texture, Tilt, tilt_direction
-from scenarios.base import Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
+from scenarios.base import Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
 from scenarios.contact_angle import contact_angle_deg
 from scenarios.texture import PERIODS_US
 from server.haptics.primitives import Box, Cone, Plane, Pose, Sphere
@@ -151,5 +151,4 @@ class ShapeScenario:
             return "; ".join(ctx.refusals)
         if self.trial is None or self.trial.phase == "training":
             return ""
-        label = "Practice" if self.trial.phase == "trial" else "Trial"
-        return f"{label} {self.trial.index + 1}: which shape do you feel?"
+        return f"{self.trial.title}: which shape do you feel?"

@@ -183,9 +183,8 @@ class StiffnessScenario:
             return "; ".join(ctx.refusals)
         if self.trial is None or self.trial.phase == "training":
             return "Tap the spheres: left is the softest (1), right the stiffest (10)"
-        label = "Practice" if self.trial.phase == "trial" else "Trial"
         if self.trial.params["mode"] == "estimation":
-            return f"{label} {self.trial.index + 1}: how stiff is the middle sphere (1-10)?"
+            return f"{self.trial.title}: how stiff is the middle sphere (1-10)?"
         if self.recording:
-            return f"{label} {self.trial.index + 1}: ↑/↓ until the right sphere feels like the middle one"
-        return f"{label} {self.trial.index + 1}: tap the middle and the right sphere"
+            return f"{self.trial.title}: ↑/↓ until the right sphere feels like the middle one"
+        return f"{self.trial.title}: tap the middle and the right sphere"

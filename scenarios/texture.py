@@ -169,5 +169,4 @@ class TextureScenario:
             return f"Pair {self.trial.index + 1}: {'second' if self.second else 'first'} texture"
         if self._labelled():
             return f"Texture {texture_name(period)}"
-        label = "Practice" if self.trial.phase == "trial" else "Trial"
-        return f"{label} {self.trial.index + 1}: which texture is this?"
+        return f"{self.trial.title}: which texture is this?"

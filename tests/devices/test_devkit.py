@@ -10,7 +10,6 @@ import struct
 import subprocess
 import sys
 import threading
-import time
 from pathlib import Path
 
 import pytest
@@ -24,14 +23,7 @@ from devices.messages import ALL_CHANNELS, SetFriction, SetTemperature, cap_name
 from devices.ports import PortSpec
 from devices.profiles import DEVKIT, PROFILES, profile_by_model
 from devices.rig import SimulatedRig
-
-
-def wait_for(predicate, timeout_s: float, message: str) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(message)
-        time.sleep(0.005)
+from tests.devices.test_serial_path import wait_for
 
 
 def read_timeline(path) -> list[dict[str, str]]:

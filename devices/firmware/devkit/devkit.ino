@@ -27,7 +27,6 @@ static const float PWM_FULL = (float)((1u << PWM_BITS) - 1);
 static const float NEUTRAL_C = 32.0f;           // skin temperature: the Peltier is idle
 static const float FULL_DRIVE_C = 15.0f;        // |setpoint - neutral| that gets the full H-bridge
 static const float FRICTION_MAX = 5.0f;         // SET_FRICTION's largest coefficient (§2)
-static const size_t EDGE_BATCH = 8;
 
 static vt_device dev;                           // the whole device state, no heap
 static vt_lra lra;
@@ -55,6 +54,15 @@ static void drive_friction(const vt_edge &e)
     ledcWrite(FRICTION_PIN, duty(e.friction_on ? e.friction_milli / 1000.0f / FRICTION_MAX : 0.0f));
 }
 
+// Every edge is the channel's whole output; pattern toggles leave temperature and friction as
+// they are, so rewriting those drives is harmless.
+static void apply_edge(const vt_edge *e)
+{
+    vt_lra_apply(&lra, e);
+    drive_peltier(*e);
+    drive_friction(*e);
+}
+
 void setup()
 {
     Serial.begin(BAUD);
@@ -73,16 +81,5 @@ void loop()
     uint64_t now = (uint64_t)esp_timer_get_time();
     vt_serial_pump(&dev, now);
 
-    // Every edge is the channel's whole output; pattern toggles leave temperature and friction as
-    // they are, so rewriting those drives is harmless.
-    vt_edge edges[EDGE_BATCH];
-    size_t k;
-    do {
-        k = vt_device_advance(&dev, now, edges, EDGE_BATCH);
-        for (size_t i = 0; i < k; i++) {
-            vt_lra_apply(&lra, &edges[i]);
-            drive_peltier(edges[i]);
-            drive_friction(edges[i]);
-        }
-    } while (k == EDGE_BATCH);
+    vt_drain_edges(&dev, now, apply_edge);
 }

@@ -24,7 +24,6 @@ static const uint32_t SOLENOID_PWM_HZ = 20000;
 static const uint8_t PWM_BITS = 10;
 static const float PWM_FULL = (float)((1u << PWM_BITS) - 1);
 static const float DEG_TO_RAD_F = 3.14159265f / 180.0f;
-static const size_t EDGE_BATCH = 8;
 
 static vt_device dev;                       // the whole device state, no heap
 static vt_edge out;                         // channel 0's output, as last reported by the core
@@ -33,6 +32,12 @@ static uint16_t shown_direction;
 
 // The tilt as a 2-D vector (spec.md: 0° = front, 90° = right, 180° = back, 270° = left):
 // cos → front/back solenoid, sin → left/right solenoid, the sign picks the H-bridge direction.
+// One channel: the newest edge is its output state.
+static void keep_edge(const vt_edge *e)
+{
+    out = *e;
+}
+
 static void drive(uint16_t direction_cdeg, float magnitude)
 {
     float rad = (float)direction_cdeg / 100.0f * DEG_TO_RAD_F;
@@ -76,14 +81,7 @@ void loop()
     uint64_t now = (uint64_t)esp_timer_get_time();
     vt_serial_pump(&dev, now);
 
-    // One channel: the newest edge is its output state.
-    vt_edge edges[EDGE_BATCH];
-    size_t k;
-    do {
-        k = vt_device_advance(&dev, now, edges, EDGE_BATCH);
-        if (k)
-            out = edges[k - 1];
-    } while (k == EDGE_BATCH);
+    vt_drain_edges(&dev, now, keep_edge);
 
     float m = magnitude_at(out, now);
     if (m != shown_magnitude || out.direction_cdeg != shown_direction) {

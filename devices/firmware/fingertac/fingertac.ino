@@ -16,10 +16,15 @@
 
 static const unsigned long BAUD = 115200;        // §0: 115200 8N1
 static const uint8_t LRA_PIN[2] = { 25, 26 };    // PWM input of the LRA driver of channel 0, 1
-static const size_t EDGE_BATCH = 8;
 
 static vt_device dev;                            // the whole device state, no heap
 static vt_lra lra[2];
+
+static void apply_edge(const vt_edge *e)
+{
+    if (e->channel < 2)
+        vt_lra_apply(&lra[e->channel], e);
+}
 
 void setup()
 {
@@ -37,12 +42,5 @@ void loop()
 
     // Edges carry their exact scheduled time; polling from loop() applies them within a few µs
     // (a timer alarm at vt_device_next_edge_us() would make that exact).
-    vt_edge edges[EDGE_BATCH];
-    size_t k;
-    do {
-        k = vt_device_advance(&dev, now, edges, EDGE_BATCH);
-        for (size_t i = 0; i < k; i++)
-            if (edges[i].channel < 2)
-                vt_lra_apply(&lra[edges[i].channel], &edges[i]);
-    } while (k == EDGE_BATCH);
+    vt_drain_edges(&dev, now, apply_edge);
 }

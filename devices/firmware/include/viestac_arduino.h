@@ -1,5 +1,5 @@
 // Arduino glue shared by the ESP32 sketches: moves bytes between Serial and the firmware core,
-// and drives an LRA from a channel's pattern layer.
+// hands the core's due edges to the sketch, and drives an LRA from a channel's pattern layer.
 // Header-only and Arduino-only (the portable core in ../src never includes it).
 #ifndef VIESTAC_ARDUINO_H
 #define VIESTAC_ARDUINO_H
@@ -24,6 +24,19 @@ static inline void vt_serial_pump(vt_device *dev, uint64_t now_us)
         n = vt_device_take_output(dev, buf, (size_t)room < sizeof buf ? (size_t)room : sizeof buf);
         Serial.write(buf, n);
     }
+}
+
+// Hand every edge due by `now_us` to `apply`, in time order, in batches of a few (a burst of
+// scheduled toggles after a long loop() never needs more than a small stack buffer).
+static inline void vt_drain_edges(vt_device *dev, uint64_t now_us, void (*apply)(const vt_edge *e))
+{
+    vt_edge edges[8];
+    size_t k;
+    do {
+        k = vt_device_advance(dev, now_us, edges, sizeof edges / sizeof edges[0]);
+        for (size_t i = 0; i < k; i++)
+            apply(&edges[i]);
+    } while (k == sizeof edges / sizeof edges[0]);
 }
 
 // One LRA behind a driver with a PWM input (LEDC): a square wave at the edge's carrier, or, when
