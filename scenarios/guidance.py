@@ -169,19 +169,20 @@ class LinearCue:
 
 
 def peg_cue(distance: float, boundary: float = BOUNDARY, reverse: bool = False,
-            threshold: float = TARGET_THRESHOLD):
+            threshold: float = TARGET_THRESHOLD, t_on_ms: float = T_ON_MS):
     """Peg-in-hole: intensity and pulse rate rise linearly as the object nears the nearest hole,
     nothing beyond the boundary; reverse: they fall toward the hole and stop at it."""
     if distance > boundary:
         return None
     if reverse:
-        return None if distance <= threshold else LinearCue(threshold, boundary).cue(distance, strongest_near=False)
-    return LinearCue(0.0, boundary).cue(distance)
+        return None if distance <= threshold else \
+            LinearCue(threshold, boundary, t_on_ms=t_on_ms).cue(distance, strongest_near=False)
+    return LinearCue(0.0, boundary, t_on_ms=t_on_ms).cue(distance)
 
 
-def hot_wire_cue(deviation: float, threshold: float, max_distance: float):
+def hot_wire_cue(deviation: float, threshold: float, max_distance: float, t_on_ms: float = T_ON_MS):
     """Hot wire: nothing within the allowed threshold; beyond it intensity and pulse rate rise
     with the deviation up to `max_distance`; beyond that the cue stops."""
     if deviation <= threshold or deviation > max_distance:
         return None
-    return LinearCue(threshold, max_distance).cue(deviation, strongest_near=False)
+    return LinearCue(threshold, max_distance, t_on_ms=t_on_ms).cue(deviation, strongest_near=False)

@@ -84,14 +84,60 @@ def tube_mesh(hole: Hole, scale: float = 1.0) -> Mesh:
     return Mesh.from_trimesh(mesh)
 
 
-def inserted(item: Item, pos, hole_xy, scale: float, tolerance: float = TARGET_THRESHOLD) -> bool:
-    """The object is inside its hole: within the (scaled) inner wall up to `tolerance`, below the
-    rim and not below the table."""
+def footprint(item: Item, hole_kind: str) -> float:
+    """How far the object reaches from its centre across a hole of `hole_kind`: a cube's corners
+    (orientation fixed, axis-aligned) reach half·√2 into a round hole, its faces half into a
+    square one; a sphere reaches its radius either way."""
+    is_cube = item.id != "sphere"
+    return item.half * math.sqrt(2.0) if is_cube and hole_kind == "round" else item.half
+
+
+def inserted(item: Item, pos, hole_xy, scale: float, tolerance: float = TARGET_THRESHOLD,
+             hole: Hole | None = None) -> bool:
+    """The object is inside a hole (its own unless `hole` is given): within the (scaled) inner
+    wall up to `tolerance`, below the rim and not below the table."""
+    hole = hole or item.hole
     dx, dy = pos[0] - hole_xy[0], pos[1] - hole_xy[1]
-    room = item.hole.inner * scale - item.half + tolerance
-    inside = math.hypot(dx, dy) <= room if item.hole.kind == "round" else max(abs(dx), abs(dy)) <= room
+    room = hole.inner * scale - footprint(item, hole.kind) + tolerance
+    inside = math.hypot(dx, dy) <= room if hole.kind == "round" else max(abs(dx), abs(dy)) <= room
     bottom = pos[2] - item.half
-    return inside and -1e-9 <= bottom and bottom + 2 * item.half <= item.hole.height + tolerance
+    return inside and -1e-9 <= bottom and bottom + 2 * item.half <= hole.height + tolerance
+
+
+COLOURS = {"cube_a": "#d62728", "sphere": "#2ca02c", "cube_b": "#1f77b4"}
+
+
+def rim_pose(item: Item, hole_xy) -> Pose:
+    """Where the touched solid of a hole sits (a box is centred, a cylinder stands on its base)."""
+    return Pose((*hole_xy, 0.0 if item.hole.kind == "round" else item.hole.height / 2))
+
+
+def table_objects() -> list[SceneObject]:
+    """The table with its legs, the three objects at their starts and their holes: each hole a
+    drawn tube mesh (`<id>_hole`) and an invisible solid of its outer size that the HIP touches
+    (`<id>_rim`). Shared by the positioning and peg-in-hole scenes."""
+    wood, steel = Material("#8b6b4a"), Material("#9aa3ad")
+    objects = [SceneObject("table", Plane(TABLE), Pose(), wood)]
+    for i, (sx, sy) in enumerate(((-1, -1), (-1, 1), (1, -1), (1, 1))):
+        objects.append(SceneObject(f"leg_{i}", Cylinder(LEG_RADIUS, LEG_HEIGHT),
+                                   Pose((sx * (TABLE[0] / 2 - 0.1), sy * (TABLE[1] / 2 - 0.1), -LEG_HEIGHT)),
+                                   wood, haptic=False))
+    for item in ITEMS:
+        shape = Sphere(item.half) if item.id == "sphere" else Box((2 * item.half,) * 3)
+        objects.append(SceneObject(item.id, shape, Pose((*item.start, item.half)), Material(COLOURS[item.id])))
+        hole = item.hole
+        solid = Cylinder(hole.outer, hole.height) if hole.kind == "round" else \
+            Box((2 * hole.outer, 2 * hole.outer, hole.height))
+        objects.append(SceneObject(f"{item.id}_hole", tube_mesh(hole), Pose((*item.hole_at, 0.0)), steel,
+                                   haptic=False))
+        objects.append(SceneObject(f"{item.id}_rim", solid, rim_pose(item, item.hole_at), steel, visible=False))
+    return objects
+
+
+def carried_position(item: Item, proxy, proxy_radius: float = 0.06) -> tuple[float, float, float]:
+    """A grasped object hangs below the fingertip, its top touching the proxy sphere (orientation
+    fixed), and never sinks into the table."""
+    return proxy[0], proxy[1], max(item.half, proxy[2] - item.half - proxy_radius)
 
 
 class Positioning:
@@ -145,23 +191,7 @@ class Positioning:
 
     # -- scene ------------------------------------------------------------------------------
     def build_scene(self) -> Scene:
-        wood, steel = Material("#8b6b4a"), Material("#9aa3ad")
-        objects = [SceneObject("table", Plane(TABLE), Pose(), wood)]
-        for i, (sx, sy) in enumerate(((-1, -1), (-1, 1), (1, -1), (1, 1))):
-            objects.append(SceneObject(f"leg_{i}", Cylinder(LEG_RADIUS, LEG_HEIGHT),
-                                       Pose((sx * (TABLE[0] / 2 - 0.1), sy * (TABLE[1] / 2 - 0.1), -LEG_HEIGHT)),
-                                       wood, haptic=False))
-        colours = {"cube_a": "#d62728", "sphere": "#2ca02c", "cube_b": "#1f77b4"}
-        for item in ITEMS:
-            shape = Sphere(item.half) if item.id == "sphere" else Box((2 * item.half,) * 3)
-            objects.append(SceneObject(item.id, shape, Pose((*item.start, item.half)), Material(colours[item.id])))
-            hole = item.hole
-            solid = Cylinder(hole.outer, hole.height) if hole.kind == "round" else \
-                Box((2 * hole.outer, 2 * hole.outer, hole.height))
-            solid_z = 0.0 if hole.kind == "round" else hole.height / 2
-            objects.append(SceneObject(f"{item.id}_hole", tube_mesh(hole), Pose((*item.hole_at, 0.0)), steel,
-                                       haptic=False))
-            objects.append(SceneObject(f"{item.id}_rim", solid, Pose((*item.hole_at, solid_z)), steel, visible=False))
+        objects = table_objects()
         objects.append(SceneObject("arrow_shaft", Cylinder(0.015, 0.35), Pose((0.0, 0.0, 5.0)), Material("#ffd400"),
                                    haptic=False, visible=False))
         objects.append(SceneObject("arrow_head", Cone(0.05, 0.12), Pose((0.0, 0.0, 5.0), DOWN), Material("#ffd400"),
@@ -190,7 +220,6 @@ class Positioning:
         """Make item `index` the active one, back at its start, ungrasped."""
         self.index = index
         self.phase = "idle"       # idle → carry → go → inserted
-        self.offset = None
         self.position = None
         self.t_pick = self.t_first_target = self.t_go = self.t_done = None
         self.hold_since: float | None = None
@@ -245,7 +274,7 @@ class Positioning:
         if self.phase == "idle" and in_contact_with(ctx, (item.id,)):
             self._grasp(ctx, item)
         if self.phase in ("carry", "go"):
-            position = self._carried(ctx, item)
+            position = carried_position(item, ctx.proxy)
             if self.position is not None:
                 self.path_length += math.dist(self.position, position)
             self.position = position
@@ -266,15 +295,9 @@ class Positioning:
 
     def _grasp(self, ctx: TickContext, item: Item) -> None:
         self.phase, self.t_pick = "carry", ctx.t_s
-        # the object hangs below the fingertip: its top touches the proxy sphere
-        self.offset = (0.0, 0.0, -(item.half + 0.06))
         self._haptic[item.id] = False
         self._visible.update({"arrow_shaft": True, "arrow_head": True})
         self._pending.append({"name": "pick", "object": item.id})
-
-    def _carried(self, ctx: TickContext, item: Item) -> tuple[float, float, float]:
-        p = ctx.proxy
-        return p[0] + self.offset[0], p[1] + self.offset[1], max(item.half, p[2] + self.offset[2])
 
     def _track_target(self, t: float, pos, target, at: bool) -> None:
         if at and self.t_first_target is None:
@@ -332,7 +355,7 @@ class Positioning:
         for item in ITEMS:
             x, y = self.hole_xy(item)
             self._poses[f"{item.id}_hole"] = Pose((x, y, 0.0))
-            self._poses[f"{item.id}_rim"] = Pose((x, y, 0.0 if item.hole.kind == "round" else item.hole.height / 2))
+            self._poses[f"{item.id}_rim"] = rim_pose(item, (x, y))
 
     def _place_arrow(self, target) -> None:
         x, y, z = target
