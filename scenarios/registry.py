@@ -15,6 +15,8 @@ from typing import Callable
 from scenarios.base import ParamError, Scenario, check_params
 from scenarios.contact_angle import ContactAngle
 from scenarios.friction_temperature import FrictionTemperature
+from scenarios.hot_wire import HotWire
+from scenarios.peg_in_hole import PegInHole
 from scenarios.positioning import Positioning
 from scenarios.shape import ShapeScenario
 from scenarios.stiffness import StiffnessScenario
@@ -29,7 +31,8 @@ class ScenarioSpec:
 
 
 SCENARIOS = MappingProxyType({cls.id: ScenarioSpec(cls.id, cls.title, cls) for cls in (
-    ContactAngle, TextureScenario, StiffnessScenario, ShapeScenario, FrictionTemperature, Positioning,
+    ContactAngle, TextureScenario, StiffnessScenario, ShapeScenario, FrictionTemperature, Positioning, PegInHole,
+    HotWire,
 )})
 
 
