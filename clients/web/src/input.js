@@ -1,11 +1,26 @@
-// Desktop input: the pointer drives the HIP, the wheel and PageUp/PageDown its depth, every other
-// key becomes an `input` message. Pointer samples are coalesced: the render loop takes at most
-// one per animation frame, and only when the position changed.
+// Desktop input: the pointer drives the HIP, the wheel and PageUp/PageDown its depth, Home resets
+// an orbited view (orbit.js), every other key becomes an `input` message. Pointer samples are
+// coalesced: the render loop takes at most one per animation frame, and only when the position
+// changed.
 
 import * as THREE from 'three';
 import { threeToScene } from './protocol.js';
 
+const VIEW_BUTTONS = 2 | 4; // PointerEvent.buttons: right | middle
+
 export const DEPTH_KEYS = Object.freeze({ PageUp: -1, PageDown: +1 });
+/** Restores the scene's camera after orbiting; client-side only, never sent to the server. */
+export const VIEW_RESET_KEY = 'Home';
+
+/**
+ * The keys this page handles itself (KeyForwarder's `consume`): depth keys and the view reset.
+ * @param {{changeDepth: (steps: number) => void, resetView: () => void}} handlers
+ */
+export function localKeys({ changeDepth, resetView }) {
+  const keys = Object.fromEntries(Object.entries(DEPTH_KEYS).map(([k, dir]) => [k, () => changeDepth(dir)]));
+  keys[VIEW_RESET_KEY] = () => resetView();
+  return keys;
+}
 
 /**
  * Pointer → scene position. The HIP lies on the plane perpendicular to the camera's view
@@ -19,10 +34,13 @@ export class PointerInput {
    * @param {object} opts.view             a SceneView (camera, cameraTarget)
    * @param {number} [opts.depthStep]      scene units per wheel notch / key press (0.02)
    * @param {number} [opts.depthRange]     |depth| limit in scene units (1.5)
+   * @param {(e: WheelEvent) => boolean} [opts.ignoreWheel]  wheel events that belong to someone
+   *                                       else (the orbit's zoom) and leave the depth alone
    */
-  constructor({ element, view, depthStep = 0.02, depthRange = 1.5 }) {
+  constructor({ element, view, depthStep = 0.02, depthRange = 1.5, ignoreWheel = () => false }) {
     this.element = element;
     this.view = view;
+    this.ignoreWheel = ignoreWheel;
     this.depthStep = depthStep;
     this.depthRange = depthRange;
     this.depth = 0;
@@ -54,6 +72,10 @@ export class PointerInput {
   }
 
   _pointer(e) {
+    // The right and middle buttons turn the view (orbit.js): the HIP stays put meanwhile, and
+    // after the release until the pointer moves again, so orbiting never drags a grasped object.
+    this.viewHeld = ((e.buttons ?? 0) & VIEW_BUTTONS) !== 0;
+    if (this.viewHeld) return;
     const rect = this.element.getBoundingClientRect();
     if (rect.width === 0 || rect.height === 0) return;
     this.ndc = new THREE.Vector2(
@@ -63,6 +85,7 @@ export class PointerInput {
   }
 
   _wheel(e) {
+    if (this.ignoreWheel(e)) return;
     e.preventDefault();
     if (e.deltaY === 0) return;
     this.changeDepth(Math.sign(e.deltaY));
@@ -88,7 +111,9 @@ export class PointerInput {
     const cam = this.view.camera;
     cam.updateMatrixWorld();
     cam.getWorldDirection(this._dir); // unit, pointing away from the viewer
-    this._point.copy(this.view.cameraTarget).addScaledVector(this._dir, -this.depth);
+    // A zoomed-in camera may now be closer than the depth set before: keep the plane in front.
+    const depth = Math.min(this.depth, this._depthLimit());
+    this._point.copy(this.view.cameraTarget).addScaledVector(this._dir, -depth);
     this._plane.setFromNormalAndCoplanarPoint(this._dir, this._point);
     this.raycaster.setFromCamera(this.ndc, cam);
     if (this.raycaster.ray.intersectPlane(this._plane, this._hit) === null) return null;
@@ -97,6 +122,7 @@ export class PointerInput {
 
   /** The position to send this frame, or null when nothing changed since the last commit(). */
   peek() {
+    if (this.viewHeld) return null;
     const p = this.position();
     if (p === null) return null;
     const last = this.lastSent;

@@ -5,7 +5,8 @@
 
 import { Connection } from './connection.js';
 import { SceneView } from './scene_view.js';
-import { PointerInput, KeyForwarder, DEPTH_KEYS } from './input.js';
+import { PointerInput, KeyForwarder, localKeys } from './input.js';
+import { ViewOrbit } from './orbit.js';
 import { Hud } from './hud.js';
 import { OperatorPanel, httpBase } from './operator_panel.js';
 import { ROLES } from './protocol.js';
@@ -39,13 +40,13 @@ function main() {
   const stats = { framesReceived: 0, trackerSent: 0, trackerDropped: 0, lastStateFrame: null, lastError: null };
   const view = new SceneView(canvas);
   const conn = new Connection({ url: opts.url, role: opts.role, format: opts.format, client: CLIENT_NAME });
-  const pointer = new PointerInput({ element: canvas, view, depthStep: opts.depthStep });
-  const sends = opts.role !== 'observer'; // an observer page attaches no input at all
-  const keys = sends
-    ? new KeyForwarder(window, (key, action) => conn.sendInput(key, action), {
-      consume: Object.fromEntries(Object.entries(DEPTH_KEYS).map(([k, dir]) => [k, () => pointer.changeDepth(dir)])),
-    })
-    : null;
+  const orbit = new ViewOrbit(canvas, view); // perspective scenes only; purely local, every role
+  const pointer = new PointerInput({ element: canvas, view, depthStep: opts.depthStep,
+    ignoreWheel: (e) => orbit.takesWheel(e) });
+  const sends = opts.role !== 'observer'; // an observer page sends no input at all
+  const keys = new KeyForwarder(window, sends ? (key, action) => conn.sendInput(key, action) : () => {}, {
+    consume: localKeys({ changeDepth: (steps) => pointer.changeDepth(steps), resetView: () => orbit.reset() }),
+  });
 
   // Only operators get the panel: participants must not see the commands (they could give the
   // answer away), and observers may not send.
@@ -69,6 +70,7 @@ function main() {
     screenPosition: (scenePos) => view.screenPosition(scenePos),
     hipTarget: () => pointer.position(),
     depth: () => pointer.depth,
+    orbit: () => orbit.state(),
     connection: conn,
     keys,
   };
@@ -92,6 +94,7 @@ function main() {
   conn.onScene = (m) => {
     view.build(m.scene, m.hash);
     view.resize();
+    orbit.attach(); // the scene's camera is a new object
     pointer.reset();
     hook.sceneHash = m.hash;
     sceneHudText = m.scene.hud?.text ?? '';

@@ -1,7 +1,7 @@
 // Pointer → scene position, depth control, coalescing and key forwarding (src/input.js).
 import { test, describe } from 'node:test';
 import assert from 'node:assert/strict';
-import { PointerInput, KeyForwarder, DEPTH_KEYS } from '../src/input.js';
+import { PointerInput, KeyForwarder, DEPTH_KEYS, VIEW_RESET_KEY, localKeys } from '../src/input.js';
 import { makeCamera } from '../src/scene_view.js';
 
 const W = 1024;
@@ -14,7 +14,8 @@ function setup(cam = ORTHO, opts = {}) {
   const { camera, target } = makeCamera(cam, W / H);
   const view = { camera, cameraTarget: target, built: true };
   const input = new PointerInput({ element, view, ...opts });
-  const move = (x, y) => element.dispatchEvent(Object.assign(new Event('pointermove'), { clientX: x, clientY: y }));
+  const move = (x, y, buttons = 0) =>
+    element.dispatchEvent(Object.assign(new Event('pointermove'), { clientX: x, clientY: y, buttons }));
   const wheel = (deltaY) => element.dispatchEvent(Object.assign(new Event('wheel', { cancelable: true }), { deltaY }));
   return { element, input, move, wheel };
 }
@@ -27,6 +28,18 @@ describe('PointerInput (orthographic camera at +x looking at the target)', () =>
   test('no pointer yet → nothing to send', () => {
     const { input } = setup();
     assert.equal(input.peek(), null);
+  });
+
+  test('the HIP holds still while the right or middle button turns the view, until the pointer moves', () => {
+    const { input, move } = setup();
+    move(W / 2, H / 2);
+    input.commit(input.peek());
+    move(W / 2 + 96, H / 2, 2); // right-drag: orbiting
+    assert.equal(input.peek(), null);
+    move(W / 2 + 150, H / 2, 4); // middle-drag: zooming
+    assert.equal(input.peek(), null);
+    move(W / 2 + 96, H / 2); // released and moved: the HIP follows again
+    near(input.peek(), [0, 0.2, 0.35]);
   });
 
   test('canvas centre maps to the camera target; right = +y, up = +z', () => {
@@ -115,6 +128,19 @@ describe('KeyForwarder', () => {
     key('keyup', 'PageDown');
     assert.equal(depth, 2);
     assert.deepStrictEqual(sent, []);
+  });
+
+  test('the view reset key (Home) and the depth keys stay in the page', () => {
+    const calls = [];
+    const consume = localKeys({ changeDepth: (steps) => calls.push(['depth', steps]), resetView: () => calls.push(['reset']) });
+    assert.equal(VIEW_RESET_KEY, 'Home');
+    const { sent, key } = keys(consume);
+    key('keydown', 'Home');
+    key('keyup', 'Home');
+    key('keydown', 'PageUp');
+    key('keydown', 'End'); // not ours: forwarded
+    assert.deepStrictEqual(calls, [['reset'], ['depth', DEPTH_KEYS.PageUp]]);
+    assert.deepStrictEqual(sent, [['End', 'down']]);
   });
 
   test('keys held on blur are released', () => {
