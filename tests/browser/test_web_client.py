@@ -351,7 +351,16 @@ SCENARIOS = [
     ("shape-v1", {}),
     ("friction-temperature-v1", {}),
     ("positioning-v1", {}),
+    ("peg-in-hole-v1", {}),
+    ("hot-wire-v1", {}),
+    ("hot-wire-v1", {"path": "circle"}),
+    ("hot-wire-v1", {"path": "spiral", "target_speed": 0.2}),
 ]
+
+
+def shot_name(scenario: str, params: dict) -> str:
+    """The screenshot's (and the test's) name: the scenario, and the path for the hot wire's."""
+    return f"{scenario}-{params['path']}" if "path" in params else scenario
 
 
 def scene_of(three_pos) -> np.ndarray:
@@ -404,7 +413,7 @@ def label_drawn(px: np.ndarray, x: float, y: float) -> bool:
     return light >= 10 and dark >= 5
 
 
-@pytest.mark.parametrize("scenario,params", SCENARIOS, ids=[s for s, _ in SCENARIOS])
+@pytest.mark.parametrize("scenario,params", SCENARIOS, ids=[shot_name(s, p) for s, p in SCENARIOS])
 def test_scenario_screenshots(open_client, live_server, contact_angle_after, scenario, params):
     client = open_client()
     page = client.page
@@ -413,7 +422,7 @@ def test_scenario_screenshots(open_client, live_server, contact_angle_after, sce
     assert client.hook("sceneHash") == scene_hash
 
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    png = page.screenshot(path=str(ARTIFACTS / f"{scenario}.png"))
+    png = page.screenshot(path=str(ARTIFACTS / f"{shot_name(scenario, params)}.png"))
     px = screenshot_pixels(page, png)[:, :, :3].astype(float)
     w, h = VIEWPORT["width"], VIEWPORT["height"]
 
@@ -483,9 +492,133 @@ def test_scenario_screenshots(open_client, live_server, contact_angle_after, sce
         page.wait_for_function("() => window.__viestac.sceneGraph().find(o => o.id === 'cube_a_hole').scale[0] === 1",
                                timeout=5000)
 
+    if scenario == "peg-in-hole-v1":
+        # the same table seen in perspective, which the participant may orbit
+        assert scene["camera"]["projection"] == "perspective" and client.hook("orbit()")["enabled"]
+        assert {"cube_a", "sphere", "cube_b"} <= {o["id"] for o in solids}
+        assert all(graph[t]["type"] == "mesh" for t in ("cube_a_hole", "sphere_hole", "cube_b_hole"))
+
+    if scenario == "hot-wire-v1":
+        # the green wire is drawn along the path: sample it at points along its length
+        from scenarios.registry import create
+
+        path = create("hot-wire-v1", **params).path
+        green = chroma(hex_rgb(graph["wire"]["color"]))
+        shown = 0
+        for k in range(1, 20):
+            x, y = client.screen(path.point_at(path.length * k / 20))
+            assert 0 <= x < w and 0 <= y < h, "the whole path is in view"
+            if np.abs(chroma(patch(px, x, y, 1).mean(axis=0)) - green).max() < 0.08:
+                shown += 1
+        assert shown >= 15, f"the wire shows green at only {shown}/19 points along the path"
+        assert graph["target"]["visible"] and not graph["pacer"]["visible"], "the pacer waits for the start"
+
     assert client.hook("stats.lastError") is None, client.hook("stats.lastError")
     assert not client.page_errors, client.page_errors
     assert not client.console_errors, client.console_errors
+
+
+# -- orbit and zoom of perspective views ----------------------------------------------------------
+
+
+def right_drag(page, dx: float, dy: float) -> None:
+    """Drag with the right button from the middle of the view."""
+    x, y = VIEWPORT["width"] / 2, VIEWPORT["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down(button="right")
+    page.mouse.move(x + dx, y + dy, steps=8)
+    page.mouse.up(button="right")
+
+
+def shift_wheel(page, delta_y: float) -> None:
+    page.keyboard.down("Shift")
+    page.mouse.wheel(0, delta_y)
+    page.keyboard.up("Shift")
+
+
+def context_menu_suppressed(page) -> bool:
+    return page.evaluate("() => !document.getElementById('view')"
+                         ".dispatchEvent(new MouseEvent('contextmenu', {bubbles: true, cancelable: true}))")
+
+
+def test_perspective_view_orbits_and_zooms(open_client, live_server, contact_angle_after):
+    client = open_client()
+    page = client.page
+    client.wait_rebuilt(switch_scenario(live_server, "texture-v1", {"skin": SKIN}))
+    camera = live_server.get("/api/scene")["scene"]["camera"]
+    assert camera["projection"] == "perspective"
+    home = client.hook("orbit()")
+    assert home["enabled"], home
+    assert home["position"] == pytest.approx(camera["position"], abs=1e-6)
+    assert home["target"] == pytest.approx(camera["target"], abs=1e-6)
+    page.evaluate("""() => { const c = window.__viestac.connection, send = c.sendInput.bind(c);
+        window.__sentKeys = []; c.sendInput = (k, a, v) => { window.__sentKeys.push(k); return send(k, a, v); }; }""")
+
+    # right-drag orbits around the target, at the same distance (to the side and from higher up),
+    # and the HIP holds still meanwhile (orbiting must not drag a grasped object along)
+    page.mouse.move(VIEWPORT["width"] / 2, VIEWPORT["height"] / 2)
+    before = settled_position(client, live_server)
+    right_drag(page, 150, 40)
+    orbited = wait_for(lambda: (o := client.hook("orbit()"))["position"] != home["position"] and o,
+                       what="the right-drag to orbit the camera")
+    assert np.linalg.norm(np.subtract(orbited["position"], home["position"])) > 0.5, (home, orbited)
+    assert orbited["target"] == pytest.approx(home["target"], abs=1e-9)
+    assert orbited["distance"] == pytest.approx(home["distance"], rel=1e-6)
+    assert context_menu_suppressed(page)
+    page.wait_for_timeout(100)  # a few frames drawn from the new viewpoint
+    assert server_view(live_server, client.client_id)["last_tracker"]["pos"] == pytest.approx(before, abs=1e-9)
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(ARTIFACTS / "orbit-texture.png"))
+
+    # the HIP plane turned with the view: the middle of the view still reaches the target
+    page.mouse.move(VIEWPORT["width"] / 2, VIEWPORT["height"] / 2)
+    assert settled_position(client, live_server) == pytest.approx(camera["target"], abs=1e-6)
+
+    # Shift+wheel zooms and leaves the HIP depth alone
+    shift_wheel(page, -100)
+    zoomed = wait_for(lambda: (o := client.hook("orbit()"))["distance"] < orbited["distance"] - 1e-6 and o,
+                      what="Shift+wheel to zoom in")
+    assert zoomed["target"] == pytest.approx(home["target"], abs=1e-9)
+    assert client.hook("depth()") == 0
+
+    # the plain wheel still moves the HIP depth, not the camera
+    page.mouse.wheel(0, 100)
+    wait_for(lambda: client.hook("depth()") != 0, what="the wheel to change the depth")
+    assert client.hook("orbit()") == zoomed
+
+    # Home brings the scene's camera back, and stays in the page
+    page.keyboard.press("Home")
+    wait_for(lambda: client.hook("orbit()")["position"] == pytest.approx(home["position"], abs=1e-9),
+             what="Home to restore the camera")
+    assert client.hook("orbit()")["distance"] == pytest.approx(home["distance"], rel=1e-9)
+    assert "Home" not in page.evaluate("window.__sentKeys")
+    assert client.hook("stats.lastError") is None, client.hook("stats.lastError")
+    assert not client.page_errors, client.page_errors
+    assert not client.console_errors, client.console_errors
+
+
+def test_orthographic_view_stays_fixed(open_client, live_server, contact_angle_after):
+    client = open_client()
+    page = client.page
+    client.wait_rebuilt(switch_scenario(live_server, "texture-v1", {"skin": SKIN}))
+    home = client.hook("orbit()")
+    right_drag(page, 150, 0)  # orbit the perspective scene first: the next scene must not inherit it
+    wait_for(lambda: client.hook("orbit()")["position"] != home["position"], what="the orbit")
+    client.wait_rebuilt(switch_scenario(live_server, "positioning-v1"))
+    camera = live_server.get("/api/scene")["scene"]["camera"]
+    assert camera["projection"] == "orthographic"
+    fixed = client.hook("orbit()")
+    assert not fixed["enabled"], fixed
+    assert fixed["position"] == pytest.approx(camera["position"], abs=1e-6)
+
+    right_drag(page, 200, -60)
+    shift_wheel(page, -100)  # on a fixed view a modifier wheel is the HIP depth, as the plain one
+    wait_for(lambda: client.hook("depth()") != 0, what="Shift+wheel to change the depth")
+    page.keyboard.press("Home")
+    page.wait_for_timeout(200)
+    assert client.hook("orbit()") == fixed
+    assert context_menu_suppressed(page)
+    assert not client.page_errors, client.page_errors
 
 
 def test_scenario_switches_rebuild_without_leaks(open_client, live_server, contact_angle_after):

@@ -341,3 +341,41 @@ def test_3dof_guidance_tilts_the_ferrovibe_per_octant_and_on_overshoot(server, o
     rows = server.timeline("ferrovibe", t1, lambda rs: any(float(r["magnitude_pct"]) == 100 for r in rs))
     tilts = {float(r["direction_deg"]) for r in rows if float(r["magnitude_pct"]) == 100}
     assert direction in tilts, f"the magnet did not tilt to {direction}° (saw {sorted(tilts)})"
+
+
+# -- hot wire (issue 5) -------------------------------------------------------------------------
+
+def test_a_scripted_hot_wire_run_over_websocket(server):
+    server.switch("hot-wire", points="0 -1 0.5; 0 1 0.5", threshold=0.06, max_distance=0.3)
+    lift(server)
+    start, end = (0.0, -1.0, 0.5), (0.0, 1.0, 0.5)
+    trace = [start, (0.0, -0.3, 0.5), (0.0, -0.3, 0.6), (0.0, 0.3, 0.6), (0.0, 0.3, 0.5), (0.0, 0.8, 0.5)]
+
+    async def go():
+        client = await Client.connect(server.ws)
+        await client.recv_type("scene")
+        # one jump onto the start (the run starts exactly there), 0.1 above the wire for 0.6 units,
+        # one last step onto the target (so both ends of the run are exact)
+        seq = await send_path(client, [(0.0, -1.0, 1.5), start], step=1.0)
+        _, started = await wait_for(client, lambda s, e: s["values"].get("phase") == "tracing")
+        seq = await send_path(client, trace[:4], seq=seq)
+        mid_state, events = await wait_for(client, lambda s, e: abs(s["values"]["deviation"] - 0.1) < 1e-9)
+        seq = await send_path(client, trace[3:], seq=seq)
+        seq = await send_path(client, [trace[-1], end], step=1.0, seq=seq)
+        done_state, more = await wait_for(client, lambda s, e: any(x["name"] == "trial_done" for x in e))
+        await client.close()
+        return mid_state, done_state, started + events + more
+
+    mid_state, done_state, events = asyncio.run(go())
+    lift(server)
+    cue = mid_state["cues"][0]
+    assert cue["kind"] == "pulse_train" and cue["intensity_pct"] == pytest.approx(30 + 70 * (0.1 - 0.06) / 0.24)
+    done = next(e for e in events if e["name"] == "trial_done")
+    corners = trace + [end]
+    assert done["path_length"] == pytest.approx(sum(math.dist(a, b) for a, b in zip(corners, corners[1:])), abs=1e-6)
+    assert done["deviation_max"] == pytest.approx(0.1, abs=1e-9)
+    assert 0.3 < done["time_outside_s"] < done["completion_s"], done
+    ticks = {e["name"]: e["tick"] for e in events}
+    assert done["completion_s"] == pytest.approx((ticks["trial_done"] - ticks["start"]) / 1000, abs=1e-9)
+    assert done_state["values"]["time_outside_s"] == done["time_outside_s"], "the metrics are in the state too"
+    assert done_state["hud"] == "Done: press r to go again"
