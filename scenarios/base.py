@@ -200,6 +200,7 @@ class ScenarioOutput:
     scales: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # drawn size factors (scene axes)
     hold_hip: Vec3 | None = None  # hold the HIP here from the next tick on (experimenter's tap); None: tracker
     events: tuple[dict, ...] = ()  # things worth recording with their tick (key presses, taps)
+    held: str | None = None  # the object the participant carries (recorded with the trajectory)
 
 
 class Scenario(Protocol):

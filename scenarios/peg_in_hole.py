@@ -131,7 +131,8 @@ class PegInHole:
                 made = peg_cue(self.distance, self.boundary, self._reverse(), self.threshold, self.t_on_ms)
                 cues = () if made is None else (made,)
         out = ScenarioOutput(cues=cues, hud=self._hud(ctx), values=self._values(), poses=self._poses,
-                             haptic=self._haptic, scales=self._scales, events=tuple(self._pending))
+                             haptic=self._haptic, scales=self._scales, events=tuple(self._pending),
+                             held=None if self.carried is None else self.carried.id)
         self._poses, self._haptic, self._scales, self._pending = {}, {}, {}, []
         return out
 

@@ -289,7 +289,7 @@ class Positioning:
             self._place_arrow(target)
         out = ScenarioOutput(cues=cues, hud=self._hud(ctx), values=self._values(target), poses=self._poses,
                              visible=self._visible, haptic=self._haptic, scales=self._scales,
-                             events=tuple(self._pending))
+                             events=tuple(self._pending), held=item.id if self.phase in ("carry", "go") else None)
         self._poses, self._visible, self._haptic, self._scales, self._pending = {}, {}, {}, {}, []
         return out
 

@@ -97,6 +97,8 @@ class Hub:
         self.scenario_state: dict | None = None  # what the loop runs: id, params, seed, trial
         self.scenario_cls = None
         self.on_scenario = lambda state: None  # wired by the app: a restarted loop resumes this
+        self.record_every = 0  # trajectory sampling asked of the loop (experiment recorder); 0 = off
+        self.listeners: list = []  # called with every loop record after the hub handled it (the recorder)
 
     # ---- records from the loop process -------------------------------------------------
     def on_loop_record(self, record: list) -> None:
@@ -110,6 +112,8 @@ class Hub:
             self.telemetry.rt = bool(record[1].get("rt"))
             if self._device_report is not None:  # a (re)started loop learns the refusals again
                 self.send_to_loop(["devices", self._device_report])
+            if self.record_every:
+                self.send_to_loop(["record", self.record_every])
         elif kind == "scenario":
             self.scenario_state = record[1]
             self.scenario_cls = registry.resolve(record[1]["id"]).factory
@@ -120,6 +124,13 @@ class Hub:
             level = logging.ERROR if record[1] == "error" else logging.WARNING
             log.log(level, "loop: %s", record[2])
             self.log_records.append({"t": time.time(), "level": record[1], "text": record[2]})
+        for listener in self.listeners:
+            listener(record)
+
+    def set_recording(self, every_n_ticks: int) -> None:
+        """Ask the loop for trajectory rows every Nth tick (0: none); kept across loop restarts."""
+        self.record_every = every_n_ticks
+        self.send_to_loop(["record", every_n_ticks])
 
     def _on_scene(self, scene: dict, scene_hash: str) -> None:
         self.scene, self.scene_hash = scene, scene_hash
@@ -158,6 +169,8 @@ class Hub:
         if report != self._device_report:
             self._device_report = report
             self.send_to_loop(["devices", report])
+            for listener in self.listeners:
+                listener(["devices", report])
 
     def _on_state(self, rec: dict) -> None:
         if rec["cues"] != self._last_cues:  # first: the device command leaves before any broadcast work
@@ -335,6 +348,8 @@ class Hub:
             raise ScenarioRefused(report)
         if not self.send_to_loop(["scenario", spec.id, checked, seed]):
             raise BusyError("the loop's input mailbox is full; try again")
+        # the mailbox is ordered: a trial or command sent next is for the new scenario
+        self.scenario_cls = spec.factory
         return {"id": spec.id, "params": checked, "seed": seed, "capability": report.to_dict()}
 
     def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None:

@@ -24,6 +24,11 @@ from scenarios.base import Trial
 from server.loop.simulation import Simulation, TickResult
 
 
+# One row per recorded tick (experiment/store.py SAMPLE_COLUMNS): held = the carried object's id.
+TRAJECTORY_COLUMNS = ("tick", "hip_x", "hip_y", "hip_z", "proxy_x", "proxy_y", "proxy_z", "contact",
+                      "held", "held_x", "held_y", "held_z")
+
+
 def _round(v, digits: int = 9) -> list[float]:
     return [round(v[0], digits), round(v[1], digits), round(v[2], digits)]
 
@@ -43,6 +48,8 @@ class LoopCore:
         self.samples = array("q")    # (period_ns, cost_ns) pairs since the last state record
         self.tracker_applied: list[list] = []  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.frames = 0
+        self.record_every = 0        # trajectory sampling: every Nth tick while an experiment records; 0 = off
+        self.trajectory: list[list] = []  # rows since the last state record (TRAJECTORY_COLUMNS)
 
     def apply(self, record: list, now_ns: int) -> None:
         """Apply one mailbox record (between ticks)."""
@@ -52,7 +59,11 @@ class LoopCore:
             self.sim.set_hip((float(pos[0]), float(pos[1]), float(pos[2])))
             self.tracker_applied.append([client_id, seq, t_ms, recv_ns, now_ns])
         elif kind == "input":  # ["input", client_id, key, action, value?]; checked by the hub
-            self.sim.input(record[2], record[3], record[4] if len(record) > 4 else None)
+            value = record[4] if len(record) > 4 else None
+            self.sim.input(record[2], record[3], value)
+            sim = self.sim  # every key and command is recorded with the tick it took effect
+            sim.events.append({"tick": sim.tick, "t": sim.tick / sim.tick_hz, "name": "input", "client": record[1],
+                               "key": record[2], "action": record[3], "value": value})
         elif kind == "trial":  # ["trial", {"phase", "params", "index"} | None]; checked by the hub
             body = record[1]
             trial = None if body is None else Trial.parse(type(self.sim.scenario).TRIAL_PARAMS, body.get("phase"),
@@ -62,6 +73,9 @@ class LoopCore:
         elif kind == "scenario":  # ["scenario", name, params, seed]: switch between trials
             _, name, params, seed = record
             self.load_scenario(name, params, seed)
+        elif kind == "record":  # ["record", every_n_ticks]: trajectory rows ride with the state records
+            self.record_every = max(0, int(record[1]))
+            self.trajectory = []
         elif kind == "devices":  # the device manager's refusals, for the scenario (TickContext.refusals)
             self.sim.refusals = tuple(str(text) for text in record[1].get("refusals", ()))
 
@@ -78,7 +92,7 @@ class LoopCore:
     def scenario_record(self) -> list:
         sim = self.sim
         return ["scenario", {"id": sim.scenario.id, "params": self.params, "seed": self.seed,
-                             "trial": sim.trial.to_dict() if sim.trial else None}]
+                             "trial": sim.trial.to_dict() if sim.trial else None, "tick": sim.tick}]
 
     def announce(self) -> list[list]:
         """The records a hub needs to know what runs: the scene, then the scenario."""
@@ -88,6 +102,8 @@ class LoopCore:
     def step(self, now_ns: int) -> tuple[TickResult, dict | None]:
         """One tick; returns the result and the state record to publish, if one is due."""
         result = self.sim.step()
+        if self.record_every and result.tick % self.record_every == 0:
+            self._record_trajectory(result)
         slot = int(result.tick * self.state_hz // self.sim.tick_hz)
         # Moving objects do not force a frame: a plane sliding under the HIP moves every tick.
         due = slot != self._publish_slot or result.cues_changed
@@ -95,6 +111,12 @@ class LoopCore:
             return result, None
         self._publish_slot = slot
         return result, self._state_record(result, now_ns)
+
+    def _record_trajectory(self, r: TickResult) -> None:
+        held = r.output.held
+        pose = self.sim.moved.get(held) if held else None
+        self.trajectory.append([r.tick, *_round(r.hip), *_round(r.proxy), int(r.contact), held,
+                                *(_round(pose.pos) if pose else (None, None, None))])
 
     def record_sample(self, period_ns: int, cost_ns: int) -> None:
         self.samples.append(period_ns)
@@ -115,8 +137,10 @@ class LoopCore:
             "events": self.sim.events,
             "samples": self.samples.tobytes(),
             "trackers": self.tracker_applied,
+            "trajectory": self.trajectory,
         }
         self.samples = array("q")
         self.tracker_applied = []
+        self.trajectory = []
         self.sim.events = []
         return record

@@ -12,9 +12,10 @@ once per tick (one memory read, never in a loop) and drains only when it changed
 this machine, the empty non-blocking `recv` alone was p50 5 µs / p99 34 µs of a tick.
 
 Records, hub → loop: ["tracker", client_id, seq, t_ms, [x,y,z], quat|None, recv_ns],
-["input", client_id, key, action], ["stop"].
-Records, loop → hub: ["hello", info], ["scene", scene_map, hash], ["state", state_map],
-["log", level, text].
+["input", client_id, key, action, value?], ["trial", body|None], ["scenario", name, params, seed],
+["devices", report], ["record", every_n_ticks], ["stop"].
+Records, loop → hub: ["hello", info], ["scene", scene_map, hash], ["scenario", info],
+["state", state_map], ["fail_safe"], ["log", level, text].
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 import msgpack
 
 from scenarios.contact_angle import ContactAngle
-from server.loop.core import LoopCore
+from server.loop.core import TRAJECTORY_COLUMNS, LoopCore
 from server.loop.simulation import Simulation
 
 MS = 1_000_000
@@ -129,7 +129,8 @@ def test_scenario_switch_announces_the_new_scene_and_keeps_the_tick():
     core.apply(["scenario", "stiffness", {"middle_level": 3}, 5], 10 * MS)
     scene, scenario = core.outbox
     assert scene[0] == "scene" and scene[1]["name"] == "stiffness" and scene[2] == core.sim.scene.hash
-    assert scenario == ["scenario", {"id": "stiffness-v1", "params": {"middle_level": 3}, "seed": 5, "trial": None}]
+    assert scenario == ["scenario", {"id": "stiffness-v1", "params": {"middle_level": 3}, "seed": 5, "trial": None,
+                                     "tick": 10}]
     result, _ = core.step(10 * MS)
     assert result.tick == 10, "the tick counter continues across scenarios"
 
@@ -151,6 +152,22 @@ def test_events_ride_with_the_next_state_record_stamped_with_their_tick():
     core = make_core()
     core.apply(["input", 1, "tap_angle", "press", 30.0], 0)
     _, first = core.step(0)  # a publish is due in tick 0 anyway (first cadence slot)
-    assert [(e["name"], e["tick"], e["angle_deg"]) for e in first["events"]] == [("tap", 0, 30.0)]
+    pressed, tap = first["events"]
+    assert (pressed["name"], pressed["tick"], pressed["key"], pressed["value"], pressed["client"]) == \
+        ("input", 0, "tap_angle", 30.0, 1), "every key and command is recorded with its tick and sender"
+    assert (tap["name"], tap["tick"], tap["angle_deg"]) == ("tap", 0, 30.0)
     later = [rec for t in range(1, 40) if (rec := core.step(t * MS)[1]) is not None]
     assert all(rec["events"] == [] for rec in later), "each event is published once"
+
+
+def test_trajectory_rows_ride_with_the_state_records_when_asked():
+    core = make_core()
+    rows = [row for t in range(30) if (rec := core.step(t * MS)[1]) is not None for row in rec["trajectory"]]
+    assert rows == [], "nothing recorded unless an experiment asks"
+    core.apply(["record", 10], 30 * MS)
+    recs = [r for t in range(30, 130) if (r := core.step(t * MS)[1]) is not None]
+    rows = [row for rec in recs for row in rec["trajectory"]] + core.trajectory  # + what waits for the next record
+    assert [row[0] for row in rows] == list(range(30, 130, 10)), "every 10th tick, none lost between records"
+    assert len(rows[0]) == len(TRAJECTORY_COLUMNS) and rows[0][8] is None, "no carried object here"
+    core.apply(["record", 0], 130 * MS)
+    assert all(r["trajectory"] == [] for t in range(130, 200) if (r := core.step(t * MS)[1]) is not None)
