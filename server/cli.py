@@ -5,11 +5,14 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import socket
 import sys
+from pathlib import Path
 
 from scenarios.base import ParamError
 from scenarios.registry import UnknownScenario
+from server.config import STUDIES_DIR
 from server.scene import SceneError
 
 
@@ -35,7 +38,9 @@ def _serve(args: argparse.Namespace) -> int:
                             scenario_params=_scenario_params(args.param), scene_file=args.scene,
                             state_hz=args.state_hz, realtime=not args.no_realtime, gate_band=args.gate_band,
                             gate_dwell_s=args.gate_dwell_ms / 1000.0, devices=tuple(devices),
-                            simulated_rig=not args.no_rig, rig_models=tuple(m for m in args.rig.split(",") if m))
+                            simulated_rig=not args.no_rig, rig_models=tuple(m for m in args.rig.split(",") if m),
+                            data_dir=Path(args.data_dir), studies_dir=Path(args.studies),
+                            record_every=args.record_every, force=args.force)
     except (ParamError, ProfileError) as exc:
         print(f"viestac serve: {exc}", file=sys.stderr)
         return 2
@@ -200,6 +205,11 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--rig", default="fingertac,ferrovibe", metavar="MODEL[,MODEL...]",
                        help="the simulated rig's emulated devices (default fingertac,ferrovibe; devkit adds "
                             "temperature and friction)")
+    serve.add_argument("--data-dir", default=os.environ.get("VIESTAC_DATA", "data"),
+                       help="where the experiment database lives (default: $VIESTAC_DATA or ./data)")
+    serve.add_argument("--studies", default=str(STUDIES_DIR), help="the directory of study files (*.toml)")
+    serve.add_argument("--record-every", type=int, default=10, metavar="N",
+                       help="trajectory rows every Nth tick during a trial (default 10 = 100 Hz; 1 = every tick)")
     serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     serve.set_defaults(func=_serve)
 

@@ -13,6 +13,7 @@ from server.loop.process import LoopConfig
 from server.scene import Scene
 
 WEB_ROOT = Path(__file__).resolve().parents[1] / "clients" / "web"
+STUDIES_DIR = Path(__file__).resolve().parents[1] / "studies"
 
 
 @dataclass(frozen=True)
@@ -32,6 +33,10 @@ class Settings:
     devices: tuple[DeviceConfig, ...] = ()  # real devices (docs/devices.md)
     simulated_rig: bool = True      # device emulators on ptys, when no device is configured
     rig_models: tuple[str, ...] = ("fingertac", "ferrovibe")
+    data_dir: Path = Path("data")   # the experiment database (viestac.sqlite) lives here
+    studies_dir: Path = STUDIES_DIR  # study files (*.toml) the console offers
+    record_every: int = 10          # trajectory rows every Nth tick during a trial (1: every tick)
+    force: bool = False             # run scenarios no configured device can show (serve --force; studies too)
 
     def __post_init__(self) -> None:
         if not 0 <= self.port <= 65535:
@@ -40,6 +45,8 @@ class Settings:
             raise ValueError("tick_hz must be in 100..10000")
         if not 1 <= self.state_hz <= min(self.tick_hz, 1000):
             raise ValueError("state_hz must be in 1..tick_hz")
+        if not 1 <= self.record_every <= 1000:
+            raise ValueError("record_every must be in 1..1000 ticks")
         if not (0.0 <= self.gate_band <= 0.1 and 0.0 <= self.gate_dwell_s <= 1.0):
             raise ValueError("gate band must be in [0, 0.1] scene units and dwell in [0, 1] s")
         spec = registry.resolve(self.scenario)  # fails early, with a hint
@@ -56,6 +63,20 @@ class Settings:
                           tick_hz=self.tick_hz,
                           state_hz=self.state_hz, realtime=self.realtime, gate_band=self.gate_band,
                           gate_min_on_s=self.gate_dwell_s, gate_min_off_s=self.gate_dwell_s)
+
+    def recorded(self) -> dict:
+        """The configuration as plain data, stored with every experiment session."""
+        out = {}
+        for name in self.__dataclass_fields__:
+            value = getattr(self, name)
+            if name == "devices":
+                value = [{"name": d.name, "model": d.profile.model, "port": str(d.port)} for d in value]
+            elif isinstance(value, Path):
+                value = str(value)
+            elif isinstance(value, tuple):
+                value = list(value)
+            out[name] = value
+        return out
 
     def device_profiles(self) -> dict:
         """The profiles the server will drive: the configured devices, else the simulated rig's."""

@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import urllib.request
@@ -32,9 +34,14 @@ def get_json(url: str, method: str = "GET", timeout: float = 5.0, body: dict | N
 def start_server(scenario: str = "contact-angle", extra: list[str] | None = None,
                  timeout_s: float = 30.0) -> tuple[subprocess.Popen, str]:
     """Start `viestac serve --port 0`; return the process and its base URL once healthy."""
+    extra = list(extra or [])
+    own_data = "--data-dir" not in extra
+    if own_data:  # a server of its own gets a database of its own, removed when it stops
+        extra += ["--data-dir", tempfile.mkdtemp(prefix="viestac-data-")]
     proc = subprocess.Popen([sys.executable, "-m", "server.cli", "serve", "--port", "0", "--scenario", scenario,
-                             "--log-level", "warning", *(extra or [])],
+                             "--log-level", "warning", *extra],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc.own_data_dir = extra[extra.index("--data-dir") + 1] if own_data else None
     deadline = time.monotonic() + timeout_s
     base = None
     assert proc.stdout is not None
@@ -68,6 +75,9 @@ def stop_server(proc: subprocess.Popen) -> None:
         proc.wait(10)
     except subprocess.TimeoutExpired:
         proc.kill()
+        proc.wait()
+    if getattr(proc, "own_data_dir", None):
+        shutil.rmtree(proc.own_data_dir, ignore_errors=True)
 
 
 def _tree_rss_mb(pid: int) -> float:
