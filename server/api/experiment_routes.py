@@ -1,0 +1,190 @@
+"""REST routes of the experiment engine: studies, sessions and the trial lifecycle (everything the
+experimenter's console does). Thin: validate, call the engine, map its errors to status codes.
+
+Changes to a session need the control token its creation (or `POST .../control`) returned, in
+the `X-Control-Token` header; each names the trial it is about, so a stale console gets 409.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Depends, Header, HTTPException, Request
+from pydantic import BaseModel, Field
+
+from scenarios.base import ParamError
+from scenarios.registry import UnknownScenario
+from server.experiment.engine import Experiment, ExperimentError, Forbidden, NotFound
+from server.experiment.plan import plan_session
+from server.experiment.store import Conflict, StoreError
+from server.hub.hub import BusyError, ScenarioRefused
+
+router = APIRouter(tags=["experiment"])
+
+
+def get_experiment(request: Request) -> Experiment:
+    return request.app.state.experiment
+
+
+ExperimentDep = Annotated[Experiment, Depends(get_experiment)]
+TokenDep = Annotated[str | None, Header(alias="X-Control-Token", description="the session's control token")]
+
+
+def _http(exc: Exception) -> HTTPException:
+    """One mapping of the engine's, store's and hub's errors to status codes."""
+    if isinstance(exc, NotFound | UnknownScenario):
+        return HTTPException(404, str(exc))
+    if isinstance(exc, Forbidden):
+        return HTTPException(403, str(exc))
+    if isinstance(exc, Conflict | ScenarioRefused):
+        return HTTPException(409, getattr(getattr(exc, "report", None), "message", None) or str(exc))
+    if isinstance(exc, BusyError):
+        return HTTPException(503, str(exc))
+    if isinstance(exc, StoreError):  # a transition the lifecycle does not allow
+        return HTTPException(409, str(exc))
+    return HTTPException(422, str(exc))
+
+
+ERRORS = (ExperimentError, StoreError, ParamError, UnknownScenario, ScenarioRefused, BusyError)
+
+
+class SessionCreate(BaseModel):
+    study: str = Field(description="a study id (GET /api/studies)")
+    participant: str = Field(description="pseudonymous participant code (letters, digits, '-', '_'; never a name)")
+    experimenter: str
+    device: str | None = Field(None, description="the device worn (model or name), recorded with the session")
+    notes: str = ""
+    participant_index: int | None = Field(None, ge=0, description="row of the counterbalancing (default: the "
+                                                                  "next one for this study)")
+
+
+class ControlRequest(BaseModel):
+    experimenter: str = Field(min_length=1, max_length=64)
+
+
+class AnswerRequest(BaseModel):
+    value: Any = Field(description="the answer; checked against the question (Likert 1-7, number, choice, text)")
+    entered_by: str = Field("experimenter", max_length=64)
+
+
+class ReasonRequest(BaseModel):
+    reason: str = Field("", max_length=500)
+
+
+class NotesRequest(BaseModel):
+    notes: str = Field(max_length=10_000)
+
+
+@router.get("/studies", summary="Study files in the studies directory (a broken one with its error)")
+def studies(experiment: ExperimentDep) -> list[dict]:
+    return experiment.studies()
+
+
+@router.get("/studies/{study_id}", summary="One study: tasks, conditions, orders, questions")
+def study(study_id: str, experiment: ExperimentDep) -> dict:
+    try:
+        return experiment.study(study_id).to_dict()
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
+@router.get("/studies/{study_id}/plan", summary="The planned trials of one participant (counterbalancing row)")
+def study_plan(study_id: str, experiment: ExperimentDep, participant_index: int = 0) -> list[dict]:
+    try:
+        return [p.to_dict() for p in plan_session(experiment.study(study_id), participant_index)]
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
+@router.get("/sessions", summary="All sessions with their progress")
+def sessions(experiment: ExperimentDep) -> list[dict]:
+    return experiment.sessions()
+
+
+@router.post("/sessions", status_code=201, summary="A new session: the study's plan for one participant; returns the "
+                                                    "control token")
+def create_session(body: SessionCreate, experiment: ExperimentDep) -> dict:
+    try:
+        return experiment.create_session(study_id=body.study, participant=body.participant,
+                                         experimenter=body.experimenter, device=body.device, notes=body.notes,
+                                         participant_index=body.participant_index)
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
+@router.get("/sessions/{session_id}", summary="A session with its queue of trials, statuses and answers")
+def session(session_id: str, experiment: ExperimentDep) -> dict:
+    try:
+        return experiment.session(session_id)
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
+@router.post("/sessions/{session_id}/control", summary="Take control of a session from this console (the previous "
+                                                        "token stops working)")
+def take_control(session_id: str, body: ControlRequest, experiment: ExperimentDep) -> dict:
+    try:
+        return {"token": experiment.take_control(session_id, body.experimenter)}
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
+@router.put("/sessions/{session_id}/notes", summary="Replace the session's notes")
+def notes(session_id: str, body: NotesRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+    try:
+        experiment.set_notes(session_id, token, body.notes)
+    except ERRORS as exc:
+        raise _http(exc) from None
+    return {"ok": True}
+
+
+@router.post("/sessions/{session_id}/trials/{seq}/start", summary="Start the next pending trial (its scenario and "
+                                                                  "trial go to the loop, recording starts)")
+def start(session_id: str, seq: int, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+    try:
+        return experiment.start(session_id, token, seq)
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
+@router.put("/sessions/{session_id}/trials/{seq}/responses/{question}", summary="Enter or correct one answer")
+def answer(session_id: str, seq: int, question: str, body: AnswerRequest, experiment: ExperimentDep,
+           token: TokenDep = None) -> dict:
+    try:
+        return experiment.answer(session_id, token, seq, question, body.value, body.entered_by)
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
+@router.post("/sessions/{session_id}/trials/{seq}/finish", summary="The running trial is answered (needs every "
+                                                                   "required answer); committed with its data")
+def finish(session_id: str, seq: int, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+    try:
+        return experiment.finish(session_id, token, seq)
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
+@router.post("/sessions/{session_id}/trials/{seq}/abort", summary="Abort the running trial")
+def abort(session_id: str, seq: int, body: ReasonRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+    try:
+        return experiment.abort(session_id, token, seq, body.reason)
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
+@router.post("/sessions/{session_id}/trials/{seq}/retry", summary="An aborted trial back into the queue")
+def retry(session_id: str, seq: int, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+    try:
+        return experiment.retry(session_id, token, seq)
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
+@router.post("/sessions/{session_id}/trials/{seq}/exclude", summary="Exclude an answered or aborted trial from "
+                                                                    "analysis, with a reason")
+def exclude(session_id: str, seq: int, body: ReasonRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+    try:
+        return experiment.exclude(session_id, token, seq, body.reason)
+    except ERRORS as exc:
+        raise _http(exc) from None

@@ -1,0 +1,306 @@
+"""The experiment engine: sessions of a study, driven by the experimenter, on the one rig.
+
+A session is a study's plan for one participant (server/experiment/plan.py), stored as pending
+trials. The experimenter moves it on: `start` the next pending trial (the engine switches the
+loop to the trial's scenario if needed, sets the trial, and starts recording), `answer` its
+questions, `finish` it (answered: needs every required answer), or `abort`, `retry`, `exclude`.
+Every change is committed before the call returns (store.py), so the console, a crash and a
+restart all see the same queue.
+
+Control: creating a session hands out a control token; every change needs it. A second console
+that wants to drive the session takes control explicitly (`take_control`, a new token; the old
+one stops working and the hand-over is recorded). Each change also names the trial it is about
+(`seq`), so two clicks racing for the same trial cannot both succeed (409 for the second).
+
+Timestamps are the server's: UTC wall-clock from the store's clock, and the loop's tick.
+"""
+
+from __future__ import annotations
+
+import re
+import secrets
+import threading
+import uuid
+from pathlib import Path
+from typing import Any, Protocol
+
+from server.experiment.plan import plan_session
+from server.experiment.recorder import Recorder
+from server.experiment.store import Conflict, Store, StoreError, TrialRow
+from server.experiment.study import AnswerError, Study, StudyError, load_study
+
+PARTICIPANT_CODE = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
+SCENARIO_TRIAL_KINDS = ("trial", "main")  # training and questionnaires set no scenario trial
+
+
+class ExperimentError(ValueError):
+    """A request that cannot be carried out as asked (bad input: 422 in REST)."""
+
+
+class NotFound(ExperimentError):
+    """An unknown study, session or trial (404)."""
+
+
+class Forbidden(ExperimentError):
+    """A change without the session's current control token (403)."""
+
+
+class HubPort(Protocol):
+    """What the engine needs of the hub (server/hub/hub.py)."""
+    scenario_state: dict | None
+    listeners: list
+
+    def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict: ...
+
+    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None: ...
+
+    def set_recording(self, every_n_ticks: int) -> None: ...
+
+
+class Experiment:
+    def __init__(self, store: Store, hub: HubPort, *, studies_dir: Path, software_version: str, config: dict,
+                 record_every: int = 10, force_scenarios: bool = False):
+        self.store = store
+        self.hub = hub
+        self.studies_dir = Path(studies_dir)
+        self.software_version = software_version
+        self.config = config
+        self.record_every = record_every
+        self.force_scenarios = force_scenarios
+        self.recorder = Recorder(store)
+        hub.listeners.append(self.recorder.on_record)
+        self._tokens: dict[str, str] = {}
+        self._studies: dict[Path, tuple] = {}  # path → (mtime_ns, Study | None, StudyError | None)
+        self._lock = threading.Lock()  # one change at a time: REST handlers run in a thread pool
+
+    # -- studies ----------------------------------------------------------------------------
+    def _load(self, path: Path) -> Study:
+        """A study file, parsed once per version of the file (answers look their question up)."""
+        stamp = path.stat().st_mtime_ns
+        cached = self._studies.get(path)
+        if cached is None or cached[0] != stamp:
+            try:
+                cached = (stamp, load_study(path), None)
+            except StudyError as exc:
+                cached = (stamp, None, exc)
+            self._studies[path] = cached
+        if cached[2] is not None:
+            raise cached[2]
+        return cached[1]
+
+    def studies(self) -> list[dict]:
+        """Every study file in the studies directory; a broken one is listed with its error."""
+        out = []
+        for path in sorted(self.studies_dir.glob("*.toml")):
+            try:
+                study = self._load(path)
+                out.append({"file": path.name, "id": study.id, "title": study.title,
+                            "participants": study.participants, "tasks": [t.id for t in study.tasks]})
+            except StudyError as exc:
+                out.append({"file": path.name, "error": str(exc)})
+        return out
+
+    def study(self, study_id: str) -> Study:
+        for path in sorted(self.studies_dir.glob("*.toml")):
+            try:
+                study = self._load(path)
+            except StudyError:
+                continue
+            if study.id == study_id or path.stem == study_id:
+                return study
+        raise NotFound(f"unknown study {study_id!r} (studies in {self.studies_dir}: "
+                       f"{', '.join(s.get('id', s['file']) for s in self.studies()) or 'none'})")
+
+    # -- sessions ---------------------------------------------------------------------------
+    def create_session(self, *, study_id: str, participant: str, experimenter: str, device: str | None = None,
+                       notes: str = "", participant_index: int | None = None) -> dict:
+        """A new session with its plan; returns it with the control token."""
+        if not PARTICIPANT_CODE.match(participant or ""):
+            raise ExperimentError("participant must be a pseudonymous code of 1-32 letters, digits, '-' or '_' "
+                                  "(no names are stored)")
+        if not experimenter or len(experimenter) > 64:
+            raise ExperimentError("experimenter must be 1-64 characters")
+        study = self.study(study_id)
+        with self._lock:
+            if participant_index is None:  # the next row of the counterbalancing
+                participant_index = sum(1 for s in self.store.sessions() if s["study_id"] == study.id)
+            if participant_index < 0:
+                raise ExperimentError("participant_index must be >= 0")
+            plan = [p.to_dict() for p in plan_session(study, participant_index)]
+            session_id = uuid.uuid4().hex[:12]
+            try:
+                self.store.create_session(
+                    session_id=session_id, study_id=study.id, study_title=study.title, study_hash=study.source_hash,
+                    study_text=self._study_text(study), participant=participant,
+                    participant_index=participant_index, device=device, experimenter=experimenter, notes=notes,
+                    software_version=self.software_version, config=self.config, plan=plan)
+            except Conflict as exc:
+                raise ExperimentError(str(exc)) from None
+            token = self._tokens[session_id] = secrets.token_urlsafe(16)
+        return {**self.session(session_id), "token": token}
+
+    def _study_text(self, study: Study) -> str:
+        """The file text of the study (stored with the session: what exactly ran)."""
+        for path, (_, loaded, _) in self._studies.items():
+            if loaded is not None and loaded.source_hash == study.source_hash:
+                return path.read_text()
+        return ""
+
+    def session(self, session_id: str) -> dict:
+        """The session with its queue: every trial with its status and answers."""
+        try:
+            session = self.store.session(session_id)
+        except StoreError as exc:
+            raise NotFound(str(exc)) from None
+        trials = self.store.trials(session_id)
+        session.pop("study_text", None)
+        queue = [{**t.to_dict(), "responses": self.store.responses(t.id)} for t in trials]
+        nxt = next((t for t in trials if t.status == "pending"), None)
+        running = next((t for t in trials if t.status == "running"), None)
+        return {**session, "trials": queue, "next": None if nxt is None else nxt.seq,
+                "running": None if running is None else running.seq, "controlled": session_id in self._tokens}
+
+    def sessions(self) -> list[dict]:
+        return self.store.sessions()
+
+    def take_control(self, session_id: str, experimenter: str) -> str:
+        """A new control token for this console; the previous one stops working."""
+        self.session(session_id)
+        with self._lock:
+            token = self._tokens[session_id] = secrets.token_urlsafe(16)
+        self.store.add_events([(session_id, None, None, None, "control", {"experimenter": experimenter})])
+        return token
+
+    def _check_token(self, session_id: str, token: str | None) -> None:
+        current = self._tokens.get(session_id)
+        if current is None:
+            raise Forbidden(f"session {session_id} has no controlling console; take control first")
+        if not token or not secrets.compare_digest(token, current):
+            raise Forbidden("this console does not control the session (another took control); take control again "
+                            "to drive it")
+
+    def _trial(self, session_id: str, seq: int) -> TrialRow:
+        trial = next((t for t in self.store.trials(session_id) if t.seq == seq), None)
+        if trial is None:
+            raise NotFound(f"session {session_id} has no trial {seq}")
+        return trial
+
+    # -- the lifecycle ------------------------------------------------------------------------
+    def start(self, session_id: str, token: str | None, seq: int) -> dict:
+        """Start trial `seq`, which must be the session's next pending trial."""
+        with self._lock:
+            self._check_token(session_id, token)
+            trial = self._trial(session_id, seq)
+            nxt = self.store.next_pending(session_id)
+            if nxt is None or nxt.seq != seq:
+                where = "no trial is pending" if nxt is None else f"the next pending trial is {nxt.seq}"
+                raise Conflict(f"trial {seq} is {trial.status}; {where}")
+            running = self.store.running()
+            if running is not None:
+                raise Conflict(f"trial {running.seq} of session {running.session_id} is still running")
+            self._prepare_loop(trial)
+            started = self.store.transition(trial.id, "running", expect="pending")
+            self.recorder.begin(session_id, started.id, started.attempt)
+            self.hub.set_recording(self.record_every)
+            self._set_trial(started)
+        return started.to_dict()
+
+    def _prepare_loop(self, trial: TrialRow) -> None:
+        state = self.hub.scenario_state or {}
+        if state.get("id") != trial.scenario or state.get("params") != trial.scenario_params:
+            self.hub.switch_scenario(trial.scenario, dict(trial.scenario_params), self._seed(trial),
+                                     force=self.force_scenarios)
+
+    def _seed(self, trial: TrialRow) -> int:
+        session = self.store.session(trial.session_id)
+        return session["participant_index"]  # the scenario's own random choices differ per participant
+
+    def _set_trial(self, trial: TrialRow) -> None:
+        # trial-phase and main trials, and training items that present something (the texture
+        # task's reference extremes), are scenario trials; plain training is free exploration,
+        # and a questionnaire leaves the scene alone
+        if trial.kind in SCENARIO_TRIAL_KINDS or (trial.kind == "training" and trial.params):
+            self.hub.set_trial(trial.kind, dict(trial.params), trial.index)
+        else:
+            self.hub.set_trial(None)
+
+    def answer(self, session_id: str, token: str | None, seq: int, question: str, value: Any,
+               entered_by: str) -> dict:
+        """Record one answer of a running or answered trial (checked against its question)."""
+        with self._lock:
+            self._check_token(session_id, token)
+            trial = self._trial(session_id, seq)
+            if trial.status not in ("running", "answered"):
+                raise Conflict(f"trial {seq} is {trial.status}; answers go to a running or answered trial")
+            if question not in trial.questions:
+                raise ExperimentError(f"trial {seq} asks {', '.join(trial.questions) or 'no questions'}; "
+                                      f"not {question!r}")
+            q = self.study(self.store.session(session_id)["study_id"]).task(trial.task).question(question)
+            try:
+                value = q.check(value)
+            except AnswerError as exc:
+                raise ExperimentError(str(exc)) from None
+            self.store.put_response(trial.id, question, value, entered_by)
+        return {"seq": seq, "question": question, "value": value}
+
+    def finish(self, session_id: str, token: str | None, seq: int) -> dict:
+        """The running trial is done: answered (every required question has its answer)."""
+        with self._lock:
+            self._check_token(session_id, token)
+            trial = self._running(session_id, seq)
+            study = self.study(self.store.session(session_id)["study_id"])
+            answers = self.store.responses(trial.id)
+            task = study.task(trial.task)
+            missing = [q for q in trial.questions if task.question(q).required and q not in answers]
+            if missing:
+                raise Conflict(f"trial {seq} still needs an answer to {', '.join(missing)}")
+            return self._end(trial, "answered")
+
+    def abort(self, session_id: str, token: str | None, seq: int, reason: str = "") -> dict:
+        with self._lock:
+            self._check_token(session_id, token)
+            return self._end(self._running(session_id, seq), "aborted", reason)
+
+    def _running(self, session_id: str, seq: int) -> TrialRow:
+        trial = self._trial(session_id, seq)
+        if trial.status != "running":
+            raise Conflict(f"trial {seq} is {trial.status}, not running")
+        return trial
+
+    def _end(self, trial: TrialRow, status: str, reason: str = "") -> dict:
+        recorded = self.recorder.end()  # every row of the trial is on disk before it changes state
+        self.hub.set_recording(0)
+        self.hub.set_trial(None)
+        metrics = recorded.metrics if recorded is not None and recorded.trial_id == trial.id else {}
+        ended = self.store.transition(trial.id, status, expect="running", metrics=metrics, reason=reason,
+                                      tick=self._last_tick())
+        if self.store.next_pending(trial.session_id) is None:
+            self.store.set_session_status(trial.session_id, "completed")
+        return ended.to_dict()
+
+    def _last_tick(self) -> int | None:
+        state = getattr(self.hub, "last_state", None)
+        return None if state is None else state.get("tick")
+
+    def exclude(self, session_id: str, token: str | None, seq: int, reason: str) -> dict:
+        if not reason:
+            raise ExperimentError("an exclusion needs a reason")
+        with self._lock:
+            self._check_token(session_id, token)
+            trial = self._trial(session_id, seq)
+            return self.store.transition(trial.id, "excluded", reason=reason).to_dict()
+
+    def retry(self, session_id: str, token: str | None, seq: int) -> dict:
+        """An aborted trial back to pending: it runs again (a new attempt) when it is next."""
+        with self._lock:
+            self._check_token(session_id, token)
+            trial = self._trial(session_id, seq)
+            if trial.status != "aborted":
+                raise Conflict(f"trial {seq} is {trial.status}; only an aborted trial can be retried")
+            self.store.set_session_status(session_id, "open")
+            return self.store.transition(trial.id, "pending", expect="aborted", reason="retry").to_dict()
+
+    def set_notes(self, session_id: str, token: str | None, notes: str) -> None:
+        with self._lock:
+            self._check_token(session_id, token)
+            self.store.set_notes(session_id, notes)

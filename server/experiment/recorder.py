@@ -1,0 +1,119 @@
+"""The recorder: turns the loop's records into rows of the running trial, in batches.
+
+It listens to every record the hub receives from the loop (hub.listeners) and, while a trial
+runs, keeps from each state record the trajectory rows (HIP, proxy, contact, carried object;
+every Nth tick as the loop was asked), the cue commands whenever they changed, and the events
+(the scenario's, every key and command, device status and refusals, tracker loss). Rows from
+ticks before the trial's first tick are dropped: the loop announces the tick at which the trial
+took effect.
+
+Nothing here blocks the event loop for long: rows wait in memory and `flush()` writes them in
+one transaction per table; the experiment flushes every 0.25 s in a worker thread and always
+before a trial changes state, so a finished trial is complete on disk before the next starts.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+
+from server.experiment.store import Store
+
+TRACKER_LOSS_TICKS = 250  # no tracker sample applied for this long (at 1 kHz: 0.25 s) → tracker_lost
+
+
+@dataclass
+class Active:
+    session_id: str
+    trial_id: int
+    attempt: int
+    first_tick: int | None = None        # the tick the trial took effect (None: not yet announced)
+    samples: list = field(default_factory=list)
+    cues: list = field(default_factory=list)
+    events: list = field(default_factory=list)
+    last_cues: list | None = None
+    metrics: dict = field(default_factory=dict)  # from the scenario's trial_done event
+    last_tracker_tick: int | None = None
+    tracker_lost: bool = False
+
+
+class Recorder:
+    def __init__(self, store: Store):
+        self.store = store
+        self.active: Active | None = None
+        self._lock = threading.Lock()  # flush() runs in a worker thread, records arrive on the event loop
+
+    # -- control (the experiment) -----------------------------------------------------------
+    def begin(self, session_id: str, trial_id: int, attempt: int) -> None:
+        with self._lock:
+            self.active = Active(session_id, trial_id, attempt)
+
+    def end(self) -> Active | None:
+        """Stop recording the trial and write its remaining rows; returns what was recorded."""
+        with self._lock:
+            done, self.active = self.active, None
+        if done is not None:
+            self._write(done, done.samples, done.cues, done.events)
+        return done
+
+    # -- records from the loop (hub listener) -------------------------------------------------
+    def on_record(self, record: list) -> None:
+        a = self.active
+        if a is None:
+            return
+        kind = record[0]
+        with self._lock:
+            if kind == "scenario":
+                if a.first_tick is None:
+                    a.first_tick = int(record[1].get("tick", 0))
+            elif kind == "state" and a.first_tick is not None:
+                self._state(a, record[1])
+            elif kind == "devices":
+                a.events.append((a.session_id, a.trial_id, a.attempt, None, "devices", record[1]))
+            elif kind in ("fail_safe", "log"):
+                a.events.append((a.session_id, a.trial_id, a.attempt, None, "loop",
+                                 {"kind": kind, "detail": record[1:]}))
+
+    def _state(self, a: Active, rec: dict) -> None:
+        first = a.first_tick
+        a.samples.extend(row for row in rec.get("trajectory", ()) if row[0] >= first)
+        tick = rec["tick"]
+        if tick < first:
+            return
+        if rec["cues"] != a.last_cues:
+            a.cues.append((tick, rec["cues"]))
+            a.last_cues = rec["cues"]
+        for event in rec.get("events") or ():
+            if event.get("tick", tick) < first:
+                continue
+            kind = "input" if event.get("name") == "input" else "scenario"
+            a.events.append((a.session_id, a.trial_id, a.attempt, event.get("tick"), kind, event))
+            if event.get("name") == "trial_done":
+                a.metrics = {k: v for k, v in event.items() if k not in ("name", "tick", "t")}
+        self._watch_tracker(a, tick, rec.get("trackers") or ())
+
+    def _watch_tracker(self, a: Active, tick: int, trackers) -> None:
+        if trackers:
+            if a.tracker_lost:
+                a.events.append((a.session_id, a.trial_id, a.attempt, tick, "tracker",
+                                 {"name": "tracker_back", "gap_ticks": tick - (a.last_tracker_tick or tick)}))
+            a.last_tracker_tick, a.tracker_lost = tick, False
+        elif a.last_tracker_tick is not None and not a.tracker_lost and tick - a.last_tracker_tick > TRACKER_LOSS_TICKS:
+            a.tracker_lost = True
+            a.events.append((a.session_id, a.trial_id, a.attempt, tick, "tracker",
+                             {"name": "tracker_lost", "last_tick": a.last_tracker_tick}))
+
+    # -- writing ----------------------------------------------------------------------------
+    def flush(self) -> None:
+        with self._lock:
+            a = self.active
+            if a is None:
+                return
+            rows = a.samples, a.cues, a.events
+            a.samples, a.cues, a.events = [], [], []
+        self._write(a, *rows)
+
+    def _write(self, a: Active, samples: list, cues: list, events: list) -> None:
+        self.store.add_samples(a.trial_id, a.attempt, samples)
+        self.store.add_cues(a.trial_id, a.attempt, cues)
+        self.store.add_events(events)

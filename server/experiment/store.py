@@ -1,0 +1,385 @@
+"""The experiment store: sessions, trials, responses, events, trajectories and cue commands in
+SQLite, crash-safe.
+
+Durability (the kill test, issue 6): the database runs in WAL mode; every lifecycle change
+(a trial started, answered, aborted, excluded; a response) is its own committed transaction, so a
+`kill -9` of the server loses at most the rows of the running trial that the recorder had not yet
+flushed, never a completed trial. On open, a trial left `running` by a crash goes back to
+`pending` with its attempt counted and an `interrupted` event, so the session resumes at it.
+(WAL with synchronous=NORMAL is durable against a process crash; only an OS crash or power loss
+can lose the last transactions, and never corrupts the file: sqlite.org/wal.html.)
+
+Trial lifecycle: pending → running → answered | aborted; answered | aborted → excluded (with a
+reason); aborted → pending again (retry: a new attempt). Data rows carry their attempt, so an
+aborted or interrupted attempt's samples stay apart from the one that counted.
+
+One connection, shared by the REST threads and the recorder, behind a lock: SQLite serialises
+writers anyway, and a lab's data rate (≤ 1 kHz samples in batches) is far below its limits.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+import threading
+from contextlib import contextmanager
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Iterable, Iterator
+
+from server.loop.core import TRAJECTORY_COLUMNS
+
+SCHEMA_VERSION = 1
+TRIAL_STATUSES = ("pending", "running", "answered", "aborted", "excluded")
+SESSION_STATUSES = ("open", "completed")
+TRANSITIONS = {  # status → the statuses it may change to
+    "pending": {"running"},
+    "running": {"answered", "aborted"},
+    "answered": {"excluded"},
+    "aborted": {"excluded", "pending"},
+    "excluded": set(),
+}
+
+SCHEMA = f"""
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS sessions (
+    id TEXT PRIMARY KEY,
+    study_id TEXT NOT NULL, study_title TEXT NOT NULL, study_hash TEXT NOT NULL, study_text TEXT NOT NULL,
+    participant TEXT NOT NULL,            -- pseudonymous code, never a name
+    participant_index INTEGER NOT NULL,   -- row of the study's counterbalancing
+    device TEXT, experimenter TEXT NOT NULL, notes TEXT NOT NULL DEFAULT '',
+    status TEXT NOT NULL CHECK (status IN {SESSION_STATUSES}),
+    created_utc TEXT NOT NULL, software_version TEXT NOT NULL, config_json TEXT NOT NULL,
+    UNIQUE (study_id, participant)
+);
+CREATE TABLE IF NOT EXISTS trials (
+    id INTEGER PRIMARY KEY,
+    session_id TEXT NOT NULL REFERENCES sessions(id),
+    seq INTEGER NOT NULL, task TEXT NOT NULL, kind TEXT NOT NULL, idx INTEGER NOT NULL,
+    scenario TEXT NOT NULL, scenario_params_json TEXT NOT NULL, device TEXT, params_json TEXT NOT NULL,
+    condition INTEGER, repetition INTEGER NOT NULL, duration_s REAL, questions_json TEXT NOT NULL,
+    status TEXT NOT NULL CHECK (status IN {TRIAL_STATUSES}),
+    attempt INTEGER NOT NULL DEFAULT 0,   -- counts starts: 1 after the first
+    started_utc TEXT, started_tick INTEGER, ended_utc TEXT, ended_tick INTEGER,
+    metrics_json TEXT NOT NULL DEFAULT '{{}}', reason TEXT NOT NULL DEFAULT '',
+    UNIQUE (session_id, seq)
+);
+CREATE TABLE IF NOT EXISTS responses (
+    id INTEGER PRIMARY KEY,
+    trial_id INTEGER NOT NULL REFERENCES trials(id),
+    question TEXT NOT NULL, value_json TEXT NOT NULL, entered_by TEXT NOT NULL, answered_utc TEXT NOT NULL,
+    UNIQUE (trial_id, question)
+);
+CREATE TABLE IF NOT EXISTS events (
+    id INTEGER PRIMARY KEY,
+    session_id TEXT NOT NULL, trial_id INTEGER, attempt INTEGER,
+    utc TEXT NOT NULL, tick INTEGER, kind TEXT NOT NULL, body_json TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS samples (      -- trajectories: tick rate or decimated
+    trial_id INTEGER NOT NULL, attempt INTEGER NOT NULL, tick INTEGER NOT NULL,
+    hip_x REAL, hip_y REAL, hip_z REAL, proxy_x REAL, proxy_y REAL, proxy_z REAL, contact INTEGER,
+    held TEXT, held_x REAL, held_y REAL, held_z REAL,
+    PRIMARY KEY (trial_id, attempt, tick)
+) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS cues (         -- device cue commands, whenever they changed
+    trial_id INTEGER NOT NULL, attempt INTEGER NOT NULL, tick INTEGER NOT NULL, cues_json TEXT NOT NULL,
+    PRIMARY KEY (trial_id, attempt, tick)
+) WITHOUT ROWID;
+CREATE INDEX IF NOT EXISTS events_by_trial ON events (trial_id, attempt);
+CREATE INDEX IF NOT EXISTS trials_by_status ON trials (session_id, status);
+"""
+
+SAMPLE_COLUMNS = TRAJECTORY_COLUMNS  # the loop's trajectory rows go in as they come
+
+
+def utc_now() -> str:
+    """The server's wall clock, UTC, ISO 8601 with microseconds (the store's default clock)."""
+    return datetime.now(timezone.utc).isoformat(timespec="microseconds")
+
+
+class StoreError(ValueError):
+    """A request the data does not allow (unknown session, a transition the lifecycle forbids)."""
+
+
+class Conflict(StoreError):
+    """The session is not in the state the request expected (someone else moved it on)."""
+
+
+@dataclass(frozen=True)
+class TrialRow:
+    id: int
+    session_id: str
+    seq: int
+    task: str
+    kind: str
+    index: int
+    scenario: str
+    scenario_params: dict
+    device: str | None
+    params: dict
+    condition: int | None
+    repetition: int
+    duration_s: float | None
+    questions: tuple[str, ...]
+    status: str
+    attempt: int
+    started_utc: str | None
+    started_tick: int | None
+    ended_utc: str | None
+    ended_tick: int | None
+    metrics: dict
+    reason: str
+
+    def to_dict(self) -> dict:
+        d = dict(self.__dict__)
+        d["questions"] = list(self.questions)
+        return d
+
+
+def _dumps(value: Any) -> str:
+    return json.dumps(value, separators=(",", ":"), sort_keys=True)
+
+
+def _trial(row: sqlite3.Row) -> TrialRow:
+    return TrialRow(row["id"], row["session_id"], row["seq"], row["task"], row["kind"], row["idx"], row["scenario"],
+                    json.loads(row["scenario_params_json"]), row["device"], json.loads(row["params_json"]),
+                    row["condition"], row["repetition"], row["duration_s"], tuple(json.loads(row["questions_json"])),
+                    row["status"], row["attempt"], row["started_utc"], row["started_tick"], row["ended_utc"],
+                    row["ended_tick"], json.loads(row["metrics_json"]), row["reason"])
+
+
+class Store:
+    """The SQLite adapter. `utc` is injected (a function returning an ISO-8601 UTC string) so
+    tests and replays control time."""
+
+    def __init__(self, path: str | Path, utc):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.utc = utc
+        self._lock = threading.RLock()
+        self.db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None)
+        self.db.row_factory = sqlite3.Row
+        self.db.execute("PRAGMA journal_mode=WAL")
+        self.db.execute("PRAGMA synchronous=NORMAL")
+        self.db.execute("PRAGMA foreign_keys=ON")
+        self.db.executescript(SCHEMA)
+        self.db.execute("INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)", (str(SCHEMA_VERSION),))
+        self.interrupted = self._recover()
+
+    def close(self) -> None:
+        with self._lock:
+            self.db.close()
+
+    @contextmanager
+    def _tx(self) -> Iterator[sqlite3.Connection]:
+        """One committed transaction (BEGIN IMMEDIATE: the write lock up front, no upgrade deadlock)."""
+        with self._lock:
+            self.db.execute("BEGIN IMMEDIATE")
+            try:
+                yield self.db
+            except BaseException:
+                self.db.execute("ROLLBACK")
+                raise
+            self.db.execute("COMMIT")
+
+    def _recover(self) -> list[TrialRow]:
+        """Trials a crash left running go back to pending (their attempt stays counted)."""
+        with self._tx() as db:
+            rows = [_trial(r) for r in db.execute("SELECT * FROM trials WHERE status = 'running'")]
+            for t in rows:
+                db.execute("UPDATE trials SET status = 'pending', reason = 'interrupted' WHERE id = ?", (t.id,))
+                db.execute("INSERT INTO events (session_id, trial_id, attempt, utc, tick, kind, body_json) "
+                           "VALUES (?, ?, ?, ?, NULL, 'interrupted', ?)",
+                           (t.session_id, t.id, t.attempt, self.utc(), _dumps({"reason": "server restart"})))
+        return rows
+
+    def integrity(self) -> str:
+        with self._lock:
+            return self.db.execute("PRAGMA integrity_check").fetchone()[0]
+
+    # -- sessions ---------------------------------------------------------------------------
+    def create_session(self, *, session_id: str, study_id: str, study_title: str, study_hash: str,
+                       study_text: str, participant: str, participant_index: int, device: str | None,
+                       experimenter: str, notes: str, software_version: str, config: dict,
+                       plan: Iterable[dict]) -> dict:
+        """A session with its whole plan as pending trials, in one transaction."""
+        try:
+            with self._tx() as db:
+                db.execute("INSERT INTO sessions VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'open', ?, ?, ?)",
+                           (session_id, study_id, study_title, study_hash, study_text, participant,
+                            participant_index, device, experimenter, notes, self.utc(), software_version,
+                            _dumps(config)))
+                db.executemany(
+                    "INSERT INTO trials (session_id, seq, task, kind, idx, scenario, scenario_params_json, device, "
+                    "params_json, condition, repetition, duration_s, questions_json, status) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'pending')",
+                    [(session_id, p["seq"], p["task"], p["kind"], p["index"], p["scenario"],
+                      _dumps(p["scenario_params"]), p.get("device"), _dumps(p["params"]), p.get("condition"),
+                      p.get("repetition", 0), p.get("duration_s"), _dumps(list(p.get("questions", ()))))
+                     for p in plan])
+        except sqlite3.IntegrityError as exc:
+            if "sessions.study_id, sessions.participant" in str(exc):
+                raise Conflict(f"participant {participant!r} already has a session of study {study_id!r}") from None
+            raise
+        return self.session(session_id)
+
+    def session(self, session_id: str) -> dict:
+        with self._lock:
+            row = self.db.execute("SELECT * FROM sessions WHERE id = ?", (session_id,)).fetchone()
+        if row is None:
+            raise StoreError(f"unknown session {session_id!r}")
+        d = dict(row)
+        d["config"] = json.loads(d.pop("config_json"))
+        return d
+
+    def sessions(self) -> list[dict]:
+        with self._lock:
+            rows = self.db.execute(
+                "SELECT s.id, s.study_id, s.participant, s.participant_index, s.device, s.experimenter, s.status, "
+                "s.created_utc, COUNT(t.id) AS trials, SUM(t.status IN ('answered', 'aborted', 'excluded')) AS done "
+                "FROM sessions s LEFT JOIN trials t ON t.session_id = s.id GROUP BY s.id ORDER BY s.created_utc"
+            ).fetchall()
+        return [dict(r) for r in rows]
+
+    def set_session_status(self, session_id: str, status: str) -> None:
+        with self._tx() as db:
+            db.execute("UPDATE sessions SET status = ? WHERE id = ?", (status, session_id))
+
+    def set_notes(self, session_id: str, notes: str) -> None:
+        with self._tx() as db:
+            db.execute("UPDATE sessions SET notes = ? WHERE id = ?", (notes, session_id))
+
+    # -- trials -----------------------------------------------------------------------------
+    def trials(self, session_id: str) -> list[TrialRow]:
+        with self._lock:
+            return [_trial(r) for r in self.db.execute(
+                "SELECT * FROM trials WHERE session_id = ? ORDER BY seq", (session_id,))]
+
+    def trial(self, trial_id: int) -> TrialRow:
+        with self._lock:
+            row = self.db.execute("SELECT * FROM trials WHERE id = ?", (trial_id,)).fetchone()
+        if row is None:
+            raise StoreError(f"unknown trial {trial_id}")
+        return _trial(row)
+
+    def running(self) -> TrialRow | None:
+        with self._lock:
+            row = self.db.execute("SELECT * FROM trials WHERE status = 'running'").fetchone()
+        return None if row is None else _trial(row)
+
+    def next_pending(self, session_id: str) -> TrialRow | None:
+        with self._lock:
+            row = self.db.execute("SELECT * FROM trials WHERE session_id = ? AND status = 'pending' "
+                                  "ORDER BY seq LIMIT 1", (session_id,)).fetchone()
+        return None if row is None else _trial(row)
+
+    def transition(self, trial_id: int, status: str, *, expect: str | None = None, tick: int | None = None,
+                   metrics: dict | None = None, reason: str | None = None) -> TrialRow:
+        """Move a trial along its lifecycle in one transaction; `expect` guards against a race
+        (Conflict when the trial is no longer in that status)."""
+        with self._tx() as db:
+            row = db.execute("SELECT * FROM trials WHERE id = ?", (trial_id,)).fetchone()
+            if row is None:
+                raise StoreError(f"unknown trial {trial_id}")
+            current = row["status"]
+            if expect is not None and current != expect:
+                raise Conflict(f"trial {row['seq']} is {current}, not {expect}")
+            if status not in TRANSITIONS[current]:
+                raise StoreError(f"trial {row['seq']} is {current}; it cannot become {status}")
+            now = self.utc()
+            if status == "running":
+                db.execute("UPDATE trials SET status = 'running', attempt = attempt + 1, started_utc = ?, "
+                           "started_tick = ?, ended_utc = NULL, ended_tick = NULL, reason = '' WHERE id = ?",
+                           (now, tick, trial_id))
+                if db.execute("SELECT COUNT(*) FROM trials WHERE status = 'running'").fetchone()[0] > 1:
+                    raise Conflict("another trial is already running")
+            elif status in ("answered", "aborted"):
+                db.execute("UPDATE trials SET status = ?, ended_utc = ?, ended_tick = ?, metrics_json = ?, "
+                           "reason = ? WHERE id = ?",
+                           (status, now, tick, _dumps(metrics or {}), reason or "", trial_id))
+            elif status == "excluded":
+                db.execute("UPDATE trials SET status = 'excluded', reason = ? WHERE id = ?", (reason or "", trial_id))
+            else:  # retry: back to pending, its responses cleared (the attempt's data stays, keyed by attempt)
+                db.execute("UPDATE trials SET status = 'pending', reason = ? WHERE id = ?", (reason or "retry",
+                                                                                             trial_id))
+                db.execute("DELETE FROM responses WHERE trial_id = ?", (trial_id,))
+            db.execute("INSERT INTO events (session_id, trial_id, attempt, utc, tick, kind, body_json) "
+                       "SELECT session_id, id, attempt, ?, ?, 'lifecycle', ? FROM trials WHERE id = ?",
+                       (now, tick, _dumps({"from": current, "to": status, "reason": reason or ""}), trial_id))
+        return self.trial(trial_id)
+
+    def set_metrics(self, trial_id: int, metrics: dict) -> None:
+        """Metrics a scenario reported for the running trial (its `trial_done` event)."""
+        with self._tx() as db:
+            db.execute("UPDATE trials SET metrics_json = ? WHERE id = ?", (_dumps(metrics), trial_id))
+
+    # -- responses --------------------------------------------------------------------------
+    def put_response(self, trial_id: int, question: str, value: Any, entered_by: str) -> None:
+        """Record (or correct) one answer; the last value entered counts."""
+        with self._tx() as db:
+            db.execute("INSERT INTO responses (trial_id, question, value_json, entered_by, answered_utc) "
+                       "VALUES (?, ?, ?, ?, ?) ON CONFLICT (trial_id, question) DO UPDATE SET "
+                       "value_json = excluded.value_json, entered_by = excluded.entered_by, "
+                       "answered_utc = excluded.answered_utc",
+                       (trial_id, question, _dumps(value), entered_by, self.utc()))
+
+    def responses(self, trial_id: int) -> dict[str, Any]:
+        with self._lock:
+            return {r["question"]: json.loads(r["value_json"]) for r in self.db.execute(
+                "SELECT question, value_json FROM responses WHERE trial_id = ? ORDER BY question", (trial_id,))}
+
+    def response_rows(self, session_id: str) -> list[dict]:
+        with self._lock:
+            rows = self.db.execute(
+                "SELECT r.trial_id, t.seq, r.question, r.value_json, r.entered_by, r.answered_utc FROM responses r "
+                "JOIN trials t ON t.id = r.trial_id WHERE t.session_id = ? ORDER BY t.seq, r.question",
+                (session_id,)).fetchall()
+        return [{**dict(r), "value": json.loads(r["value_json"])} for r in rows]
+
+    # -- recorded streams (batched by the recorder) -------------------------------------------
+    def add_events(self, rows: list[tuple]) -> None:
+        """rows: (session_id, trial_id | None, attempt | None, tick | None, kind, body dict)."""
+        if not rows:
+            return
+        now = self.utc()
+        with self._tx() as db:
+            db.executemany("INSERT INTO events (session_id, trial_id, attempt, utc, tick, kind, body_json) "
+                           "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                           [(s, t, a, now, tick, kind, _dumps(body)) for s, t, a, tick, kind, body in rows])
+
+    def add_samples(self, trial_id: int, attempt: int, rows: list[tuple]) -> None:
+        """rows in SAMPLE_COLUMNS order; a tick recorded twice keeps its first row."""
+        if rows:
+            with self._tx() as db:
+                db.executemany(f"INSERT OR IGNORE INTO samples VALUES (?, ?, {', '.join('?' * len(SAMPLE_COLUMNS))})",
+                               [(trial_id, attempt, *r) for r in rows])
+
+    def add_cues(self, trial_id: int, attempt: int, rows: list[tuple[int, list]]) -> None:
+        if rows:
+            with self._tx() as db:
+                db.executemany("INSERT OR REPLACE INTO cues VALUES (?, ?, ?, ?)",
+                               [(trial_id, attempt, tick, _dumps(cues)) for tick, cues in rows])
+
+    def events(self, session_id: str, trial_id: int | None = None) -> list[dict]:
+        sql, args = "SELECT * FROM events WHERE session_id = ?", [session_id]
+        if trial_id is not None:
+            sql, args = sql + " AND trial_id = ?", args + [trial_id]
+        with self._lock:
+            rows = self.db.execute(sql + " ORDER BY id", args).fetchall()
+        return [{**{k: r[k] for k in r.keys() if k != "body_json"}, "body": json.loads(r["body_json"])} for r in rows]
+
+    def samples(self, trial_id: int, attempt: int | None = None) -> list[dict]:
+        sql, args = "SELECT * FROM samples WHERE trial_id = ?", [trial_id]
+        if attempt is not None:
+            sql, args = sql + " AND attempt = ?", args + [attempt]
+        with self._lock:
+            return [dict(r) for r in self.db.execute(sql + " ORDER BY attempt, tick", args)]
+
+    def cue_rows(self, trial_id: int, attempt: int | None = None) -> list[dict]:
+        sql, args = "SELECT * FROM cues WHERE trial_id = ?", [trial_id]
+        if attempt is not None:
+            sql, args = sql + " AND attempt = ?", args + [attempt]
+        with self._lock:
+            return [{"attempt": r["attempt"], "tick": r["tick"], "cues": json.loads(r["cues_json"])}
+                    for r in self.db.execute(sql + " ORDER BY attempt, tick", args)]
