@@ -139,6 +139,10 @@ class StiffnessScenario:
             self._changed_visible["left_label"] = not on
         self._pending.append({"name": "recording", "on": on, "by": why, "right_level": self.levels[RIGHT],
                               "middle_level": self.levels[MIDDLE]})
+        if not on and why == "key" and self.trial is not None and self.trial.params["mode"] == "production":
+            # the production trial's result: the trial record keeps it as its metrics
+            self._pending.append({"name": "trial_done", "produced_level": self.levels[RIGHT],
+                                  "target_level": self.levels[MIDDLE], "match_time_s": round(self.recorded_s, 6)})
 
     def _production_keys(self) -> bool:
         return self.trial is None or self.trial.params["mode"] == "production"

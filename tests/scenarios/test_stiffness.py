@@ -101,3 +101,21 @@ def test_study_design():
     assert [c["level"] for c in estimation.conditions] == list(range(1, 11))
     assert [c["level"] for c in production.conditions] == list(range(1, 11))
     assert estimation.answer.low == 1 and estimation.answer.high == 10
+
+
+def test_a_production_trial_reports_its_result_when_recording_stops():
+    sim = Simulation(StiffnessScenario())
+    sim.set_trial(Trial.parse(StiffnessScenario.TRIAL_PARAMS, "main", {"mode": "production", "level": 4}))
+    sim.step()
+    start = sim.scenario.levels[RIGHT]
+    sim.input("r", "press")
+    for _ in range(500):
+        sim.step()
+    sim.input("ArrowDown", "down")
+    sim.step()
+    sim.input("r", "press")
+    sim.step()
+    done = [e for e in sim.events if e["name"] == "trial_done"]
+    assert len(done) == 1
+    assert done[0]["produced_level"] == start - 1 and done[0]["target_level"] == 4
+    assert done[0]["match_time_s"] == pytest.approx(0.501, abs=1e-9)  # pressed after tick 0, again after tick 501
