@@ -1,4 +1,4 @@
-"""`viestac` command line: serve, devices, emulate, render, bench."""
+"""`viestac` command line: serve, devices, emulate, render, export, bench."""
 
 from __future__ import annotations
 
@@ -152,6 +152,25 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _export(args: argparse.Namespace) -> int:
+    from server.experiment.export import ExportError, database_path, export
+
+    if (args.session is None) == (not args.all):
+        print("viestac export: give a SESSION_ID or --all (one of them)", file=sys.stderr)
+        return 2
+    try:
+        summaries = export(database_path(args.data_dir), args.out, args.session, all_sessions=args.all,
+                           force=args.force)
+    except ExportError as exc:
+        print(f"viestac export: {exc}", file=sys.stderr)
+        return 2
+    for s in summaries:
+        what = f"session {s['session']}: {s['trials']} trials" if s["session"] else f"{s['trials']} trials in total"
+        print(f"{s.get('file') or s['dir']}  {what}, {s['written']} files written, {s['unchanged']} unchanged"
+              + (f", {s['removed']} removed" if s["removed"] else ""))
+    return 0
+
+
 def _bench_loop(args: argparse.Namespace) -> int:
     from server.bench.loop_bench import run_loop_bench
 
@@ -229,6 +248,15 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--trajectory", required=True, help="CSV with columns t,x,y,z")
     render.add_argument("--out", required=True, help="output CSV, one row per tick")
     render.set_defaults(func=_render)
+
+    exp = sub.add_parser("export", help="write sessions as CSV (wide, long, trajectories) and JSON (docs/data.md)")
+    exp.add_argument("session", nargs="?", metavar="SESSION_ID", help="the session to export (GET /api/sessions)")
+    exp.add_argument("--all", action="store_true", help="every session, plus all_trials_wide.csv")
+    exp.add_argument("--out", required=True, metavar="DIR", help="one folder per session goes here")
+    exp.add_argument("--data-dir", default=os.environ.get("VIESTAC_DATA", "data"),
+                     help="where the experiment database lives (default: $VIESTAC_DATA or ./data)")
+    exp.add_argument("--force", action="store_true", help="replace a different earlier export in DIR")
+    exp.set_defaults(func=_export)
 
     bench = sub.add_parser("bench", help="benchmarks")
     bench_sub = bench.add_subparsers(dest="bench", required=True)
