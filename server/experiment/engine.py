@@ -271,9 +271,10 @@ class Experiment:
         recorded = self.recorder.end()  # every row of the trial is on disk before it changes state
         self.hub.set_recording(0)
         self.hub.set_trial(None)
-        metrics = recorded.metrics if recorded is not None and recorded.trial_id == trial.id else {}
-        ended = self.store.transition(trial.id, status, expect="running", metrics=metrics, reason=reason,
-                                      tick=self._last_tick())
+        mine = recorded is not None and recorded.trial_id == trial.id
+        ended = self.store.transition(trial.id, status, expect="running", metrics=recorded.metrics if mine else {},
+                                      reason=reason, tick=self._last_tick(),
+                                      first_tick=recorded.first_tick if mine else None)
         if self.store.next_pending(trial.session_id) is None:
             self.store.set_session_status(trial.session_id, "completed")
         return ended.to_dict()

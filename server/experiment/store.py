@@ -275,9 +275,11 @@ class Store:
         return None if row is None else _trial(row)
 
     def transition(self, trial_id: int, status: str, *, expect: str | None = None, tick: int | None = None,
-                   metrics: dict | None = None, reason: str | None = None) -> TrialRow:
+                   metrics: dict | None = None, reason: str | None = None, first_tick: int | None = None) -> TrialRow:
         """Move a trial along its lifecycle in one transaction; `expect` guards against a race
-        (Conflict when the trial is no longer in that status)."""
+        (Conflict when the trial is no longer in that status). `tick`: the loop's tick of this
+        change; `first_tick` (on ending): the tick the trial took effect in the loop, which is
+        known only after it started."""
         with self._tx() as db:
             row = db.execute("SELECT * FROM trials WHERE id = ?", (trial_id,)).fetchone()
             if row is None:
@@ -296,8 +298,8 @@ class Store:
                     raise Conflict("another trial is already running")
             elif status in ("answered", "aborted"):
                 db.execute("UPDATE trials SET status = ?, ended_utc = ?, ended_tick = ?, metrics_json = ?, "
-                           "reason = ? WHERE id = ?",
-                           (status, now, tick, _dumps(metrics or {}), reason or "", trial_id))
+                           "reason = ?, started_tick = COALESCE(started_tick, ?) WHERE id = ?",
+                           (status, now, tick, _dumps(metrics or {}), reason or "", first_tick, trial_id))
             elif status == "excluded":
                 db.execute("UPDATE trials SET status = 'excluded', reason = ? WHERE id = ?", (reason or "", trial_id))
             else:  # retry: back to pending, its responses cleared (the attempt's data stays, keyed by attempt)

@@ -117,6 +117,7 @@ def test_a_session_runs_with_answers_recordings_and_clear_errors(server):
     api.token = second
     finished = api.ok("POST", f"/api/sessions/{sid}/trials/1/finish")
     assert finished["status"] == "answered" and finished["attempt"] == 1
+    assert 0 < finished["started_tick"] < finished["ended_tick"], "the loop's ticks of the trial"
     api.ok("POST", f"/api/sessions/{sid}/trials/2/start")
     assert api.call("POST", f"/api/sessions/{sid}/trials/2/start")[0] == 409, "already running"
     api.ok("POST", f"/api/sessions/{sid}/trials/2/abort", {"reason": "participant sneezed"})
