@@ -326,7 +326,6 @@ def test_3dof_guidance_tilts_the_ferrovibe_per_octant_and_on_overshoot(server, o
         await client.recv_type("scene")
         seq = await send_path(client, [(*start, 1.2), (*start, 0.34)])
         await wait_for(client, lambda s, e: s["values"].get("phase") == "carry")
-        t0 = now_us()
         seq = await send_path(client, [(*start, 0.34), (*start, 1.2), (hip[0], hip[1], 1.2), hip], step=0.05, seq=seq)
         t1 = now_us()
         await hold(client, hip, 0.3, seq)
