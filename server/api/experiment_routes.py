@@ -129,6 +129,15 @@ def take_control(session_id: str, body: ControlRequest, experiment: ExperimentDe
         raise _http(exc) from None
 
 
+@router.get("/sessions/{session_id}/control", summary="Who controls the session, and whether this console's token "
+                                                       "(X-Control-Token) is the current one")
+def control(session_id: str, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+    try:
+        return experiment.control(session_id, token)
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
 @router.put("/sessions/{session_id}/notes", summary="Replace the session's notes")
 def notes(session_id: str, body: NotesRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
     try:

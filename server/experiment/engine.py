@@ -70,6 +70,7 @@ class Experiment:
         self.recorder = Recorder(store)
         hub.listeners.append(self.recorder.on_record)
         self._tokens: dict[str, str] = {}
+        self._holders: dict[str, tuple[str, str]] = {}  # session → (experimenter, since UTC) of the token
         self._studies: dict[Path, tuple] = {}  # path → (mtime_ns, Study | None, StudyError | None)
         self._lock = threading.Lock()  # one change at a time: REST handlers run in a thread pool
 
@@ -137,6 +138,7 @@ class Experiment:
             except Conflict as exc:
                 raise ExperimentError(str(exc)) from None
             token = self._tokens[session_id] = secrets.token_urlsafe(16)
+            self._holders[session_id] = (experimenter, self.store.utc())
         return {**self.session(session_id), "token": token}
 
     def _study_text(self, study: Study) -> str:
@@ -158,7 +160,16 @@ class Experiment:
         nxt = next((t for t in trials if t.status == "pending"), None)
         running = next((t for t in trials if t.status == "running"), None)
         return {**session, "trials": queue, "next": None if nxt is None else nxt.seq,
-                "running": None if running is None else running.seq, "controlled": session_id in self._tokens}
+                "running": None if running is None else running.seq, "controlled": session_id in self._tokens,
+                "now_utc": self.store.utc()}
+
+    def control(self, session_id: str, token: str | None) -> dict:
+        """Who controls the session, and whether `token` is the current one (read-only)."""
+        self.session(session_id)
+        current = self._tokens.get(session_id)
+        experimenter, since = self._holders.get(session_id, (None, None))
+        return {"controlled": current is not None, "experimenter": experimenter, "since": since,
+                "yours": bool(current and token and secrets.compare_digest(token, current))}
 
     def sessions(self) -> list[dict]:
         return self.store.sessions()
@@ -168,6 +179,7 @@ class Experiment:
         self.session(session_id)
         with self._lock:
             token = self._tokens[session_id] = secrets.token_urlsafe(16)
+            self._holders[session_id] = (experimenter, self.store.utc())
         self.store.add_events([(session_id, None, None, None, "control", {"experimenter": experimenter})])
         return token
 

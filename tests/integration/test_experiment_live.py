@@ -114,6 +114,9 @@ def test_a_session_runs_with_answers_recordings_and_clear_errors(server):
     first = api.token
     second = api.ok("POST", f"/api/sessions/{sid}/control", {"experimenter": "bob"})["token"]
     assert api.call("POST", f"/api/sessions/{sid}/trials/1/finish", token=first)[0] == 403
+    status, held = api.call("GET", f"/api/sessions/{sid}/control", token=first)
+    assert status == 200 and held["yours"] is False and held["experimenter"] == "bob", held
+    assert api.call("GET", f"/api/sessions/{sid}/control", token=second)[1]["yours"] is True
     api.token = second
     finished = api.ok("POST", f"/api/sessions/{sid}/trials/1/finish")
     assert finished["status"] == "answered" and finished["attempt"] == 1
