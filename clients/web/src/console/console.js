@@ -1,0 +1,646 @@
+// The experimenter console (console.html): choose a study, create or open a session, take control
+// of it, run its trials (start, answer, finish, abort, retry, exclude) and watch the participant
+// live. Everything about the session comes from REST (api.js); the participant's pages never ask
+// for it, and no answer ever goes over the WebSocket. The live panels are an observer.
+//
+// URL: console.html[?ws=ws://host:port/ws][#session=ID]. Test hook: window.__console.
+
+import { Api } from './api.js';
+import { h, fill, say } from './dom.js';
+import { AnswerForm, changedAnswers, fieldFor, missingAnswers, questionsFor } from './answers.js';
+import { formatAnswers, formatParams, progress, queueRows, renderQueue, trialBySeq, trialName } from './queue.js';
+import { LivePanels } from './live.js';
+
+const REFRESH_MS = 2000;
+const SESSIONS_REFRESH_MS = 10000;
+const PARTICIPANT_CODE = /^[A-Za-z0-9_-]{1,32}$/;
+const $ = (id) => document.getElementById(id);
+
+const api = new Api();
+const state = {
+  studies: [],
+  studyId: null,
+  studyDetails: new Map(), // study id → GET /api/studies/{id}
+  sessions: [],
+  sessionId: null,
+  session: null,
+  control: 'none', // 'yes' | 'lost' | 'none' (view only)
+  controlDetail: '',
+  selected: null,
+  lastRunning: null,
+  drafts: new Map(), // "session:seq:attempt" → {question id: raw input}
+  busy: 0,
+  refreshN: 0,
+  paused: false,
+};
+
+const form = new AnswerForm($('answers'), {
+  onInput: () => { // a corrected answer: the old complaints no longer apply
+    for (const id of ['run-msg', 'answers-msg']) if ($(id).dataset.kind === 'error') say($(id), '');
+    renderRun();
+  },
+});
+
+// ---- helpers -------------------------------------------------------------------------------
+
+function experimenter() {
+  return $('experimenter').value.trim();
+}
+
+function studyOfSession() {
+  return state.session ? state.studyDetails.get(state.session.study_id) ?? null : null;
+}
+
+function draftsFor(t) {
+  const key = `${state.sessionId}:${t.seq}:${t.attempt}`;
+  if (!state.drafts.has(key)) state.drafts.set(key, {});
+  return { key, drafts: state.drafts.get(key) };
+}
+
+function fieldsFor(t) {
+  return questionsFor(studyOfSession(), t).map(fieldFor);
+}
+
+const inControl = () => state.control === 'yes';
+
+/** Run an action: buttons stay usable, the message goes next to the action, the queue reloads. */
+async function act(msgEl, fn, okText = '') {
+  say(msgEl, '');
+  state.busy++;
+  try {
+    const out = await fn();
+    if (okText) say(msgEl, typeof okText === 'function' ? okText(out) : okText, 'ok');
+    return out;
+  } catch (e) {
+    say(msgEl, e.message ?? String(e), 'error');
+    if (e.status === 403) lostControl(e.detail);
+    return undefined;
+  } finally {
+    state.busy--;
+    await refresh();
+  }
+}
+
+function lostControl(detail) {
+  if (!state.sessionId) return;
+  state.control = api.token(state.sessionId) ? 'lost' : 'none';
+  state.controlDetail = typeof detail === 'string' ? detail : '';
+  renderControl();
+  renderRun();
+}
+
+function fmtClock(s) {
+  if (!Number.isFinite(s)) return '–';
+  const sign = s < 0 ? '−' : '';
+  const a = Math.abs(Math.round(s));
+  return `${sign}${Math.floor(a / 60)}:${String(a % 60).padStart(2, '0')}`;
+}
+
+function utcShort(iso) {
+  if (!iso) return '';
+  const d = new Date(iso);
+  return Number.isNaN(d.getTime()) ? iso : d.toLocaleString();
+}
+
+// ---- studies ---------------------------------------------------------------------------------
+
+async function loadStudies() {
+  try {
+    state.studies = await api.studies();
+  } catch (e) {
+    say($('study-errors'), e.message, 'error');
+    return;
+  }
+  const sel = $('study');
+  const good = state.studies.filter((s) => !s.error);
+  fill(sel, state.studies.map((s) => (s.error
+    ? h('option', { value: '', disabled: true }, `${s.file} — cannot be used (see below)`)
+    : h('option', { value: s.id }, `${s.title} (${s.id})`))));
+  fill($('study-errors'), state.studies.filter((s) => s.error).map((s) => h('div', { class: 'c-study-error' },
+    h('strong', {}, s.file), ': ', s.error)));
+  if (!good.length) {
+    say($('study-info'), 'No usable study file in the studies directory.', 'error');
+    return;
+  }
+  const keep = good.find((s) => s.id === state.studyId) ?? good[0];
+  sel.value = keep.id;
+  await selectStudy(keep.id);
+}
+
+async function fullStudy(id) {
+  if (!state.studyDetails.has(id)) state.studyDetails.set(id, await api.study(id));
+  return state.studyDetails.get(id);
+}
+
+async function selectStudy(id) {
+  state.studyId = id;
+  let study;
+  try {
+    study = await fullStudy(id);
+  } catch (e) {
+    say($('study-info'), e.message, 'error');
+    return;
+  }
+  say($('study-info'), `${study.participants} participants planned · ${study.tasks.length} tasks · seed ${study.seed}`
+    + (study.blocks.length ? ` · counterbalanced blocks: ${study.blocks.map((b) => b.id).join(', ')}` : ''));
+  renderTasks(study);
+  const devices = [...new Set(study.tasks.map((t) => t.device).filter(Boolean))];
+  fill($('devices'), devices.map((d) => h('option', { value: d })));
+  renderSessionList();
+}
+
+function renderTasks(study) {
+  const q = (qs) => qs.map((x) => `${x.id} (${x.kind}${x.required ? '' : ', optional'})`).join(', ');
+  const trials = (t) => [
+    t.training_s ? `training ${t.training_s} s` : null,
+    t.practice ? `${t.practice} practice` : null,
+    t.conditions.length ? `${t.conditions.length}×${t.repetitions} main (${t.order})` : null,
+    t.block ? `block ${t.block}` : null,
+  ].filter(Boolean).join(' · ') || '–';
+  const questions = (t) => [
+    t.questions.length ? `per trial: ${q(t.questions)}` : null,
+    t.end_questions.length ? `end: ${q(t.end_questions)}` : null,
+  ].filter(Boolean).join(' · ') || '–';
+  const row = (t) => h('tr', {},
+    h('td', { title: t.title }, h('strong', {}, t.id), h('div', { class: 'c-muted' }, t.title)),
+    h('td', {}, t.scenario, t.subtask ? h('div', { class: 'c-muted' }, `subtask ${t.subtask}`) : null),
+    h('td', {}, t.device ?? '–'),
+    h('td', {}, trials(t)),
+    h('td', {}, questions(t)));
+  fill($('tasks-table'),
+    h('thead', {}, h('tr', {}, ['task', 'scenario', 'device', 'trials', 'questions'].map((c) => h('th', {}, c)))),
+    h('tbody', {}, study.tasks.map(row)));
+}
+
+// ---- sessions --------------------------------------------------------------------------------
+
+async function loadSessions() {
+  try {
+    state.sessions = await api.sessions();
+    say($('open-msg'), '');
+  } catch (e) {
+    say($('open-msg'), e.message, 'error');
+  }
+  renderSessionList();
+}
+
+function renderSessionList() {
+  const sel = $('sessions');
+  const before = sel.value;
+  const list = [...state.sessions].sort((a, b) => String(b.created_utc).localeCompare(String(a.created_utc)));
+  fill(sel, list.length ? list.map((s) => h('option', { value: s.id, selected: s.id === (before || state.sessionId) },
+    `${s.participant} · ${s.study_id} · ${s.done ?? 0}/${s.trials} done · ${s.status} · ${utcShort(s.created_utc)}`))
+    : h('option', { value: '', disabled: true }, 'no sessions yet'));
+}
+
+async function createSession(ev) {
+  ev.preventDefault();
+  const msg = $('create-msg');
+  const participant = $('participant').value.trim();
+  if (!state.studyId) return say(msg, 'Choose a study first.', 'error');
+  if (!PARTICIPANT_CODE.test(participant)) {
+    return say(msg, /\s/.test(participant)
+      ? 'The participant code must not be a name: use a pseudonymous code such as P07 (letters, digits, - and _).'
+      : 'Give a participant code of 1-32 letters, digits, - or _ (e.g. P07).', 'error');
+  }
+  if (!experimenter()) {
+    $('experimenter').focus();
+    return say(msg, 'Fill in the experimenter (top right) first.', 'error');
+  }
+  const session = await act(msg, () => api.createSession({
+    study: state.studyId, participant, experimenter: experimenter(),
+    device: $('device').value.trim() || null, notes: $('notes').value,
+  }), (s) => `Session ${s.id} created for ${s.participant}; this console controls it.`);
+  if (!session) return;
+  $('participant').value = '';
+  $('notes').value = '';
+  await loadSessions();
+  await openSession(session.id, { control: 'yes' });
+  $('setup').open = false;
+}
+
+async function openSession(id, { control } = {}) {
+  if (!id) return;
+  if (id !== state.sessionId) {
+    state.session = null;
+    state.selected = null;
+    state.lastRunning = null;
+    form.clear();
+  }
+  state.sessionId = id;
+  history.replaceState(null, '', `#session=${encodeURIComponent(id)}`);
+  say($('open-msg'), '');
+  let session;
+  try {
+    session = await api.session(id);
+  } catch (e) {
+    say($('open-msg'), e.message, 'error');
+    return;
+  }
+  try {
+    await fullStudy(session.study_id);
+  } catch (e) {
+    say($('queue-msg'), `The session's study cannot be read: ${e.message}`, 'error');
+  }
+  state.session = session;
+  $('session-notes').value = session.notes ?? '';
+  if (control) state.control = control;
+  else {
+    const ok = await api.probeControl(id);
+    state.control = ok ? 'yes' : api.token(id) ? 'lost' : 'none';
+    state.controlDetail = '';
+  }
+  render();
+}
+
+async function takeControl() {
+  if (!state.sessionId) return;
+  const who = experimenter();
+  if (!who) {
+    $('experimenter').focus();
+    say($('run-msg'), 'Fill in the experimenter (top right) to take control.', 'error');
+    return;
+  }
+  const token = await act($('run-msg'), () => api.takeControl(state.sessionId, who),
+    'This console now controls the session.');
+  if (token) {
+    state.control = 'yes';
+    state.controlDetail = '';
+    render();
+  }
+}
+
+// ---- refresh ---------------------------------------------------------------------------------
+
+async function refresh() {
+  const sid = state.sessionId;
+  if (!sid) return;
+  const n = ++state.refreshN;
+  try {
+    const session = await api.session(sid);
+    if (n !== state.refreshN || sid !== state.sessionId) return;
+    state.session = session;
+    say($('queue-msg'), '');
+  } catch (e) {
+    if (n === state.refreshN) say($('queue-msg'), e.message, 'error');
+    return;
+  }
+  if (state.control === 'yes') {
+    const ok = await api.probeControl(sid);
+    if (ok === false && sid === state.sessionId) {
+      state.control = 'lost';
+      state.controlDetail = 'another console took control of this session (or the server restarted)';
+    }
+  }
+  render();
+}
+
+// ---- rendering -------------------------------------------------------------------------------
+
+function render() {
+  renderControl();
+  renderQueueCard();
+  renderRun();
+  renderTrial();
+  $('notes-card').hidden = !state.session;
+}
+
+function renderControl() {
+  const box = $('control');
+  const s = state.session;
+  $('session-title').textContent = s
+    ? `${s.participant} · ${s.study_id} · session ${s.id}${s.device ? ` · ${s.device}` : ''} · ${s.status}`
+    : 'no session open';
+  box.dataset.state = s ? state.control : 'none';
+  box.hidden = !s;
+  $('take-control').hidden = !s || state.control === 'yes';
+  $('control-text').textContent = !s ? 'no session open'
+    : state.control === 'yes' ? 'You control this session'
+      : state.control === 'lost' ? `Control lost: ${state.controlDetail || 'another console took control'}`
+        : 'View only: take control to run this session';
+  for (const id of ['start', 'finish', 'abort', 'save-answers', 'retry', 'exclude', 'save-notes']) {
+    $(id).title = inControl() ? '' : 'take control of the session first';
+  }
+}
+
+function renderQueueCard() {
+  const s = state.session;
+  if (!s) {
+    fill($('queue'));
+    $('queue').dataset.sig = '';
+    $('progress').textContent = 'open or create a session to see its trials';
+    return;
+  }
+  if (s.running !== null && s.running !== state.lastRunning) state.selected = s.running; // follow a new trial
+  state.lastRunning = s.running;
+  if (state.selected === null || !trialBySeq(s, state.selected)) state.selected = s.running ?? s.next ?? null;
+  const p = progress(s);
+  $('progress').textContent = `${p.done}/${p.total} done · ${p.answered} answered · ${p.aborted} aborted · `
+    + `${p.excluded} excluded · ${p.pending} pending`;
+  const table = $('queue');
+  const before = table.dataset.sig;
+  renderQueue(table, queueRows(s), { selected: state.selected, onSelect: (seq) => {
+    state.selected = seq;
+    render();
+  } });
+  if (before !== table.dataset.sig) {
+    const row = table.querySelector('tr.c-running') ?? table.querySelector('tr.c-next');
+    const wrap = table.parentElement;
+    if (row && wrap && (row.offsetTop < wrap.scrollTop || row.offsetTop > wrap.scrollTop + wrap.clientHeight - 40)) {
+      wrap.scrollTop = Math.max(0, row.offsetTop - 60);
+    }
+  }
+}
+
+function elapsed(t) {
+  const start = Date.parse(t.started_utc ?? '');
+  return Number.isFinite(start) ? Math.max(0, (Date.now() + api.clockOffsetMs - start) / 1000) : NaN;
+}
+
+function renderRun() {
+  const s = state.session;
+  const running = s && s.running !== null ? trialBySeq(s, s.running) : null;
+  const next = s && s.next !== null ? trialBySeq(s, s.next) : null;
+  const now = $('run-now');
+  if (!s) fill(now, 'open or create a session');
+  else if (running) {
+    const e = elapsed(running);
+    const limit = running.duration_s;
+    const over = limit && e > limit;
+    fill(now, h('div', {}, h('span', { class: 'c-badge', dataset: { status: 'running' } }, 'running'), ' ',
+      h('strong', {}, trialName(running))),
+    h('div', { class: 'c-muted' }, formatParams(running.params) || 'no trial parameters'),
+    h('div', { class: over ? 'c-timer c-over' : 'c-timer' }, `${fmtClock(e)}${limit ? ` of ${fmtClock(limit)}` : ''}`,
+      over ? ' — time is up' : ''));
+  } else if (next) {
+    fill(now, h('div', {}, h('span', { class: 'c-badge', dataset: { status: 'pending' } }, 'next'), ' ',
+      h('strong', {}, trialName(next))), h('div', { class: 'c-muted' }, formatParams(next.params) || 'no trial parameters'));
+  } else {
+    fill(now, 'No pending trial: the session is complete.');
+  }
+  const canRun = inControl();
+  $('start').disabled = !canRun || !next || !!running;
+  $('start').textContent = next ? `Start #${next.seq}` : 'Start next';
+  $('finish').disabled = !canRun || !running;
+  $('finish').textContent = running ? `Finish #${running.seq}` : 'Finish';
+  $('abort').disabled = !canRun || !running;
+  const hint = $('finish-hint');
+  if (running && running.questions.length) {
+    const { drafts } = draftsFor(running);
+    const missing = missingAnswers(fieldsFor(running), running.responses, drafts);
+    const unsaved = changedAnswers(fieldsFor(running), running.responses, drafts).length;
+    say(hint, missing.length ? `Missing before finishing: ${missing.map((f) => `${f.id} (${f.text})`).join('; ')}`
+      : `All required answers are in${unsaved ? '; Finish saves the unsaved ones first' : ''}.`,
+    missing.length ? 'warn' : 'ok');
+  } else {
+    say(hint, running ? 'This trial asks no questions.' : '');
+  }
+}
+
+function renderTrial() {
+  const s = state.session;
+  const t = s ? trialBySeq(s, state.selected) : null;
+  $('answer-actions').hidden = true;
+  $('retry-actions').hidden = true;
+  $('exclude-actions').hidden = true;
+  if (!t) {
+    $('trial-title').textContent = 'Trial';
+    fill($('trial-meta'), s ? 'Select a trial in the queue.' : '');
+    $('trial-instructions').hidden = true;
+    form.clear();
+    return;
+  }
+  $('trial-title').textContent = trialName(t);
+  const study = studyOfSession();
+  const task = study?.tasks.find((x) => x.id === t.task);
+  const meta = [
+    ['status', h('span', { class: 'c-badge', dataset: { status: t.status } }, t.status)],
+    ['attempt', String(t.attempt)],
+    ['params', formatParams(t.params) || '–'],
+    ['scenario', t.scenario],
+    t.duration_s ? ['time', `${t.duration_s} s`] : null,
+    t.started_utc ? ['started', utcShort(t.started_utc)] : null,
+    t.ended_utc ? ['ended', utcShort(t.ended_utc)] : null,
+    t.reason ? ['reason', t.reason] : null,
+    Object.keys(t.metrics ?? {}).length ? ['metrics', formatAnswers(t.metrics)] : null,
+  ].filter(Boolean);
+  fill($('trial-meta'), h('dl', {}, meta.map(([k, v]) => [h('dt', {}, k), h('dd', {}, v)])));
+  if (study && s.study_hash && study.source_hash !== s.study_hash) {
+    $('trial-meta').append(h('p', { class: 'c-warn' },
+      'The study file has changed since this session was created; the questions shown are today\'s.'));
+  }
+  $('trial-instructions').hidden = !task?.instructions;
+  $('instructions-text').textContent = task?.instructions?.trim() ?? '';
+
+  const answerable = t.status === 'running' || t.status === 'answered';
+  if (t.questions.length) {
+    const { key, drafts } = draftsFor(t);
+    form.show(key, fieldsFor(t), t.responses, drafts, { readOnly: !answerable });
+    $('answer-actions').hidden = !answerable;
+    $('save-answers').disabled = !inControl();
+  } else {
+    form.clear(t.kind === 'training' ? 'Training: free exploration, no questions.' : 'This trial asks no questions.');
+  }
+  $('retry-actions').hidden = t.status !== 'aborted';
+  $('retry').disabled = !inControl();
+  $('exclude-actions').hidden = !(t.status === 'answered' || t.status === 'aborted');
+  $('exclude').disabled = !inControl();
+}
+
+// ---- actions ---------------------------------------------------------------------------------
+
+/** PUT every changed answer of trial `t`; true when all were accepted. Errors go to the fields. */
+async function saveAnswers(t, msgEl) {
+  const fields = fieldsFor(t);
+  const { drafts } = draftsFor(t);
+  const changes = changedAnswers(fields, t.responses, drafts);
+  let ok = true;
+  for (const c of changes) {
+    if (c.parsed.error) {
+      form.setError(c.field.id, c.parsed.error);
+      ok = false;
+      continue;
+    }
+    try {
+      await api.answer(state.sessionId, t.seq, c.field.id, c.parsed.value, experimenter() || 'experimenter');
+      if (drafts[c.field.id] === c.raw) delete drafts[c.field.id]; // saved: the server's value shows now
+      form.setError(c.field.id, '');
+    } catch (e) {
+      form.setError(c.field.id, e.message);
+      if (e.status === 403) lostControl(e.detail);
+      ok = false;
+    }
+  }
+  if (!ok) {
+    say(msgEl, 'Some answers were not accepted: see the marked questions (what you typed is kept).', 'error');
+    form.focus(changes.find((c) => c.parsed.error || form.rows.get(c.field.id)?.error.textContent)?.field.id);
+  }
+  return { ok, saved: changes.length };
+}
+
+async function onSaveAnswers() {
+  const t = trialBySeq(state.session, state.selected);
+  if (!t) return;
+  say($('answers-msg'), '');
+  state.busy++;
+  try {
+    const { ok, saved } = await saveAnswers(t, $('answers-msg'));
+    if (ok) say($('answers-msg'), saved ? `Saved ${saved} answer${saved > 1 ? 's' : ''}.` : 'Nothing to save.', 'ok');
+  } finally {
+    state.busy--;
+    await refresh();
+  }
+}
+
+async function onStart() {
+  const seq = state.session?.next;
+  if (seq === null || seq === undefined) return;
+  const started = await act($('run-msg'), () => api.start(state.sessionId, seq), `Trial #${seq} started.`);
+  if (started) state.selected = seq;
+}
+
+async function onFinish() {
+  const s = state.session;
+  const t = s && s.running !== null ? trialBySeq(s, s.running) : null;
+  if (!t) return;
+  const msg = $('run-msg');
+  say(msg, '');
+  if (t.questions.length) {
+    state.selected = t.seq;
+    renderTrial();
+    state.busy++;
+    let ok;
+    try {
+      ({ ok } = await saveAnswers(t, msg));
+    } finally {
+      state.busy--;
+    }
+    if (!ok) {
+      say(msg, 'Not finished: some answers were not accepted (see the form; what you typed is kept).', 'error');
+      return;
+    }
+    await refresh();
+    const fresh = trialBySeq(state.session, t.seq);
+    const missing = missingAnswers(fieldsFor(fresh), fresh.responses, draftsFor(fresh).drafts);
+    if (missing.length) {
+      say(msg, `Not finished: answer ${missing.map((f) => `${f.id} (${f.text})`).join('; ')} first.`, 'error');
+      form.focus(missing[0].id);
+      return;
+    }
+  }
+  await act(msg, () => api.finish(state.sessionId, t.seq), `Trial #${t.seq} finished (answered).`);
+}
+
+async function onAbort() {
+  const seq = state.session?.running;
+  if (seq === null || seq === undefined) return;
+  const reason = $('abort-reason').value.trim();
+  const done = await act($('run-msg'), () => api.abort(state.sessionId, seq, reason), `Trial #${seq} aborted.`);
+  if (done) $('abort-reason').value = '';
+}
+
+async function onRetry() {
+  const seq = state.selected;
+  await act($('trial-msg'), () => api.retry(state.sessionId, seq), `Trial #${seq} is back in the queue (pending).`);
+}
+
+async function onExclude() {
+  const seq = state.selected;
+  const reason = $('exclude-reason').value.trim();
+  if (!reason) {
+    say($('trial-msg'), 'Give a reason for excluding the trial.', 'error');
+    $('exclude-reason').focus();
+    return;
+  }
+  const done = await act($('trial-msg'), () => api.exclude(state.sessionId, seq, reason),
+    `Trial #${seq} excluded from the analysis.`);
+  if (done) $('exclude-reason').value = '';
+}
+
+async function onSaveNotes() {
+  await act($('notes-msg'), () => api.setNotes(state.sessionId, $('session-notes').value), 'Notes saved.');
+}
+
+// ---- start -----------------------------------------------------------------------------------
+
+function wsUrl() {
+  const q = new URLSearchParams(location.search);
+  const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
+  return q.get('ws') || `${scheme}//${location.host}/ws`;
+}
+
+function main() {
+  const exp = $('experimenter');
+  try {
+    exp.value = localStorage.getItem('viestac.console.experimenter') ?? '';
+  } catch { /* no storage */ }
+  exp.addEventListener('change', () => {
+    try {
+      localStorage.setItem('viestac.console.experimenter', exp.value.trim());
+    } catch { /* no storage */ }
+  });
+  $('study').addEventListener('change', (e) => selectStudy(e.target.value));
+  $('new-session').addEventListener('submit', createSession);
+  $('open-session').addEventListener('click', () => openSession($('sessions').value));
+  $('sessions').addEventListener('dblclick', () => openSession($('sessions').value));
+  $('reload-sessions').addEventListener('click', loadSessions);
+  $('take-control').addEventListener('click', takeControl);
+  $('start').addEventListener('click', onStart);
+  $('finish').addEventListener('click', onFinish);
+  $('abort').addEventListener('click', onAbort);
+  $('retry').addEventListener('click', onRetry);
+  $('exclude').addEventListener('click', onExclude);
+  $('save-answers').addEventListener('click', onSaveAnswers);
+  $('save-notes').addEventListener('click', onSaveNotes);
+
+  const ws = wsUrl();
+  const q = new URLSearchParams(location.search);
+  const scene = `index.html?role=observer${q.get('ws') ? `&ws=${encodeURIComponent(ws)}` : ''}`;
+  $('scene-frame').src = scene;
+  $('scene-link').href = scene;
+  const fitFrame = () => {
+    const frame = $('scene-frame');
+    frame.style.transform = `scale(${frame.parentElement.clientWidth / 640})`;
+  };
+  new ResizeObserver(fitFrame).observe($('scene-frame').parentElement);
+  fitFrame();
+  const live = new LivePanels({ timeline: $('timeline'), side: $('traj-side'), top: $('traj-top') }, { url: ws });
+  live.onStatus = (status, detail) => {
+    say($('live-status'), status === 'ready' ? 'live' : status, status === 'ready' ? 'ok' : status === 'failed'
+      ? 'error' : 'warn');
+    $('live-status').title = detail ?? '';
+  };
+  live.start();
+
+  const hook = {
+    ready: false,
+    api,
+    state: () => ({ sessionId: state.sessionId, control: state.control, controlDetail: state.controlDetail,
+      selected: state.selected, next: state.session?.next ?? null, running: state.session?.running ?? null }),
+    live: live.stats,
+    lanes: () => live.lanes().map((l) => ({ id: l.id, runs: l.runs.length, pulses: l.pulses?.length ?? null,
+      text: l.text })),
+    trajectory: () => live.trajectory().length,
+    refresh,
+    pause: (p = true) => { state.paused = p; },
+  };
+  window.__console = hook;
+
+  setInterval(() => { if (!state.paused && !state.busy) refresh(); }, REFRESH_MS);
+  setInterval(() => { if (!state.paused) loadSessions(); }, SESSIONS_REFRESH_MS);
+  setInterval(() => { if (state.session?.running !== null && state.session) renderRun(); }, 500);
+
+  (async () => {
+    render();
+    await loadStudies();
+    await loadSessions();
+    const m = /session=([^&]+)/.exec(location.hash);
+    if (m) {
+      await openSession(decodeURIComponent(m[1]));
+      if (state.session) $('setup').open = false;
+    }
+    hook.ready = true;
+  })();
+}
+
+main();
