@@ -27,7 +27,8 @@ from typing import Any, Protocol
 from server.experiment.plan import plan_session
 from server.experiment.recorder import Recorder
 from server.experiment.store import Conflict, Store, StoreError, TrialRow
-from server.experiment.study import AnswerError, Study, StudyError, load_study
+from server.experiment.question import AnswerError
+from server.experiment.study import Study, StudyError, load_study
 
 PARTICIPANT_CODE = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
 SCENARIO_TRIAL_KINDS = ("trial", "main")  # training and questionnaires set no scenario trial
@@ -212,7 +213,7 @@ class Experiment:
                 raise Conflict(f"trial {running.seq} of session {running.session_id} is still running")
             self._prepare_loop(trial)
             started = self.store.transition(trial.id, "running", expect="pending")
-            self.recorder.begin(session_id, started.id, started.attempt)
+            self.recorder.begin(session_id, started.id, started.attempt, self._trial_phase(started), started.index)
             self.hub.set_recording(self.record_every)
             self._set_trial(started)
         return started.to_dict()
@@ -227,14 +228,21 @@ class Experiment:
         session = self.store.session(trial.session_id)
         return session["participant_index"]  # the scenario's own random choices differ per participant
 
-    def _set_trial(self, trial: TrialRow) -> None:
-        # trial-phase and main trials, and training items that present something (the texture
-        # task's reference extremes), are scenario trials; plain training is free exploration,
-        # and a questionnaire leaves the scene alone
+    @staticmethod
+    def _trial_phase(trial: TrialRow) -> str | None:
+        """The scenario trial phase of a planned item, or None: trial-phase and main trials, and
+        training items that present something (the texture task's reference extremes), are
+        scenario trials; plain training is free exploration, a questionnaire leaves the scene be."""
         if trial.kind in SCENARIO_TRIAL_KINDS or (trial.kind == "training" and trial.params):
-            self.hub.set_trial(trial.kind, dict(trial.params), trial.index)
-        else:
+            return trial.kind
+        return None
+
+    def _set_trial(self, trial: TrialRow) -> None:
+        phase = self._trial_phase(trial)
+        if phase is None:
             self.hub.set_trial(None)
+        else:
+            self.hub.set_trial(phase, dict(trial.params), trial.index)
 
     def answer(self, session_id: str, token: str | None, seq: int, question: str, value: Any,
                entered_by: str) -> dict:

@@ -27,6 +27,8 @@ class Active:
     session_id: str
     trial_id: int
     attempt: int
+    phase: str | None = None             # the scenario trial the loop must announce (None: no trial)
+    index: int = 0
     first_tick: int | None = None        # the tick the trial took effect (None: not yet announced)
     samples: list = field(default_factory=list)
     cues: list = field(default_factory=list)
@@ -44,9 +46,11 @@ class Recorder:
         self._lock = threading.Lock()  # flush() runs in a worker thread, records arrive on the event loop
 
     # -- control (the experiment) -----------------------------------------------------------
-    def begin(self, session_id: str, trial_id: int, attempt: int) -> None:
+    def begin(self, session_id: str, trial_id: int, attempt: int, phase: str | None = None, index: int = 0) -> None:
+        """Record a trial from the tick the loop announces it: the scenario trial (`phase`,
+        `index`), or no trial (`phase` None: training without a trial, a questionnaire)."""
         with self._lock:
-            self.active = Active(session_id, trial_id, attempt)
+            self.active = Active(session_id, trial_id, attempt, phase, index)
 
     def end(self) -> Active | None:
         """Stop recording the trial and write its remaining rows; returns what was recorded."""
@@ -64,7 +68,9 @@ class Recorder:
         kind = record[0]
         with self._lock:
             if kind == "scenario":
-                if a.first_tick is None:
+                trial = record[1].get("trial")
+                announced = (None, 0) if trial is None else (trial["phase"], trial["index"])
+                if a.first_tick is None and announced == (a.phase, a.index if a.phase else 0):
                     a.first_tick = int(record[1].get("tick", 0))
             elif kind == "state" and a.first_tick is not None:
                 self._state(a, record[1])
