@@ -140,8 +140,7 @@ class HotWire:
         poses: dict[str, Pose] = {}
         visible: dict[str, bool] = {}
         cues: tuple = ()
-        values: dict[str, Any] = {"phase": self.phase, "deviation": round(on_path.distance, 6),
-                                  "threshold": self.allowed}
+        values: dict[str, Any] = {"deviation": round(on_path.distance, 6), "threshold": self.allowed}
         if self.phase == "start" and math.dist(hip, self.path.start) <= START_RADIUS:
             self.phase, self.t_start = "tracing", ctx.t_s
             self._last_hip = hip

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from scenarios.base import Param
-from server.experiment.study import (AnswerError, Question, StudyError, load_study, parse_study,
-                                     question_from_answer)
+from server.experiment.question import AnswerError, Question, question_from_answer
+from server.experiment.study import StudyError, load_study, parse_study
 
 ROOT = Path(__file__).resolve().parents[2]
 THESIS = ROOT / "studies" / "thesis-2021.toml"
