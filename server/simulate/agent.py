@@ -1,0 +1,194 @@
+"""A synthetic participant for the positioning task: closed loop, minimum-jerk submovements,
+depth from touch only.
+
+What it may use is what a participant has: the side view (an object's and the arrow's y and z:
+the orthographic camera hides x), the HUD text, and the fingertip's feel of the device
+(virtual_device.Feel: pulse onsets, continuous vibration, silence, the magnet's tilt). It never
+reads an object's x. What it knows beforehand is what the training taught: how the condition's
+cue relates to distance ("faster when closer", "slower when closer"; the FerroVibe's tilt points
+where to go, its pulse rate rises with height error shrinking).
+
+Movements are minimum-jerk submovements (Flash & Hogan 1985: x(τ) = x0 + (x1 − x0)(10τ³ −
+15τ⁴ + 6τ⁵)), each followed by a dwell to feel the cue. Depth is found by a step search: step,
+feel, keep going while the cue says "closer", otherwise turn and halve the step; "at the
+target" is the HUD's hold count-down, which the scenario shows only within 0.05 on every axis.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from scenarios.positioning import ITEMS
+from server.simulate.virtual_device import Feel
+from server.simulate.virtual_hub import VirtualHub
+
+ITEM = {item.id: item for item in ITEMS}
+PROXY = 0.06                   # the fingertip sphere: a carried object hangs half + this below it
+ARROW_GAP = 0.04 + 0.12        # arrow head centre above the target object's top (scenarios/positioning.py)
+SLOWER_WHEN_CLOSER = ("none-at-target",)
+
+
+@dataclass(frozen=True)
+class AgentParams:
+    submovement_s: float = 0.35     # duration of one minimum-jerk submovement
+    first_step: float = 0.4         # depth search: first step (scene units)
+    min_step: float = 0.02
+    feel_timeout_s: float = 2.3     # waiting for two fresh pulse onsets (periods up to 1.05 s)
+    trial_timeout_s: float = 90.0   # gives up (the experimenter aborts) after this
+
+
+def min_jerk(a, b, tau: float):
+    s = 10 * tau ** 3 - 15 * tau ** 4 + 6 * tau ** 5
+    return tuple(p + (q - p) * s for p, q in zip(a, b))
+
+
+class GaveUp(Exception):
+    """The agent did not complete the trial in time."""
+
+
+class PositioningAgent:
+    def __init__(self, hub: VirtualHub, feel: Feel, params: AgentParams = AgentParams()):
+        self.hub, self.feel, self.p = hub, feel, params
+        self.hip = (0.0, 0.0, 2.0)
+        self.deadline = 0.0
+
+    # -- the senses -----------------------------------------------------------------------------
+    def hud(self) -> str:
+        return (self.hub.last_state or {}).get("hud", "")
+
+    def seen(self, object_id: str) -> tuple[float, float]:
+        """(y, z) of an object as the side view shows it."""
+        pose = self.hub.core.sim.moved.get(object_id) or self.hub.core.sim.scene.object(object_id).pose
+        return pose.pos[1], pose.pos[2]
+
+    # -- the body -------------------------------------------------------------------------------
+    def move(self, target, duration_s: float | None = None) -> None:
+        start, n = self.hip, max(1, round((duration_s or self.p.submovement_s) * self.hub.tick_hz))
+        for k in range(1, n + 1):
+            self.hip = min_jerk(start, target, k / n)
+            self.hub.set_hip(self.hip)
+            self.hub.advance()
+        self._check_time()
+
+    def dwell(self, seconds: float) -> None:
+        self.hub.set_hip(self.hip)
+        self.hub.advance_s(seconds)
+        self._check_time()
+
+    def _check_time(self) -> None:
+        if self.hub.t_s > self.deadline:
+            raise GaveUp(f"no insertion after {self.p.trial_timeout_s:.0f} s")
+
+    def wait_for(self, predicate, timeout_s: float) -> bool:
+        end = self.hub.t_s + timeout_s
+        while self.hub.t_s < end:
+            if predicate():
+                return True
+            self.dwell(0.01)
+        return predicate()
+
+    # -- the task -------------------------------------------------------------------------------
+    def run_trial(self, object_id: str, cue: str) -> None:
+        """Pick, place at the target, hold until GO, insert. Raises GaveUp on a timeout."""
+        self.deadline = self.hub.t_s + self.p.trial_timeout_s
+        item = ITEM[object_id]
+        self.grasp(item)
+        head_y, head_z = self.seen("arrow_head")
+        target_z = head_z - ARROW_GAP - item.half
+        hang = item.half + PROXY
+        self.move((self.hip[0], self.hip[1], target_z + hang + 0.4), 0.5)  # lift clear of everything
+        self.move((self.hip[0], head_y, target_z + hang + 0.4), 0.8)
+        self.move((self.hip[0], head_y, target_z + hang), 0.5)
+        if cue == "3dof":
+            self.search_by_tilt()
+        else:
+            self.search_depth(slower_when_closer=cue in SLOWER_WHEN_CLOSER)
+        if not self.wait_for(lambda: self.hud() == "GO", 3.0):
+            raise GaveUp("no GO")
+        hole_y, hole_top = self.seen(f"{object_id}_hole")[0], item.hole.height
+        self.move((self.hip[0], hole_y, hole_top + 0.1), 0.6)  # straight down: the fingertip rests on the rim
+        if not self.wait_for(lambda: self.hud().startswith("Done"), 1.0):
+            raise GaveUp("not inserted")
+        self.move((self.hip[0], self.hip[1], 2.0), 0.4)
+
+    def grasp(self, item) -> None:
+        """The object's depth is unseen: sweep through depth at its height until it is grasped."""
+        y, z = self.seen(item.id)
+        self.move((-1.45, y, 1.2), 0.6)
+        self.move((-1.45, y, z), 0.4)
+        self.move((1.45, y, z), 2.5)
+        if not self.wait_for(lambda: self.hud() == "Bring it to the arrow", 0.2):
+            raise GaveUp("could not find the object")
+
+    def at_target(self) -> bool:
+        return self.hud().startswith("Hold") or self.hud() == "GO"
+
+    def feel_interval(self) -> float | None:
+        """Hold still and feel: the onset interval of two fresh pulses, 0 for a vibration that
+        stays on for 0.35 s after stopping (while the finger moves, every new cue value restarts
+        the burst, so the vibration feels continuous then), None for nothing felt."""
+        start_t, start_n = self.hub.t_s, self.feel.onsets()
+
+        def steady_on() -> bool:
+            c = self.feel.channels[0]
+            return c.on and c.since_s <= start_t and self.hub.t_s - start_t >= 0.35
+
+        self.wait_for(lambda: self.feel.onsets() >= start_n + 2 or steady_on() or self.at_target(),
+                      self.p.feel_timeout_s)
+        if steady_on():
+            return 0.0
+        if self.feel.onsets() < start_n + 2:
+            return None
+        return self.feel.pulse_interval_s(self.hub.t_s)
+
+    def search_depth(self, slower_when_closer: bool) -> None:
+        """Step search on the pulse interval (1-DoF cue)."""
+        step, direction = self.p.first_step, 1.0
+        last = self.feel_interval()
+        while last is None and not self.at_target():  # outside the cue zone: look for it
+            self.explore()
+            last = self.feel_interval()
+        while not self.at_target():
+            x = max(-1.5, min(1.5, self.hip[0] + direction * step))
+            self.move((x, self.hip[1], self.hip[2]))
+            if self.at_target():
+                break
+            now = self.feel_interval()
+            closer = (now is not None and last is None) or (
+                now is not None and last is not None and (now > last if slower_when_closer else now < last))
+            if not closer:
+                direction, step = -direction, max(self.p.min_step, step / 2)
+            last = now
+
+    def explore(self) -> None:
+        """Nothing felt: outside the cue zone. Move through depth toward the table's middle
+        and beyond, as a participant sweeps until the device answers."""
+        x = self.hip[0]
+        self._sweep = getattr(self, "_sweep", -1.0 if x > 0 else 1.0)
+        if abs(x + self._sweep * self.p.first_step) > 1.5:
+            self._sweep = -self._sweep
+        self.move((x + self._sweep * self.p.first_step, self.hip[1], self.hip[2]))
+
+    def search_by_tilt(self) -> None:
+        """The FerroVibe points the way: its tilt's front/back component says where the depth
+        target is (180° = in front, away from the viewer: −x; 0° = overshot: +x)."""
+        step = self.p.first_step
+        previous = None
+        while not self.at_target():
+            self.dwell(0.15)
+            direction, magnitude = self.feel.tilt()
+            if magnitude == 0:  # flat: at the target, or outside the cue zone
+                if self.wait_for(self.at_target, 0.5):
+                    break
+                self.explore()
+                continue
+            front_back = math.cos(math.radians(direction))  # −1 at 180° (go −x), +1 at 0° (go +x)
+            dx = -1.0 if front_back < -0.5 else (1.0 if front_back > 0.5 else 0.0)
+            if dx == 0.0:
+                self.dwell(0.2)  # pure left/right tilt: depth is right; y and z were set by sight
+                continue
+            if previous is not None and dx != previous:
+                step = max(self.p.min_step, step / 2)
+            previous = dx
+            self.move((max(-1.5, min(1.5, self.hip[0] + dx * step)), self.hip[1], self.hip[2]))

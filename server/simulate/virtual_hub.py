@@ -1,0 +1,125 @@
+"""The hub's role for a simulated study, in one process on the virtual clock.
+
+It owns the real loop core (LoopCore + Simulation: the same per-tick code as `viestac serve`),
+applies the experiment engine's requests between ticks exactly as the loop applies mailbox
+records, hands every record to the listeners (the recorder), and sends each tick's cues to the
+virtual devices. Nothing sleeps and nothing reads a clock: `advance()` runs ticks as fast as the
+machine can, so a study takes as long as its computation, not as long as its trials.
+
+It offers what the engine needs of a hub (server/experiment/engine.HubPort): switch_scenario,
+set_trial, set_recording, scenario_state, last_state, listeners; plus set_hip and command for
+the synthetic participant.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+from devices.capability import check
+from scenarios import registry
+from scenarios.base import Trial
+from server.hub.hub import ScenarioRefused
+from server.loop.core import LoopCore
+from server.loop.simulation import Simulation
+from server.simulate.virtual_device import VirtualDevice
+
+TICK_NS = 1_000_000
+
+
+class VirtualHub:
+    def __init__(self, devices: dict[str, VirtualDevice], *, scenario: str = "contact-angle",
+                 params: dict | None = None, seed: int = 0, tick_hz: int = 1000, state_hz: float = 60.0):
+        self.devices = devices
+        self.tick_hz = tick_hz
+        spec = registry.resolve(scenario)
+        sim = Simulation(registry.create(spec.id, **(params or {})), tick_hz=tick_hz, seed=seed)
+        self.core = LoopCore(sim, state_hz=state_hz)
+        self.core.params, self.core.seed = registry.check_scenario_params(spec, params or {}), seed
+        self.listeners: list[Callable[[list], None]] = []
+        self.scenario_state: dict | None = None
+        self.scenario_cls = spec.factory
+        self.last_state: dict | None = None
+        self.record_every = 0
+        self.on_tick: list[Callable[[int], None]] = []  # called after every tick (participant models)
+        self._emit_all(self.core.announce())
+        self._settle_devices()
+
+    # -- what the engine asks ------------------------------------------------------------------
+    def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
+        spec = registry.resolve(name)
+        checked = registry.check_scenario_params(spec, params or {})
+        report = check(spec.id, tuple(spec.factory.REQUIRES), {n: d.profile for n, d in self.devices.items()})
+        if not report.ok and not force:
+            raise ScenarioRefused(report)
+        self._apply(["scenario", spec.id, checked, seed])
+        self.scenario_cls = spec.factory
+        return {"id": spec.id, "params": checked, "seed": seed, "capability": report.to_dict()}
+
+    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None:
+        trial = None if phase is None else Trial.parse(self.scenario_cls.TRIAL_PARAMS, phase, params, index).to_dict()
+        self._apply(["trial", trial])
+        return trial
+
+    def set_recording(self, every_n_ticks: int) -> None:
+        self.record_every = every_n_ticks
+        self._apply(["record", every_n_ticks])
+
+    # -- what the participant does ---------------------------------------------------------------
+    def set_hip(self, position) -> None:
+        self.core.sim.set_hip(tuple(float(v) for v in position))
+
+    def command(self, key: str, action: str = "press", value=None) -> None:
+        self._apply(["input", 0, key, action] + ([value] if value is not None else []))
+
+    @property
+    def tick(self) -> int:
+        return self.core.sim.tick
+
+    @property
+    def t_s(self) -> float:
+        return self.core.sim.tick / self.tick_hz
+
+    def advance(self, ticks: int = 1) -> None:
+        """Run `ticks` loop ticks; the devices follow to the end of each tick."""
+        for _ in range(ticks):
+            tick = self.core.sim.tick
+            result, record = self.core.step(tick * TICK_NS)
+            if result.cues_changed:
+                for device in self.devices.values():
+                    device.submit(result.output.cues)
+            t_end = (tick + 1) / self.tick_hz
+            for device in self.devices.values():
+                device.run_until(t_end)
+            if record is not None:
+                self.last_state = record
+                self._emit(["state", record])
+            for hook in self.on_tick:
+                hook(tick)
+
+    def advance_s(self, seconds: float) -> None:
+        self.advance(max(1, round(seconds * self.tick_hz)))
+
+    # -- plumbing ------------------------------------------------------------------------------
+    def _apply(self, record: list) -> None:
+        """A mailbox record, applied between ticks as the loop process does."""
+        self.core.apply(record, self.core.sim.tick * TICK_NS)
+        self._emit_all(self.core.outbox)
+        self.core.outbox.clear()
+
+    def _emit_all(self, records: list[list]) -> None:
+        for record in list(records):
+            self._emit(record)
+
+    def _emit(self, record: list) -> None:
+        if record[0] == "scenario":
+            self.scenario_state = record[1]
+        for listener in self.listeners:
+            listener(record)
+
+    def _settle_devices(self, timeout_s: float = 1.0) -> None:
+        """Let every device finish its handshake before the study starts (as a rig at start-up)."""
+        for _ in range(round(timeout_s * self.tick_hz)):
+            if all(d.status == "connected" for d in self.devices.values()):
+                return
+            self.advance()
+        raise RuntimeError(f"devices did not connect: {({n: d.status for n, d in self.devices.items()})}")
