@@ -63,12 +63,16 @@ class PositioningAgent:
         return pose.pos[1], pose.pos[2]
 
     # -- the body -------------------------------------------------------------------------------
-    def move(self, target, duration_s: float | None = None) -> None:
+    def move(self, target, duration_s: float | None = None, stop_when=None) -> None:
+        """One minimum-jerk submovement; `stop_when` (checked every tick) halts it early, as a
+        participant stops the moment the hold count-down appears."""
         start, n = self.hip, max(1, round((duration_s or self.p.submovement_s) * self.hub.tick_hz))
         for k in range(1, n + 1):
             self.hip = min_jerk(start, target, k / n)
             self.hub.set_hip(self.hip)
             self.hub.advance()
+            if stop_when is not None and stop_when():
+                break
         self._check_time()
 
     def dwell(self, seconds: float) -> None:
@@ -93,6 +97,7 @@ class PositioningAgent:
         """Pick, place at the target, hold until GO, insert. Raises GaveUp on a timeout."""
         self.deadline = self.hub.t_s + self.p.trial_timeout_s
         item = ITEM[object_id]
+        self.dwell(0.1)  # look first: the new trial's scene (objects back at their starts) is drawn
         self.grasp(item)
         head_y, head_z = self.seen("arrow_head")
         target_z = head_z - ARROW_GAP - item.half
@@ -113,13 +118,18 @@ class PositioningAgent:
         self.move((self.hip[0], self.hip[1], 2.0), 0.4)
 
     def grasp(self, item) -> None:
-        """The object's depth is unseen: sweep through depth at its height until it is grasped."""
+        """The object's depth is unseen: come down beside the table's far end at the object's
+        height and sweep through depth until it is grasped; sweep back once if it was missed."""
         y, z = self.seen(item.id)
-        self.move((-1.45, y, 1.2), 0.6)
-        self.move((-1.45, y, z), 0.4)
-        self.move((1.45, y, z), 2.5)
-        if not self.wait_for(lambda: self.hud() == "Bring it to the arrow", 0.2):
-            raise GaveUp("could not find the object")
+        self.move((self.hip[0], self.hip[1], 1.6), 0.4)  # up first: never drag through the scene
+        for x0, x1 in ((-1.45, 1.45), (1.45, -1.45)):
+            self.move((x0, y, 1.6), 0.6)
+            self.move((x0, y, z), 0.4)
+            self.move((x1, y, z), 2.5)
+            if self.wait_for(lambda: self.hud() == "Bring it to the arrow", 0.2):
+                return
+            self.move((x1, y, 1.6), 0.4)
+        raise GaveUp("could not find the object")
 
     def at_target(self) -> bool:
         return self.hud().startswith("Hold") or self.hud() == "GO"
@@ -151,7 +161,7 @@ class PositioningAgent:
             last = self.feel_interval()
         while not self.at_target():
             x = max(-1.5, min(1.5, self.hip[0] + direction * step))
-            self.move((x, self.hip[1], self.hip[2]))
+            self.move((x, self.hip[1], self.hip[2]), stop_when=self.at_target)
             if self.at_target():
                 break
             now = self.feel_interval()
@@ -168,7 +178,7 @@ class PositioningAgent:
         self._sweep = getattr(self, "_sweep", -1.0 if x > 0 else 1.0)
         if abs(x + self._sweep * self.p.first_step) > 1.5:
             self._sweep = -self._sweep
-        self.move((x + self._sweep * self.p.first_step, self.hip[1], self.hip[2]))
+        self.move((x + self._sweep * self.p.first_step, self.hip[1], self.hip[2]), stop_when=self.at_target)
 
     def search_by_tilt(self) -> None:
         """The FerroVibe points the way: its tilt's front/back component says where the depth
@@ -191,4 +201,5 @@ class PositioningAgent:
             if previous is not None and dx != previous:
                 step = max(self.p.min_step, step / 2)
             previous = dx
-            self.move((max(-1.5, min(1.5, self.hip[0] + dx * step)), self.hip[1], self.hip[2]))
+            self.move((max(-1.5, min(1.5, self.hip[0] + dx * step)), self.hip[1], self.hip[2]),
+                      stop_when=self.at_target)

@@ -40,7 +40,7 @@ class VirtualHub:
         self.scenario_cls = spec.factory
         self.last_state: dict | None = None
         self.record_every = 0
-        self.on_tick: list[Callable[[int], None]] = []  # called after every tick (participant models)
+        self._submitted: tuple = ()  # the cues the devices were last given
         self._emit_all(self.core.announce())
         self._settle_devices()
 
@@ -84,7 +84,8 @@ class VirtualHub:
         for _ in range(ticks):
             tick = self.core.sim.tick
             result, record = self.core.step(tick * TICK_NS)
-            if result.cues_changed:
+            if result.output.cues != self._submitted:  # across scenario switches too, as the hub does
+                self._submitted = result.output.cues
                 for device in self.devices.values():
                     device.submit(result.output.cues)
             t_end = (tick + 1) / self.tick_hz
@@ -93,8 +94,6 @@ class VirtualHub:
             if record is not None:
                 self.last_state = record
                 self._emit(["state", record])
-            for hook in self.on_tick:
-                hook(tick)
 
     def advance_s(self, seconds: float) -> None:
         self.advance(max(1, round(seconds * self.tick_hz)))
