@@ -1,4 +1,4 @@
-"""`viestac` command line: serve, devices, emulate, render, export, bench."""
+"""`viestac` command line: serve, devices, emulate, render, export, analyze, bench."""
 
 from __future__ import annotations
 
@@ -171,6 +171,63 @@ def _export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _analyze(args: argparse.Namespace) -> int:
+    from server.analysis.load import AnalysisError
+    from server.analysis.run import analyze
+
+    try:
+        stats = analyze(args.data, args.out, study=args.study)
+    except AnalysisError as exc:
+        print(f"viestac analyze: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"viestac analyze: cannot write to {args.out}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    prov = stats["provenance"]
+    print(f"analysed {prov['n_sessions']} sessions ({prov['n_participants']} participants) of study "
+          f"{prov['study_id']}: {Path(args.out) / 'report.html'}, {Path(args.out) / 'stats.json'}")
+    for path, reason in stats["skipped"].items():
+        print(f"  skipped {path}: {reason}")
+    return 0
+
+
+def _study(args: argparse.Namespace) -> int:
+    from server.simulate.study_run import progress_bar, simulate_study
+    from server.synthetic import SyntheticParticipant
+
+    if not args.simulate:
+        print("viestac study: only --simulate is supported (a real study runs from the console)", file=sys.stderr)
+        return 2
+    if args.participants < 1:
+        print("viestac study: --participants must be at least 1", file=sys.stderr)
+        return 2
+    try:
+        result = simulate_study(args.study, participants=args.participants, seed=args.seed, out_dir=args.out,
+                                make_participant=lambda seed, index: SyntheticParticipant(seed, participant=index),
+                                progress=None if args.quiet else progress_bar)
+    except FileExistsError as exc:
+        print(f"viestac study: {exc}", file=sys.stderr)
+        return 2
+    print(f"{result.trials} trials of {len(result.sessions)} synthetic participants in {result.wall_s:.0f} s "
+          f"({result.virtual_s:.0f} s of virtual time); {len(result.aborted)} aborted; data in {result.data_dir}")
+    for participant, seq, reason in result.aborted:
+        print(f"  aborted: {participant} trial {seq}: {reason}")
+    if args.no_analysis:
+        return 0
+    return _analyze_after_simulation(result.data_dir, Path(args.out) / "report")
+
+
+def _analyze_after_simulation(data_dir: Path, out: Path) -> int:
+    try:
+        from server.analysis.run import analyze  # the analysis of `viestac analyze`
+    except ImportError:
+        print("viestac study: the analysis is not available; run `viestac analyze` on the data", file=sys.stderr)
+        return 0
+    analyze(data_dir, out)
+    print(f"report: {out / 'report.html'}")
+    return 0
+
+
 def _bench_loop(args: argparse.Namespace) -> int:
     from server.bench.loop_bench import run_loop_bench
 
@@ -257,6 +314,24 @@ def build_parser() -> argparse.ArgumentParser:
                      help="where the experiment database lives (default: $VIESTAC_DATA or ./data)")
     exp.add_argument("--force", action="store_true", help="replace a different earlier export in DIR")
     exp.set_defaults(func=_export)
+
+    ana = sub.add_parser("analyze", help="the thesis's statistics of a study's sessions: report.html, stats.json, "
+                                         "figures (docs/analysis.md)")
+    ana.add_argument("data", metavar="DATA", help="a data directory (serve --data-dir) or its viestac.sqlite file")
+    ana.add_argument("--out", required=True, metavar="DIR", help="where report.html, stats.json and figures/ go")
+    ana.add_argument("--study", metavar="ID", help="the study to analyse (needed when DATA holds several)")
+    ana.set_defaults(func=_analyze)
+
+    study = sub.add_parser("study", help="run a study file with synthetic participants on the virtual clock "
+                                         "(--simulate), then the analysis")
+    study.add_argument("--simulate", action="store_true", help="synthetic participants, simulated rig, virtual clock")
+    study.add_argument("--study", default=str(STUDIES_DIR / "thesis-2021.toml"), help="the study file")
+    study.add_argument("--participants", type=int, default=13)
+    study.add_argument("--seed", type=int, default=2021)
+    study.add_argument("--out", required=True, metavar="DIR", help="data/ and report/ go here (must be new)")
+    study.add_argument("--no-analysis", action="store_true", help="only simulate")
+    study.add_argument("--quiet", action="store_true", help="no progress bar")
+    study.set_defaults(func=_study)
 
     bench = sub.add_parser("bench", help="benchmarks")
     bench_sub = bench.add_subparsers(dest="bench", required=True)

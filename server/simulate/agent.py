@@ -36,6 +36,8 @@ class AgentParams:
     min_step: float = 0.02
     feel_timeout_s: float = 2.3     # waiting for two fresh pulse onsets (periods up to 1.05 s)
     trial_timeout_s: float = 90.0   # gives up (the experimenter aborts) after this
+    endpoint_noise: float = 0.05    # motor noise: SD of the gain along the movement (ours)
+    duration_jitter: float = 0.2    # submovement durations vary by this fraction (SD, ours)
 
 
 def min_jerk(a, b, tau: float):
@@ -48,8 +50,9 @@ class GaveUp(Exception):
 
 
 class PositioningAgent:
-    def __init__(self, hub: VirtualHub, feel: Feel, params: AgentParams = AgentParams()):
-        self.hub, self.feel, self.p = hub, feel, params
+    def __init__(self, hub: VirtualHub, feel: Feel, params: AgentParams = AgentParams(), rng=None):
+        """`rng` (numpy Generator): motor noise of this participant and trial; None = noiseless."""
+        self.hub, self.feel, self.p, self.rng = hub, feel, params, rng
         self.hip = (0.0, 0.0, 2.0)
         self.deadline = 0.0
 
@@ -66,7 +69,14 @@ class PositioningAgent:
     def move(self, target, duration_s: float | None = None, stop_when=None) -> None:
         """One minimum-jerk submovement; `stop_when` (checked every tick) halts it early, as a
         participant stops the moment the hold count-down appears."""
-        start, n = self.hip, max(1, round((duration_s or self.p.submovement_s) * self.hub.tick_hz))
+        duration_s = duration_s or self.p.submovement_s
+        if self.rng is not None:
+            # no two reaches are alike: mostly a gain error along the movement (aimed movements
+            # scatter along their direction more than across it), plus a small scatter across
+            gain = 1.0 + self.rng.normal(0.0, self.p.endpoint_noise)
+            target = tuple(a + (b - a) * gain + self.rng.normal(0.0, 0.003) for a, b in zip(self.hip, target))
+            duration_s *= max(0.5, 1.0 + self.rng.normal(0.0, self.p.duration_jitter))
+        start, n = self.hip, max(1, round(duration_s * self.hub.tick_hz))
         for k in range(1, n + 1):
             self.hip = min_jerk(start, target, k / n)
             self.hub.set_hip(self.hip)
@@ -112,7 +122,8 @@ class PositioningAgent:
         if not self.wait_for(lambda: self.hud() == "GO", 3.0):
             raise GaveUp("no GO")
         hole_y, hole_top = self.seen(f"{object_id}_hole")[0], item.hole.height
-        self.move((self.hip[0], hole_y, hole_top + 0.1), 0.6)  # straight down: the fingertip rests on the rim
+        # straight down, pressing into the rim: the fingertip comes to rest on it, the object inside
+        self.move((self.hip[0], hole_y, hole_top - 0.05), 0.6)
         if not self.wait_for(lambda: self.hud().startswith("Done"), 1.0):
             raise GaveUp("not inserted")
         self.move((self.hip[0], self.hip[1], 2.0), 0.4)
@@ -163,6 +174,7 @@ class PositioningAgent:
             x = max(-1.5, min(1.5, self.hip[0] + direction * step))
             self.move((x, self.hip[1], self.hip[2]), stop_when=self.at_target)
             if self.at_target():
+                self.centre(direction)
                 break
             now = self.feel_interval()
             closer = (now is not None and last is None) or (
@@ -179,6 +191,14 @@ class PositioningAgent:
         if abs(x + self._sweep * self.p.first_step) > 1.5:
             self._sweep = -self._sweep
         self.move((x + self._sweep * self.p.first_step, self.hip[1], self.hip[2]), stop_when=self.at_target)
+
+    def centre(self, direction: float) -> None:
+        """Bracketing: the count-down appeared at the zone's edge; creep on until it vanishes,
+        then settle halfway between where it appeared and where it went."""
+        enter = self.hip[0]
+        self.move((enter + direction * 0.15, self.hip[1], self.hip[2]), 1.2, stop_when=lambda: not self.at_target())
+        leave = self.hip[0]
+        self.move(((enter + leave) / 2, self.hip[1], self.hip[2]), 0.4)
 
     def search_by_tilt(self) -> None:
         """The FerroVibe points the way: its tilt's front/back component says where the depth
@@ -203,3 +223,6 @@ class PositioningAgent:
             previous = dx
             self.move((max(-1.5, min(1.5, self.hip[0] + dx * step)), self.hip[1], self.hip[2]),
                       stop_when=self.at_target)
+            if self.at_target():
+                self.centre(dx)
+                break

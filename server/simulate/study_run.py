@@ -1,0 +1,157 @@
+"""`viestac study --simulate`: a study file run end to end by synthetic participants on the
+virtual clock — the real loop core, the experiment engine and recorder, the device firmware on
+a simulated serial line — then the analysis.
+
+Per participant: a fresh virtual rig (hub + devices), a session created by the engine exactly
+as the console creates one (so counterbalancing, recording and the trial lifecycle are the
+production code), and the participant's behaviour per trial: the positioning agent for
+positioning trials (depth by feel), the magnitude-production keys for production trials, a short
+exposure to the stimulus otherwise; answers come from the observer models (server/synthetic).
+Timestamps are virtual (a fixed epoch plus the virtual time), so the same seed gives the same
+database and the same report.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+from typing import Callable
+
+from devices.profiles import profile_by_model
+from server import __version__
+from server.experiment.engine import Experiment
+from server.experiment.plan import PlannedTrial, plan_session
+from server.experiment.store import Store
+from server.experiment.study import load_study
+from server.simulate.agent import AgentParams, GaveUp, PositioningAgent
+from server.simulate.virtual_device import VirtualDevice
+from server.simulate.virtual_hub import VirtualHub
+from server.synthetic.rng import derive_rng
+
+EPOCH = datetime(2026, 1, 5, 9, 0, tzinfo=timezone.utc)  # virtual sessions start here, one day apart
+RIG = ("fingertac", "ferrovibe")
+EXPOSURE_S = 0.5          # a trial's stimulus is felt this long before the answer
+TRAINING_CAP_S = 5.0      # training is free exploration: a few virtual seconds stand for it
+
+
+@dataclass
+class SimulationResult:
+    data_dir: Path
+    sessions: list[str] = field(default_factory=list)
+    trials: int = 0
+    aborted: list[tuple[str, int, str]] = field(default_factory=list)  # (participant, seq, reason)
+    virtual_s: float = 0.0
+    wall_s: float = 0.0
+
+
+class VirtualClock:
+    """The store's UTC clock: the session's epoch plus the virtual time of its hub."""
+
+    def __init__(self):
+        self.day = 0
+        self.hub: VirtualHub | None = None
+
+    def __call__(self) -> str:
+        t = self.hub.t_s if self.hub is not None else 0.0
+        return (EPOCH + timedelta(days=self.day, seconds=t)).isoformat(timespec="microseconds")
+
+
+def progress_bar(done: int, total: int, label: str, stream=sys.stderr, width: int = 30) -> None:
+    filled = width * done // max(1, total)
+    stream.write(f"\r[{'#' * filled}{'-' * (width - filled)}] {done}/{total} trials · {label}   ")
+    if done == total:
+        stream.write("\n")
+    stream.flush()
+
+
+def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_dir: str | Path,
+                   make_participant: Callable[[int, int], object],
+                   progress: Callable[[int, int, str], None] | None = None,
+                   agent_params: AgentParams = AgentParams()) -> SimulationResult:
+    """Run `participants` synthetic sessions of the study into OUT/data/viestac.sqlite.
+
+    make_participant(seed, index) → an object with answer(trial, question) and
+    produce_level(target_level) (server/synthetic)."""
+    study_path = Path(study_path)
+    study = load_study(study_path)
+    out = Path(out_dir)
+    result = SimulationResult(out / "data")
+    db = result.data_dir / "viestac.sqlite"
+    if db.exists():
+        raise FileExistsError(f"{db} exists: simulate into an empty directory")
+    clock = VirtualClock()
+    store = Store(db, clock)
+    started = time.perf_counter()
+    try:
+        total = participants * len(plan_session(study, 0))  # every participant's plan is as long
+        done = 0
+        for index in range(participants):
+            devices = {model: VirtualDevice(model, profile_by_model(model)) for model in RIG}
+            hub = VirtualHub(devices, seed=seed)
+            clock.hub, clock.day = hub, index
+            experiment = Experiment(store, hub, studies_dir=study_path.parent, software_version=__version__,
+                                    config={"simulated": True, "seed": seed, "rig": list(RIG), "tick_hz": 1000},
+                                    record_every=10)
+            session = experiment.create_session(study_id=study.id, participant=f"SIM{index:02d}",
+                                                experimenter="simulator", device="+".join(RIG),
+                                                participant_index=index)
+            person = make_participant(seed, index)
+            sid, token = session["id"], session["token"]
+            result.sessions.append(sid)
+            for trial in session["trials"]:
+                experiment.start(sid, token, trial["seq"])
+                motor = derive_rng("motor", seed, index, trial["seq"])
+                reason = _perform(hub, devices, trial, person, agent_params, motor)
+                if reason:
+                    experiment.abort(sid, token, trial["seq"], reason)
+                    result.aborted.append((session["participant"], trial["seq"], reason))
+                else:
+                    planned = PlannedTrial(**{k: trial[k] for k in PlannedTrial.__dataclass_fields__})
+                    task = study.task(trial["task"])
+                    for q in trial["questions"]:
+                        value = person.answer(planned, task.question(q))
+                        experiment.answer(sid, token, trial["seq"], q, value, "synthetic participant")
+                    experiment.finish(sid, token, trial["seq"])
+                result.trials += 1
+                done += 1
+                if progress:
+                    progress(done, total, f"{session['participant']} · {time.perf_counter() - started:.0f} s")
+            result.virtual_s += hub.t_s
+            hub.listeners.clear()
+    finally:
+        store.close()
+    result.wall_s = time.perf_counter() - started
+    return result
+
+
+def _perform(hub: VirtualHub, devices: dict[str, VirtualDevice], trial: dict, person,
+             agent_params: AgentParams, motor) -> str:
+    """What the participant does during the trial; a reason if it could not be completed."""
+    params, kind = trial["params"], trial["kind"]
+    if kind == "training":
+        hub.advance_s(min(trial["duration_s"] or TRAINING_CAP_S, TRAINING_CAP_S))
+        return ""
+    if trial["scenario"] == "positioning-v1" and kind in ("trial", "main"):
+        cue = params.get("cue") or trial["scenario_params"].get("cue")
+        device = devices["ferrovibe" if cue == "3dof" else "fingertac"]
+        try:
+            PositioningAgent(hub, device.feel, agent_params, motor).run_trial(params["object"], cue)
+        except GaveUp as exc:
+            return f"synthetic participant gave up: {exc}"
+        return ""
+    if params.get("mode") == "production":
+        produced = int(person.produce_level(params["level"], seq=trial["seq"]))
+        hub.command("r")                       # the experimenter starts recording
+        hub.advance_s(EXPOSURE_S)
+        key = "ArrowUp" if produced > params["start_level"] else "ArrowDown"
+        for _ in range(abs(produced - params["start_level"])):
+            hub.command(key, "down")
+            hub.advance_s(0.2)
+        hub.command("r")                       # ... and stops it: the scenario reports the result
+        hub.advance_s(0.05)
+        return ""
+    hub.advance_s(EXPOSURE_S)
+    return ""
