@@ -55,6 +55,8 @@ class PositioningAgent:
         self.hub, self.feel, self.p, self.rng = hub, feel, params, rng
         self.hip = (0.0, 0.0, 2.0)
         self.deadline = 0.0
+        self.reached_x: float | None = None  # where the count-down was last seen (remembered)
+        self.aim = (0.0, 2.0)                # the fingertip's y and z that put the object under the arrow
 
     # -- the senses -----------------------------------------------------------------------------
     def hud(self) -> str:
@@ -114,13 +116,15 @@ class PositioningAgent:
         hang = item.half + PROXY
         self.move((self.hip[0], self.hip[1], target_z + hang + 0.4), 0.5)  # lift clear of everything
         self.move((self.hip[0], head_y, target_z + hang + 0.4), 0.8)
-        self.move((self.hip[0], head_y, target_z + hang), 0.5)
-        if cue == "3dof":
-            self.search_by_tilt()
-        else:
-            self.search_depth(slower_when_closer=cue in SLOWER_WHEN_CLOSER)
-        if not self.wait_for(lambda: self.hud() == "GO", 3.0):
-            raise GaveUp("no GO")
+        self.aim = (head_y, target_z + hang)  # where sight puts the fingertip in y and z
+        self.move((self.hip[0], *self.aim), 0.5)
+        while True:  # left the zone before GO (the count-down restarts): search again
+            if cue == "3dof":
+                self.search_by_tilt()
+            else:
+                self.search_depth(slower_when_closer=cue in SLOWER_WHEN_CLOSER)
+            if self.wait_for(lambda: self.hud() == "GO" or not self.at_target(), 3.0) and self.hud() == "GO":
+                break
         hole_y, hole_top = self.seen(f"{object_id}_hole")[0], item.hole.height
         # straight down, pressing into the rim: the fingertip comes to rest on it, the object inside
         self.move((self.hip[0], hole_y, hole_top - 0.05), 0.6)
@@ -172,33 +176,42 @@ class PositioningAgent:
             last = self.feel_interval()
         while not self.at_target():
             x = max(-1.5, min(1.5, self.hip[0] + direction * step))
-            self.move((x, self.hip[1], self.hip[2]), stop_when=self.at_target)
+            self.move((x, *self.aim), stop_when=self.at_target)
             if self.at_target():
                 self.centre(direction)
                 break
             now = self.feel_interval()
-            closer = (now is not None and last is None) or (
-                now is not None and last is not None and (now > last if slower_when_closer else now < last))
+            if now is None:  # left the cue zone (or P3/P4 beyond their offset): look for it again
+                direction = self.explore()  # ... and keep going the way that found it
+                last = self.feel_interval()
+                continue
+            closer = last is None or (now > last if slower_when_closer else now < last)
             if not closer:
                 direction, step = -direction, max(self.p.min_step, step / 2)
             last = now
 
-    def explore(self) -> None:
+    def explore(self) -> float:
         """Nothing felt: outside the cue zone. Move through depth toward the table's middle
-        and beyond, as a participant sweeps until the device answers."""
+        and beyond, as a participant sweeps until the device answers; returns the way it went."""
         x = self.hip[0]
+        if self.reached_x is not None:  # it was there a moment ago: go back to where it was
+            way = 1.0 if self.reached_x >= x else -1.0
+            self.move((self.reached_x, *self.aim), stop_when=self.at_target)
+            return way
         self._sweep = getattr(self, "_sweep", -1.0 if x > 0 else 1.0)
         if abs(x + self._sweep * self.p.first_step) > 1.5:
             self._sweep = -self._sweep
-        self.move((x + self._sweep * self.p.first_step, self.hip[1], self.hip[2]), stop_when=self.at_target)
+        self.move((x + self._sweep * self.p.first_step, *self.aim), stop_when=self.at_target)
+        return self._sweep
 
     def centre(self, direction: float) -> None:
         """Bracketing: the count-down appeared at the zone's edge; creep on until it vanishes,
         then settle halfway between where it appeared and where it went."""
-        enter = self.hip[0]
-        self.move((enter + direction * 0.15, self.hip[1], self.hip[2]), 1.2, stop_when=lambda: not self.at_target())
+        enter = self.reached_x = self.hip[0]
+        self.move((enter + direction * 0.15, *self.aim), 1.2, stop_when=lambda: not self.at_target())
         leave = self.hip[0]
-        self.move(((enter + leave) / 2, self.hip[1], self.hip[2]), 0.4)
+        self.reached_x = (enter + leave) / 2
+        self.move((self.reached_x, *self.aim), 0.4)
 
     def search_by_tilt(self) -> None:
         """The FerroVibe points the way: its tilt's front/back component says where the depth
@@ -221,8 +234,7 @@ class PositioningAgent:
             if previous is not None and dx != previous:
                 step = max(self.p.min_step, step / 2)
             previous = dx
-            self.move((max(-1.5, min(1.5, self.hip[0] + dx * step)), self.hip[1], self.hip[2]),
-                      stop_when=self.at_target)
+            self.move((max(-1.5, min(1.5, self.hip[0] + dx * step)), *self.aim), stop_when=self.at_target)
             if self.at_target():
                 self.centre(dx)
                 break
