@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from server.experiment.export import DB_NAME, ExportError, Reader, _tick_hz, known_sessions
+from server.experiment.export import DB_NAME, ExportError, Reader, session_tick_hz, known_sessions
 
 TRIAL_COLUMNS = ("trial_id", "session", "participant", "seq", "task", "kind", "index", "condition", "repetition",
                  "status", "attempt", "reason", "scenario", "scenario_base", "device", "params", "scenario_params",
@@ -59,14 +59,14 @@ def load(data: str | Path, study: str | None = None) -> Dataset:
             sessions = _choose(reader.sessions(), study, path)
             trial_rows, endpoint_rows = [], []
             for s in sessions:
-                tick_hz = _tick_hz(s.get("config") or {})
+                tick_hz = session_tick_hz(s.get("config") or {})
                 rows = _trials(reader, s, tick_hz)
                 trial_rows += rows
                 endpoint_rows += _endpoints(reader, s["id"], rows, tick_hz)
     except ExportError as exc:
         raise AnalysisError(str(exc)) from None
     frame = pd.DataFrame([{**{k: s[k] for k in SESSION_COLUMNS[1:-1]}, "session": s["id"],
-                           "tick_hz": _tick_hz(s.get("config") or {})} for s in sessions], columns=SESSION_COLUMNS)
+                           "tick_hz": session_tick_hz(s.get("config") or {})} for s in sessions], columns=SESSION_COLUMNS)
     return Dataset(frame, pd.DataFrame(trial_rows, columns=TRIAL_COLUMNS),
                    pd.DataFrame(endpoint_rows, columns=ENDPOINT_COLUMNS), path)
 

@@ -125,7 +125,7 @@ def _duration(trial: dict, tick_hz: float) -> tuple[float | None, str]:
     return None, ""
 
 
-def _tick_hz(config: dict) -> float:
+def session_tick_hz(config: dict) -> float:
     hz = config.get("tick_hz") if isinstance(config, dict) else None
     return float(hz) if isinstance(hz, (int, float)) and not isinstance(hz, bool) and hz > 0 else DEFAULT_TICK_HZ
 
@@ -265,7 +265,7 @@ def _load(reader: Reader, session: dict) -> SessionData:
     sid = session["id"]
     trials, responses = reader.trials(sid), reader.responses(sid)
     attempts = reader.attempts(sid)
-    tick_hz = _tick_hz(session.get("config") or {})
+    tick_hz = session_tick_hz(session.get("config") or {})
     by_trial: dict[int, list[dict]] = {}
     for r in responses:
         by_trial.setdefault(r["trial_id"], []).append(r)
