@@ -4,7 +4,7 @@ answer form, abort and retry one, and check through REST that the session is wha
 a second console taking control shows up in the first. Screenshots go to
 tests/artifacts/browser/console-*.png.
 
-Reuses the browser fixture and helpers of test_web_client.py (same Chromium, same flags).
+Reuses the browser fixture (tests/browser/conftest.py) and the helpers of test_web_client.py.
 """
 
 from __future__ import annotations
@@ -18,12 +18,11 @@ from pathlib import Path
 import pytest
 
 from server.bench.loop_bench import start_server, stop_server
-from tests.browser import test_web_client as web
-from tests.browser.test_web_client import ARTIFACTS, READY_TIMEOUT_MS, VIEWPORT, Client, wait_for
+from tests.browser.conftest import ARTIFACTS, require_web_deps
+from tests.browser.test_web_client import READY_TIMEOUT_MS, VIEWPORT, Client, wait_for
 from tests.conftest import LiveServer
 
 pytestmark = pytest.mark.browser
-browser = web.browser  # the module-scoped headless Chromium of test_web_client.py
 
 ROOT = Path(__file__).resolve().parents[2]
 STUDY = "thesis-2021"
@@ -80,6 +79,7 @@ class Console:
 
 @pytest.fixture
 def open_page(browser):
+    require_web_deps()  # the participant's view in the console imports three.js
     contexts = []
 
     def make(viewport=CONSOLE_VIEWPORT):

@@ -9,14 +9,11 @@ from pathlib import Path
 import pytest
 
 from server.analysis.run import analyze
+from tests.browser.conftest import ARTIFACTS
 from tests.analysis.thesis_data import build
 
 pytestmark = pytest.mark.browser
 
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = ["--headless=new", "--no-sandbox", "--disable-background-networking", "--disable-component-update",
-                 "--disable-sync", "--no-first-run"]
-ARTIFACTS = Path(__file__).resolve().parents[1] / "artifacts" / "browser"
 
 FIGURES_JS = """() => [...document.querySelectorAll('figure img, svg')].map(e => {
   const r = e.getBoundingClientRect();
@@ -31,19 +28,6 @@ def report(tmp_path_factory) -> Path:
     build(base / "viestac.sqlite")
     analyze(base, base / "out")
     return base / "out"
-
-
-@pytest.fixture(scope="module")
-def browser():
-    if not CHROMIUM.exists():
-        pytest.skip(f"{CHROMIUM} is missing (apt-get install chromium); browser tests need it")
-    sync_api = pytest.importorskip("playwright.sync_api")
-    with sync_api.sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        try:
-            yield b
-        finally:
-            b.close()
 
 
 def test_every_figure_renders_and_nothing_is_fetched(report, browser):

@@ -13,52 +13,22 @@ import base64
 import json
 import time
 import urllib.request
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.browser.conftest import ARTIFACTS, require_web_deps
 from tests.conftest import LiveServer
 
 pytestmark = pytest.mark.browser
 
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless=new",
-    "--no-sandbox",
-    "--use-angle=swiftshader",
-    "--enable-unsafe-swiftshader",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 VIEWPORT = {"width": 1024, "height": 768}
-ROOT = Path(__file__).resolve().parents[2]
-ARTIFACTS = ROOT / "tests" / "artifacts" / "browser"
-WEB_DEPS = [ROOT / "clients/web/node_modules/three/build/three.module.js",
-            ROOT / "clients/web/node_modules/@msgpack/msgpack/dist.esm/index.mjs"]
 READY_TIMEOUT_MS = 20_000
 REBUILD_TIMEOUT_MS = 15_000
 
 
 # -- fixtures ---------------------------------------------------------------------------------
-
-
-@pytest.fixture(scope="module")
-def browser():
-    if not CHROMIUM.exists():
-        pytest.skip(f"{CHROMIUM} is missing (apt-get install chromium); browser tests need it")
-    missing = [str(p.relative_to(ROOT)) for p in WEB_DEPS if not p.exists()]
-    assert not missing, f"web client dependencies missing ({missing}): run `cd clients/web && npm ci`"
-    sync_api = pytest.importorskip("playwright.sync_api")
-    with sync_api.sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        try:
-            yield b
-        finally:
-            b.close()
 
 
 class Client:
@@ -115,6 +85,7 @@ def contact_angle_after(live_server):
 
 @pytest.fixture
 def open_client(browser, live_server):
+    require_web_deps()
     contexts = []
 
     def make(query: str = "", server: LiveServer | None = None) -> Client:

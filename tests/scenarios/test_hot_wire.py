@@ -12,19 +12,12 @@ from scenarios.hot_wire import END_RADIUS, HotWire
 from scenarios.registry import create
 from scenarios.wire_path import Path, make_path, parse_points
 from server.loop.simulation import Simulation
+from tests.scenarios.driving import drive as run
 
 
 def make(**params):
     sim = Simulation(create("hot-wire-v1", **params))
     return sim, sim.scenario
-
-
-def run(sim, points):
-    out = []
-    for p in points:
-        sim.set_hip(p)
-        out.append(sim.step())
-    return out
 
 
 def along(path: Path, a: float, b: float, n: int, offset=(0.0, 0.0, 0.0)):

@@ -12,6 +12,7 @@ from scenarios.peg_in_hole import PegInHole, hole_centre
 from scenarios.positioning import ITEMS
 from scenarios.registry import create
 from server.loop.simulation import Simulation
+from tests.scenarios.driving import drive as run, line
 
 CUBE_A, SPHERE, CUBE_B = ITEMS
 HANG = 0.15 + 0.06  # the carried object hangs this far below the proxy
@@ -20,18 +21,6 @@ HANG = 0.15 + 0.06  # the carried object hangs this far below the proxy
 def make(**params):
     sim = Simulation(create("peg-in-hole-v1", **params))
     return sim, sim.scenario
-
-
-def run(sim, points):
-    out = []
-    for p in points:
-        sim.set_hip(p)
-        out.append(sim.step())
-    return out
-
-
-def line(a, b, n):
-    return [tuple(a[i] + (b[i] - a[i]) * k / n for i in range(3)) for k in range(1, n + 1)]
 
 
 def pick(sim, item=CUBE_A):

@@ -10,6 +10,7 @@ from devices.cues import PulseTrain, Tilt, Vibration
 from scenarios.base import ParamError, Trial
 from scenarios.positioning import ITEMS, Positioning, inserted, tube_mesh
 from server.loop.simulation import Simulation
+from tests.scenarios.driving import drive as run_path, line
 
 HANG = 0.15 + 0.06  # the carried object hangs this far below the proxy
 
@@ -17,18 +18,6 @@ HANG = 0.15 + 0.06  # the carried object hangs this far below the proxy
 def make(**params):
     sim = Simulation(Positioning(**params))
     return sim, sim.scenario
-
-
-def run_path(sim, points):
-    results = []
-    for p in points:
-        sim.set_hip(p)
-        results.append(sim.step())
-    return results
-
-
-def line(a, b, n):
-    return [tuple(a[i] + (b[i] - a[i]) * k / n for i in range(3)) for k in range(1, n + 1)]
 
 
 def pick(sim, item=ITEMS[0]):
