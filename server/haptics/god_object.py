@@ -50,6 +50,7 @@ SHORTCUT_COS = 0.5  # closest-point shortcut only within 60 deg of the current n
 SHORTCUT_MIN = 1e-10  # below this (relative) the tangent planes count as one plane
 PARALLEL = 1.0 - 1e-15  # cos^2 above which two directions count as parallel
 GLUE_DOT = -1.0 + 1e-9  # feature normals with n.m <= this are opposite: glued faces
+PUSH_STEPS = 3  # projections tried before the ray search when the proxy is inside one body
 EXIT_REACH = 1e3  # scene units: farther than any scene object, to cast back from
 ZERO: Vec3 = (0.0, 0.0, 0.0)
 _AXES = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0),
@@ -135,12 +136,17 @@ def _push_out(x, bodies, radius):
     if not inside:
         return x, evs
     if len(inside) == 1:
-        f, nx, ny, nz = evs[inside[0]]
-        f -= radius
-        y = (x[0] - f * nx, x[1] - f * ny, x[2] - f * nz)
-        evy = [b._eval(y) for b in bodies]
-        if min(ev[0] for ev in evy) - radius > -EPS_SURFACE:
-            return y, evy
+        y, ev = x, evs[inside[0]]
+        for _ in range(PUSH_STEPS):  # exact primitives land in one step; sampled fields need more
+            f, nx, ny, nz = ev
+            f -= radius
+            y = (y[0] - f * nx, y[1] - f * ny, y[2] - f * nz)
+            evy = [b._eval(y) for b in bodies]
+            if min(ev[0] for ev in evy) - radius > -EPS_SURFACE:
+                return y, evy
+            ev = evy[inside[0]]
+            if ev[0] - radius > -EPS_SURFACE:
+                break  # out of this body but inside another: find the exit along rays
     best, best_d = x, inf
     for u in [ev[1:] for ev in evs] + list(_AXES):
         y = _exit_along(x, u, bodies, radius)
@@ -175,7 +181,7 @@ class GodObject:
     """Stateful proxy for one HIP; call ``step`` once per servo tick (1 kHz)."""
 
     def __init__(self, radius: float = 0.0, *, max_iterations: int = 16,
-                 tolerance: float = 1e-12) -> None:
+                 tolerance: float = 1e-12, shortcut: bool = True) -> None:
         radius, tolerance = float(radius), float(tolerance)
         if not (isfinite(radius) and radius >= 0.0):
             raise ValueError(f"proxy radius must be finite and >= 0, got {radius!r}")
@@ -187,6 +193,9 @@ class GodObject:
         self.radius = radius
         self.max_iterations = max_iterations
         self.tolerance = tolerance
+        # The closest-point shortcut trusts the bodies' distance fields to be exact; a sampled
+        # field (bench baseline) blurs them deep inside, so it is switched off there.
+        self.use_shortcut = bool(shortcut)
         self._proxy: Vec3 | None = None
         self._friction_body: str | None = None  # id of the one body touched last tick
         self._sticking = False
@@ -220,7 +229,7 @@ class GodObject:
         hit_i, hit_ev, last_hit = -1, None, None  # body, its eval at the last hit point
         free = False
         iterations = 0
-        shortcut = True  # one closest-point shortcut attempt per tick
+        shortcut = self.use_shortcut  # one closest-point shortcut attempt per tick
         hip_evs: dict = {}  # body index -> eval at the HIP (shared with the separation)
         for _ in range(self.max_iterations):
             iterations += 1
