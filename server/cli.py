@@ -254,6 +254,27 @@ def _bench_link(args: argparse.Namespace) -> int:
     return _print_bench(result, args.json)
 
 
+def _bench_latency(args: argparse.Namespace) -> int:
+    from server.bench.latency_bench import run_latency_bench
+
+    result = run_latency_bench(seconds=args.seconds, clients=args.clients, warmup_s=args.warmup)
+    return _print_bench(result, args.json)
+
+
+def _bench_accuracy(args: argparse.Namespace) -> int:
+    from server.bench.accuracy import run_accuracy_bench
+
+    result = run_accuracy_bench(Path(args.out), quick=args.quick)
+    return _print_bench(result, args.json)
+
+
+def _bench_stability(args: argparse.Namespace) -> int:
+    from server.bench.stability import run_stability_bench
+
+    result = run_stability_bench(Path(args.out), quick=args.quick)
+    return _print_bench(result, args.json)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="viestac", description="ViESTac tactile evaluation server")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -350,6 +371,25 @@ def build_parser() -> argparse.ArgumentParser:
     link.add_argument("--share", type=float, default=0.5, help="the host's share of the link (default 0.5)")
     link.add_argument("--json", action="store_true", help="print one JSON object")
     link.set_defaults(func=_bench_link)
+    latency = bench_sub.add_parser("latency", help="tracker message sent -> device command written on an emulated "
+                                                   "FerroVibe's pty, with N viewers at 60 Hz")
+    latency.add_argument("--seconds", type=float, default=10.0)
+    latency.add_argument("--clients", type=int, default=0, help="viewer clients (default 0)")
+    latency.add_argument("--warmup", type=float, default=3.0)
+    latency.add_argument("--json", action="store_true", help="print one JSON object")
+    latency.set_defaults(func=_bench_latency)
+    accuracy = bench_sub.add_parser("accuracy", help="cost against error of every contact method on fixed "
+                                                     "trajectories over the thesis scenes (JSON + charts)")
+    accuracy.add_argument("--out", required=True, metavar="DIR", help="accuracy.json and the charts go here")
+    accuracy.add_argument("--quick", action="store_true", help="a reduced grid (well under 2 min)")
+    accuracy.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    accuracy.set_defaults(func=_bench_accuracy)
+    stability = bench_sub.add_parser("stability", help="where each method fails: speed x thickness, stiffness x "
+                                                       "loop rate, tracker noise x hysteresis (JSON + charts)")
+    stability.add_argument("--out", required=True, metavar="DIR", help="stability.json and the charts go here")
+    stability.add_argument("--quick", action="store_true", help="a reduced grid (well under 2 min)")
+    stability.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    stability.set_defaults(func=_bench_stability)
     return parser
 
 

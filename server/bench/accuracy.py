@@ -199,7 +199,8 @@ def chart(result: dict, out: Path) -> dict[str, Path]:
         ax.axvline(BUDGET_US, color="grey", ls=":", lw=1, label=f"budget {BUDGET_US:g} µs (median)")
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_ylim(FLOOR_MM / 2, None)
+        top = max(max(p["err_p99_mm"] for p in points) * 3, 1.0)  # room for labels, even when all agree
+        ax.set_ylim(FLOOR_MM / 2, top)
         ax.set_title(title, fontsize=10)
         ax.set_xlabel("cost per tick, µs (marker p50, bar to p99)")
         ax.set_ylabel("proxy position error p99, mm")

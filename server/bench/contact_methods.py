@@ -109,7 +109,7 @@ def _mesh(shape: _Shape, level: int) -> MeshShape:
     return MeshShape.of(shape, level)
 
 
-@lru_cache(maxsize=64)
+@lru_cache(maxsize=4)  # a 128-cell grid of a scene's body holds millions of nodes
 def _grid(shape: _Shape, cells: int, margin: float) -> GridShape:
     return GridShape(shape, cells, margin)
 

@@ -64,8 +64,9 @@ class GridShape(_Shape):
         self._top = tuple(self._o[k] + (n[k] - 1) * h for k in range(3))
         ev = shape._eval
         ox, oy, oz = self._o
-        # x-major, then y, then z (fast): node (i, j, k) at index (i * ny + j) * nz + k
-        self._v = array("d", (ev(ox + i * h, oy + j * h, oz + k * h)[0]
+        # x-major, then y, then z (fast): node (i, j, k) at index (i * ny + j) * nz + k; float32
+        # storage (6e-8 relative) halves the memory of a 128-cell grid, far below its own error
+        self._v = array("f", (ev(ox + i * h, oy + j * h, oz + k * h)[0]
                               for i in range(n[0]) for j in range(n[1]) for k in range(n[2])))
         self.nodes = len(self._v)
 

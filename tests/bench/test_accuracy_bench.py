@@ -159,3 +159,13 @@ def test_the_chart_puts_the_server_method_first_and_the_baselines_in_error(quick
     # a deep press near a cube's edge: the nearest face is the side, the penalty pushes sideways
     assert next(p for p in data["scenes"]["shape-v1"]["methods"] if p["family"] == "penalty")["err_max_mm"] > 50
     assert summary["server follows chart"] is True
+
+
+def test_an_output_path_that_is_a_file_is_refused_before_any_work(tmp_path, capsys):
+    from server.cli import main
+
+    target = tmp_path / "taken"
+    target.write_text("keep me")
+    assert main(["bench", "accuracy", "--quick", "--out", str(target)]) == 2
+    assert "is not a directory" in capsys.readouterr().err
+    assert target.read_text() == "keep me"
