@@ -57,13 +57,16 @@ class Emulator:
         self.wire = wire
         self.edges: deque[Edge] = deque(maxlen=history)
         self.received: deque[tuple[int, int]] = deque(maxlen=history)  # (arrival t_us, frame bytes) on the wire
+        # (arrival t_us, read t_us) of the same frames: when the frame was read off the pty, i.e. when
+        # the host's write reached us, before the modelled wire time (for tracker -> pty latency)
+        self.read_at: deque[tuple[int, int]] = deque(maxlen=history)
         self.bytes_in = 0
         self.bytes_out = 0
         self.dropped_out = 0
         self._clock_ns = clock_ns
         self._master = self._slave = -1
         self.pty_path = ""
-        self._pending: deque[tuple[int, bytes]] = deque()  # frames in flight on the modelled wire
+        self._pending: deque[tuple[int, bytes, int]] = deque()  # frames in flight: (arrival, bytes, read t_us)
         self._wire_free_us = 0.0
         self._partial = b""
         self._wake_r, self._wake_w = os.pipe()
@@ -123,6 +126,10 @@ class Emulator:
     def snapshot_received(self) -> list[tuple[int, int]]:
         with self._lock:
             return list(self.received)
+
+    def snapshot_read_at(self) -> list[tuple[int, int]]:
+        with self._lock:
+            return list(self.read_at)
 
     # ---- internals (emulator thread) ------------------------------------------------------
 
@@ -199,17 +206,18 @@ class Emulator:
                 arrival = int(self._wire_free_us)
             else:
                 arrival = now_us
-            self._pending.append((arrival, chunk))
+            self._pending.append((arrival, chunk, now_us))
 
     def _deliver(self, now_us: int) -> None:
         new_edges: list[Edge] = []
         while self._pending and self._pending[0][0] <= now_us:
-            t, chunk = self._pending.popleft()
+            t, chunk, read_us = self._pending.popleft()
             new_edges += self.core.advance(t)
             self.core.receive(chunk, t)
             new_edges += self.core.advance(t)
             with self._lock:
                 self.received.append((t, len(chunk)))
+                self.read_at.append((t, read_us))
         new_edges += self.core.advance(now_us)
         if new_edges:
             with self._lock:
@@ -263,7 +271,9 @@ def main(argv: list[str] | None = None) -> int:
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
-    emulator = Emulator(args.model, link=args.link, timeline=args.timeline, wire=not args.no_wire)
+    # Nothing reads the in-memory history of a separate emulator process (its timeline is the CSV
+    # file): keep only a little, or a long session (the simulated rig) grows by ~400 B per frame.
+    emulator = Emulator(args.model, link=args.link, timeline=args.timeline, wire=not args.no_wire, history=1000)
     path = emulator.start()
     print(f"{args.model} emulator on {emulator.pty_path}" + (f" (link {path})" if args.link else ""), flush=True)
     print(path, flush=True)

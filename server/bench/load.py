@@ -4,14 +4,20 @@ Runs in its own process (so it does not share a GIL with the bench driver) with 
 `websockets` clients. Viewers only receive and count state frames; trackers send positions
 sweeping along the contact-angle hemisphere, slightly inside it, so the god-object, the contact
 gate and the tilt cues are all exercised. Prints one JSON object when done.
+
+`--latency-tracker` adds the participant tracker of `viestac bench latency`: at 120 Hz it holds
+the HIP either 3 mm inside the dome (tilt cue on) or well above it (cue off), switches every
+66-100 ms, and reports the CLOCK_MONOTONIC send time of every switching message.
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import json
 import math
+import random
 import time
 
 import msgpack
@@ -31,15 +37,25 @@ async def viewer(url: str, counts: list[int], index: int, window: tuple[float, f
                 counts[index] += 1
 
 
-async def tracker(url: str, rate_hz: float, phase: float, sent: list[int], stop: float) -> None:
+@contextlib.asynccontextmanager
+async def participant(url: str, client: str):
+    """A participant connection whose incoming frames are drained (and dropped) meanwhile."""
     async with websockets.connect(url, subprotocols=["viestac.v1.msgpack"], compression=None) as ws:
-        await ws.send(msgpack.packb({"type": "hello", "v": 1, "role": "participant", "client": "bench-tracker"}))
+        await ws.send(msgpack.packb({"type": "hello", "v": 1, "role": "participant", "client": client}))
 
         async def drain() -> None:
             async for _ in ws:
                 pass
 
         reader = asyncio.create_task(drain())
+        try:
+            yield ws
+        finally:
+            reader.cancel()
+
+
+async def tracker(url: str, rate_hz: float, phase: float, sent: list[int], stop: float) -> None:
+    async with participant(url, "bench-tracker") as ws:
         period = 1.0 / rate_hz
         next_t = time.monotonic()
         seq = 0
@@ -52,10 +68,45 @@ async def tracker(url: str, rate_hz: float, phase: float, sent: list[int], stop:
             seq += 1
             next_t += period
             await asyncio.sleep(max(0.0, next_t - time.monotonic()))
-        reader.cancel()
 
 
-async def main_async(url: str, viewers: int, trackers: int, warmup_s: float, seconds: float) -> dict:
+LATENCY_ANGLE_DEG = 30.0     # a fixed contact angle: the tilt cue is on at 100 %, direction 330°
+LATENCY_IN = 0.6 + 0.06 - 0.003  # 3 mm inside the dilated dome (radius + proxy radius): in contact
+LATENCY_OUT = 0.6 + 0.06 + 0.03  # 30 mm outside it: far beyond the gate's 2 mm hysteresis band
+
+
+async def latency_tracker(url: str, rate_hz: float, switches: list[list], stop: float, seed: int = 8) -> None:
+    """Alternate between in contact and well above the dome; record [send t_us, seq, in_contact] of
+    each switching message. Between switches the same position is resent at rate_hz, like a real
+    tracker. A switch comes after 8-12 samples (66-100 ms at 120 Hz): clear of the gate's 30 ms
+    minimum dwell, and random so that switches do not lock to the heartbeat or the tick."""
+    rng = random.Random(seed)
+    a = math.radians(LATENCY_ANGLE_DEG)
+    inside, above = ([0.0, -r * math.sin(a), r * math.cos(a)] for r in (LATENCY_IN, LATENCY_OUT))
+    async with participant(url, "bench-latency") as ws:
+        period = 1.0 / rate_hz
+        next_t = time.monotonic()
+        seq = 0
+        in_contact = False
+        left = rng.randint(8, 12)  # samples until the next switch
+        while next_t < stop:
+            left -= 1
+            switch = left == 0
+            if switch:
+                in_contact = not in_contact
+                left = rng.randint(8, 12)
+            t_us = time.monotonic_ns() // 1000  # the emulator stamps with the same clock
+            pos = inside if in_contact else above
+            await ws.send(msgpack.packb({"type": "tracker", "seq": seq, "t": t_us / 1e3, "pos": pos}))
+            if switch:
+                switches.append([t_us, seq, in_contact])
+            seq += 1
+            next_t += period
+            await asyncio.sleep(max(0.0, next_t - time.monotonic()))
+
+
+async def main_async(url: str, viewers: int, trackers: int, warmup_s: float, seconds: float,
+                     latency: bool = False) -> dict:
     start = time.monotonic()
     window = (start + warmup_s, start + warmup_s + seconds)
     stop = window[1] + 0.2
@@ -63,11 +114,17 @@ async def main_async(url: str, viewers: int, trackers: int, warmup_s: float, sec
     sent = [0]
     tasks = [viewer(url, counts, i, window, stop) for i in range(viewers)]
     tasks += [tracker(url, 120.0, i * 1.3, sent, stop) for i in range(trackers)]
+    switches: list[list] = []
+    if latency:
+        tasks.append(latency_tracker(url, 120.0, switches, stop))
     await asyncio.gather(*tasks)
     rates = [c / seconds for c in counts]
-    return {"viewers": viewers, "frames_received_per_client_hz": {
+    result = {"viewers": viewers, "frames_received_per_client_hz": {
         "mean": round(sum(rates) / len(rates), 2) if rates else 0.0,
         "min": round(min(rates), 2) if rates else 0.0}, "tracker_messages": sent[0]}
+    if latency:
+        result["switches"] = switches
+    return result
 
 
 def main() -> None:
@@ -77,8 +134,11 @@ def main() -> None:
     parser.add_argument("--trackers", type=int, default=2)
     parser.add_argument("--warmup", type=float, default=3.0)
     parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--latency-tracker", action="store_true",
+                        help="add the switching participant tracker of `viestac bench latency`")
     args = parser.parse_args()
-    print(json.dumps(asyncio.run(main_async(args.url, args.viewers, args.trackers, args.warmup, args.seconds))))
+    print(json.dumps(asyncio.run(main_async(args.url, args.viewers, args.trackers, args.warmup, args.seconds,
+                                            args.latency_tracker))))
 
 
 if __name__ == "__main__":

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -95,8 +96,32 @@ def _tree_rss_mb(pid: int) -> float:
     return total / 2**20
 
 
+def percentile(values: list[float], q: float) -> float | None:
+    """The q-quantile of already sorted `values` (nearest rank), rounded to 3 decimals; None if empty."""
+    return round(values[min(len(values) - 1, int(q * len(values)))], 3) if values else None
+
+
+def _rss_summary(samples: list[tuple[float, float]], seconds: float) -> dict:
+    """Peak RSS, and start/end/growth from the medians of the first and last window (10 s, or a
+    quarter of a short run) so one sample (a transient allocation) does not decide the growth."""
+    if not samples:
+        return {"rss_mb": None, "rss_start_mb": None, "rss_end_mb": None, "rss_growth_mb": None}
+    window = min(10.0, seconds / 4)
+    first = [mb for t, mb in samples if t <= window] or [samples[0][1]]
+    last = [mb for t, mb in samples if t >= samples[-1][0] - window] or [samples[-1][1]]
+    start, end = statistics.median(first), statistics.median(last)
+    return {"rss_mb": round(max(mb for _, mb in samples), 1), "rss_start_mb": round(start, 1),
+            "rss_end_mb": round(end, 1), "rss_growth_mb": round(end - start, 1)}
+
+
 def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, warmup_s: float = 3.0,
                    scenario: str = "contact-angle") -> dict:
+    if seconds <= 0:
+        raise ValueError(f"seconds must be > 0, got {seconds}")
+    if viewers < 0 or trackers < 0:
+        raise ValueError(f"viewers and trackers must be >= 0, got {viewers} and {trackers}")
+    if warmup_s < 0:
+        raise ValueError(f"warmup_s must be >= 0, got {warmup_s}")
     proc, base = start_server(scenario)
     try:
         ws_url = base.replace("http://", "ws://") + "/ws"
@@ -105,10 +130,11 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
                                 stdout=subprocess.PIPE, text=True)
         time.sleep(warmup_s)
         get_json(base + "/api/telemetry/reset", "POST")
-        end = time.monotonic() + seconds
-        peak_rss = 0.0
+        start = time.monotonic()
+        end = start + seconds
+        rss_samples: list[tuple[float, float]] = []  # (seconds since the reset, MB)
         while time.monotonic() < end:
-            peak_rss = max(peak_rss, _tree_rss_mb(proc.pid))
+            rss_samples.append((time.monotonic() - start, _tree_rss_mb(proc.pid)))
             time.sleep(0.25)
         telemetry = get_json(base + "/api/telemetry")
         tracker_rows = get_json(base + "/api/trackers?limit=4096")["rows"]
@@ -121,9 +147,7 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
     send_to_tick = sorted((row[4] - row[2] * 1e6) / 1e6 for row in tracker_rows)
     hub_to_tick = sorted((row[4] - row[3]) / 1e6 for row in tracker_rows)
 
-    def pct(values, q):
-        return round(values[min(len(values) - 1, int(q * len(values)))], 3) if values else None
-
+    rss = _rss_summary(rss_samples, seconds)
     return {
         "period_p50_us": telemetry["period_p50_us"], "period_p99_us": telemetry["period_p99_us"],
         "period_p999_us": telemetry["period_p999_us"], "period_max_us": telemetry["period_max_us"],
@@ -133,7 +157,8 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         "frames_received_per_client_hz": load_result["frames_received_per_client_hz"]["mean"],
         "frames_received_per_client_hz_min": load_result["frames_received_per_client_hz"]["min"],
         "tracker_messages": load_result["tracker_messages"],
-        "tracker_to_tick_p50_ms": pct(send_to_tick, 0.5), "tracker_to_tick_p99_ms": pct(send_to_tick, 0.99),
-        "hub_to_tick_p99_ms": pct(hub_to_tick, 0.99), "tracker_samples": len(send_to_tick),
-        "rss_mb": round(peak_rss, 1), "rt": telemetry["rt"], "seconds": seconds, "resyncs": telemetry["resyncs"],
+        "tracker_to_tick_p50_ms": percentile(send_to_tick, 0.5),
+        "tracker_to_tick_p99_ms": percentile(send_to_tick, 0.99),
+        "hub_to_tick_p99_ms": percentile(hub_to_tick, 0.99), "tracker_samples": len(send_to_tick),
+        **rss, "rt": telemetry["rt"], "seconds": seconds, "resyncs": telemetry["resyncs"],
     }

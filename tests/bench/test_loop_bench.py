@@ -1,0 +1,44 @@
+"""`viestac bench loop`: the memory summary, and the shape of a short live run. Timing and memory
+goals are reported by the bench (docs/performance.md), never asserted here."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from server.bench.loop_bench import _rss_summary, run_loop_bench
+
+
+def test_rss_growth_compares_medians_of_the_first_and_last_window_so_one_spike_does_not_count():
+    samples = [(i * 0.25, 80.0) for i in range(240)]  # 60 s at 80 MB ...
+    samples[5] = (1.25, 120.0)                          # ... one transient allocation early on
+    samples += [(60 + i * 0.25, 81.0) for i in range(40)]  # then 10 s at 81 MB
+    rss = _rss_summary(samples, 70.0)
+    assert rss == {"rss_mb": 120.0, "rss_start_mb": 80.0, "rss_end_mb": 81.0, "rss_growth_mb": 1.0}
+
+
+def test_a_short_run_uses_a_quarter_of_it_at_each_end():
+    samples = [(i * 0.25, 50.0 + i) for i in range(8)]  # 2 s: 50 .. 57 MB
+    rss = _rss_summary(samples, 2.0)
+    assert (rss["rss_start_mb"], rss["rss_end_mb"], rss["rss_mb"]) == (51.0, 56.0, 57.0)
+    assert _rss_summary([], 2.0)["rss_growth_mb"] is None
+
+
+@pytest.mark.parametrize("kwargs", [{"seconds": 0}, {"viewers": -1}, {"trackers": -2}, {"warmup_s": -1}])
+def test_bad_arguments_are_refused_before_anything_starts(kwargs):
+    with pytest.raises(ValueError):
+        run_loop_bench(**kwargs)
+
+
+@pytest.mark.slow
+def test_a_short_live_run_reports_loop_timing_and_memory():
+    result = run_loop_bench(seconds=2, viewers=2, warmup_s=1)
+    print(f"\n{result}")
+    for key in ("period_p50_us", "period_p99_us", "tick_cost_p50_us", "frames_received_per_client_hz",
+                "tracker_to_tick_p50_ms", "rss_mb", "rss_start_mb", "rss_end_mb"):
+        assert isinstance(result[key], (int, float)) and math.isfinite(result[key]) and result[key] > 0, key
+    assert result["period_p50_us"] <= result["period_p99_us"] <= result["period_max_us"]
+    assert result["ticks"] > 1000 and result["overruns"] >= 0 and result["clients"] == 2
+    assert result["rss_start_mb"] <= result["rss_mb"] and result["rss_end_mb"] <= result["rss_mb"]
+    assert math.isfinite(result["rss_growth_mb"])
