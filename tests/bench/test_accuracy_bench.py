@@ -43,12 +43,12 @@ def test_the_mesh_distance_is_the_polyhedron_distance():
     assert -1.0 < sd_in < -0.79  # the inscribed polyhedron's inradius (~0.795 at 80 faces)
 
 
-def test_a_grid_reproduces_a_linear_field_exactly_and_rounds_a_sphere():
+def test_a_grid_reproduces_a_linear_field_and_rounds_a_sphere():
     grid = GridShape(Plane((2.0, 2.0)), 16, 0.2)
     for p in [(0.1, 0.2, 0.05), (-0.5, 0.3, -0.2), (0.0, 0.0, 0.15)]:
         sd, nx, ny, nz = grid._eval(*p)
-        assert sd == pytest.approx(p[2], abs=1e-12)
-        assert (nx, ny, nz) == pytest.approx((0.0, 0.0, 1.0), abs=1e-12)
+        assert sd == pytest.approx(p[2], abs=1e-7)  # exact but for the nodes' float32 storage
+        assert (nx, ny, nz) == pytest.approx((0.0, 0.0, 1.0), abs=1e-6)
     coarse, fine = GridShape(Sphere(0.5), 8, 0.1), GridShape(Sphere(0.5), 32, 0.1)
     points = np.random.default_rng(3).uniform(-0.55, 0.55, (200, 3))
     err = [max(abs(g._eval(*p)[0] - (np.linalg.norm(p) - 0.5)) for p in points) for g in (coarse, fine)]
