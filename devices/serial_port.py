@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import os
 import threading
 import time
 from collections import deque
@@ -25,6 +26,18 @@ from devices.ports import PortSpec, latency_warning, resolve
 
 log = logging.getLogger("viestac.devices")
 _ROUTINE = {"Acked", "Pong"}  # counted by the protocol, not kept in the event list
+# The writer thread asks for SCHED_FIFO at this priority (below the loop's 50) when allowed: woken by
+# a new cue while the hub broadcasts the same change to every viewer, it otherwise waits for a
+# CPU for up to ~2 ms (docs/performance.md "Tracker → device latency"). It sleeps between writes.
+WRITER_RT_PRIORITY = 10
+
+
+def _writer_realtime() -> None:
+    """Best effort: without root or CAP_SYS_NICE the writer keeps normal priority."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(WRITER_RT_PRIORITY))  # 0: this thread
+    except (PermissionError, OSError, AttributeError):
+        pass
 
 
 class SerialDevice:
@@ -117,6 +130,7 @@ class SerialDevice:
                 self._publish(events)
 
     def _run_writer(self) -> None:
+        _writer_realtime()
         while True:
             with self._cond:
                 if not self._running:
