@@ -378,18 +378,15 @@ def build_parser() -> argparse.ArgumentParser:
     latency.add_argument("--warmup", type=float, default=3.0)
     latency.add_argument("--json", action="store_true", help="print one JSON object")
     latency.set_defaults(func=_bench_latency)
-    accuracy = bench_sub.add_parser("accuracy", help="cost against error of every contact method on fixed "
-                                                     "trajectories over the thesis scenes (JSON + charts)")
-    accuracy.add_argument("--out", required=True, metavar="DIR", help="accuracy.json and the charts go here")
-    accuracy.add_argument("--quick", action="store_true", help="a reduced grid (well under 2 min)")
-    accuracy.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    accuracy.set_defaults(func=_bench_accuracy)
-    stability = bench_sub.add_parser("stability", help="where each method fails: speed x thickness, stiffness x "
-                                                       "loop rate, tracker noise x hysteresis (JSON + charts)")
-    stability.add_argument("--out", required=True, metavar="DIR", help="stability.json and the charts go here")
-    stability.add_argument("--quick", action="store_true", help="a reduced grid (well under 2 min)")
-    stability.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    stability.set_defaults(func=_bench_stability)
+    for name, func, what in (("accuracy", _bench_accuracy, "cost against error of every contact method on fixed "
+                                                           "trajectories over the thesis scenes"),
+                             ("stability", _bench_stability, "where each method fails: speed x thickness, stiffness "
+                                                             "x loop rate, tracker noise x hysteresis")):
+        sweep = bench_sub.add_parser(name, help=f"{what} (JSON + charts)")
+        sweep.add_argument("--out", required=True, metavar="DIR", help=f"{name}.json and the charts go here")
+        sweep.add_argument("--quick", action="store_true", help="a reduced grid (well under 2 min)")
+        sweep.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+        sweep.set_defaults(func=func)
     return parser
 
 

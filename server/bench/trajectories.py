@@ -83,6 +83,12 @@ class _Builder:
     def lift(self, what: str, surface: Surface, u: float, depth: float, speed: float) -> None:
         self.normal_move(f"{what}: lift", surface, u, depth, -LIFT, speed)
 
+    def explore(self, what: str, how: str, surface: Surface, u0: float, u1: float) -> None:
+        """Touch down at u0, stroke to u1 STROKE_DEPTH deep, lift off."""
+        self.touch(what, surface, u0, STROKE_DEPTH, APPROACH)
+        self.stroke(f"{what}: {how}", surface, u0, u1, STROKE)
+        self.lift(what, surface, u1, STROKE_DEPTH, APPROACH)
+
     def line(self, what: str, a: Vec3, b: Vec3, speed: float, truth: Callable[[Vec3], Truth]) -> None:
         n = self._steps(_dist(a, b), speed)
         out = []
@@ -221,36 +227,24 @@ def scene_trajectory(scene: str, radius: float, speed_scale: float = 1.0) -> Tra
         b.crease("sphere", centre, 0.4, 0.0, APPROACH)
     elif scene == "shape-v1":  # cube (edge 1, top 1.0) at y -1.5, sphere R 0.5 at y 0, cone at y 1.5
         top = flat(1.0, (0.0, -1.5), (1.0, 0.0))
-        b.touch("cube top", top, 0.0, STROKE_DEPTH, APPROACH)
-        b.stroke("cube top: stroke toward the edge", top, 0.0, 0.4, STROKE)
-        b.lift("cube top", top, 0.4, STROKE_DEPTH, APPROACH)
+        b.explore("cube top", "stroke toward the edge", top, 0.0, 0.4)
         b.top_press("cube top 5 cm from the edge, 9 cm deep", (0.45, -1.5), 1.0, 0.15, PRESS)
         centre = (0.0, 0.0, 0.5)
         sphere = sphere_arc(centre, 0.5, 0.0)
-        b.touch("sphere", sphere, -50, STROKE_DEPTH, APPROACH)
-        b.stroke("sphere: stroke over the top", sphere, -50, 50, STROKE)
-        b.lift("sphere", sphere, 50, STROKE_DEPTH, APPROACH)
+        b.explore("sphere", "stroke over the top", sphere, -50, 50)
         b.crease("sphere", centre, 0.5, 180.0, APPROACH)
         cone = cone_ring((0.0, 1.5, 0.0), 0.5, 1.0, 0.5)
-        b.touch("cone side", cone, 0, STROKE_DEPTH, APPROACH)
-        b.stroke("cone side: half way round", cone, 0, 180, STROKE)
-        b.lift("cone side", cone, 180, STROKE_DEPTH, APPROACH)
+        b.explore("cone side", "half way round", cone, 0, 180)
     elif scene == "positioning-v1":  # cube_a (edge 0.3), the round hole's rim, the small sphere
         top = flat(0.3, (-0.8, 1.8), (1.0, 0.0))
-        b.touch("cube top", top, 0.0, STROKE_DEPTH, APPROACH)
-        b.stroke("cube top: stroke toward the edge", top, 0.0, 0.1, STROKE)
-        b.lift("cube top", top, 0.1, STROKE_DEPTH, APPROACH)
+        b.explore("cube top", "stroke toward the edge", top, 0.0, 0.1)
         b.top_press("cube top 3 cm from the edge, 6 cm deep", (-0.8 + 0.12, 1.8), 0.3, 0.12, PRESS)
         rim = cylinder_ring((-0.7, -0.9, 0.0), 0.2, 0.2)
-        b.touch("rim side", rim, 0, STROKE_DEPTH, APPROACH)
-        b.stroke("rim side: half way round", rim, 0, 180, STROKE)
-        b.lift("rim side", rim, 180, STROKE_DEPTH, APPROACH)
+        b.explore("rim side", "half way round", rim, 0, 180)
         b.top_press("rim top 3 cm from the side, 6 cm deep", (-0.7 + 0.17, -0.9), 0.4, 0.12, PRESS)
         centre = (0.2, 1.4, 0.15)
         sphere = sphere_arc(centre, 0.15, 0.0)
-        b.touch("small sphere", sphere, -40, STROKE_DEPTH, APPROACH)
-        b.stroke("small sphere: stroke over the top", sphere, -40, 40, STROKE)
-        b.lift("small sphere", sphere, 40, STROKE_DEPTH, APPROACH)
+        b.explore("small sphere", "stroke over the top", sphere, -40, 40)
         b.crease("small sphere", centre, 0.15, 0.0, APPROACH)
     else:
         raise ValueError(f"no fixed trajectory for scene {scene!r}; known: {', '.join(SCENES)}")
