@@ -33,8 +33,10 @@ from pathlib import Path
 from devices.fwcore import MODELS, Edge, FirmwareCore
 from devices.link import BYTE_TIME_S
 from devices.messages import PatternMode
+from devices.realtime import fifo_this_thread
 
 BYTE_TIME_US = BYTE_TIME_S * 1e6  # 86.8 µs at 115200 8N1
+EMULATOR_RT_PRIORITY = 20  # with realtime=True: above the host's device threads (10), below the loop (50)
 # temperature_c and friction come last, so readers that index the older columns keep working
 TIMELINE_COLUMNS = ("t_us", "channel", "gate", "mode", "intensity_pct", "carrier_hz", "direction_deg",
                     "magnitude_pct", "cause", "temperature_c", "friction")
@@ -49,17 +51,21 @@ def edge_row(e: Edge) -> tuple:
 
 class Emulator:
     def __init__(self, model: str, *, link: str | os.PathLike | None = None, timeline: str | os.PathLike | None = None,
-                 wire: bool = True, history: int = 2_000_000, clock_ns=time.monotonic_ns):
+                 wire: bool = True, history: int = 2_000_000, clock_ns=time.monotonic_ns, realtime: bool = False):
         self.core = FirmwareCore(model)
+        # A device has a CPU of its own: as a measuring instrument (bench latency) the emulator's
+        # thread asks for SCHED_FIFO, so its read stamps do not include waiting for a shared core.
+        self.realtime = realtime
+        self.rt = False
         self.model = model
         self.link = Path(link) if link else None
         self.timeline_path = Path(timeline) if timeline else None
         self.wire = wire
         self.edges: deque[Edge] = deque(maxlen=history)
         self.received: deque[tuple[int, int]] = deque(maxlen=history)  # (arrival t_us, frame bytes) on the wire
-        # (arrival t_us, read t_us) of the same frames: when the frame was read off the pty, i.e. when
-        # the host's write reached us, before the modelled wire time (for tracker -> pty latency)
-        self.read_at: deque[tuple[int, int]] = deque(maxlen=history)
+        # (arrival t_us, read t_us, frame bytes) of the same frames: when the frame was read off the
+        # pty, i.e. when the host's write reached us, before the modelled wire time (bench latency)
+        self.read_at: deque[tuple[int, int, bytes]] = deque(maxlen=history)
         self.bytes_in = 0
         self.bytes_out = 0
         self.dropped_out = 0
@@ -127,7 +133,7 @@ class Emulator:
         with self._lock:
             return list(self.received)
 
-    def snapshot_read_at(self) -> list[tuple[int, int]]:
+    def snapshot_read_at(self) -> list[tuple[int, int, bytes]]:
         with self._lock:
             return list(self.read_at)
 
@@ -217,7 +223,7 @@ class Emulator:
             new_edges += self.core.advance(t)
             with self._lock:
                 self.received.append((t, len(chunk)))
-                self.read_at.append((t, read_us))
+                self.read_at.append((t, read_us, chunk))
         new_edges += self.core.advance(now_us)
         if new_edges:
             with self._lock:
@@ -232,6 +238,8 @@ class Emulator:
                 self.dropped_out += len(out)
 
     def _run(self) -> None:
+        if self.realtime:
+            self.rt = fifo_this_thread(EMULATOR_RT_PRIORITY)
         last_flush = time.monotonic()
         while not self._stopping:
             self._handle_requests()

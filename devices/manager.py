@@ -230,7 +230,7 @@ class DeviceManager:
     def status(self) -> dict[str, str]:
         return {name: d.driver.status for name, d in self.devices.items()}
 
-    def snapshot(self) -> dict:
-        return {"devices": [{**d.driver.snapshot(), "profile": d.profile.to_dict(),
+    def snapshot(self, writes: int = 0) -> dict:
+        return {"devices": [{**d.driver.snapshot(writes), "profile": d.profile.to_dict(),
                              "refusals": [r.to_dict() for r in d.refusals]} for d in self.devices.values()],
                 "refusals": [r.to_dict() for r in self.refusals]}

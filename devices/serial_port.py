@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import os
 import threading
 import time
 from collections import deque
@@ -23,21 +22,10 @@ from collections.abc import Callable, Iterable
 import serial
 
 from devices.ports import PortSpec, latency_warning, resolve
+from devices.realtime import fifo_this_thread
 
 log = logging.getLogger("viestac.devices")
 _ROUTINE = {"Acked", "Pong"}  # counted by the protocol, not kept in the event list
-# The writer thread asks for SCHED_FIFO at this priority (below the loop's 50) when allowed: woken by
-# a new cue while the hub broadcasts the same change to every viewer, it otherwise waits for a
-# CPU for up to ~2 ms (docs/performance.md "Tracker → device latency"). It sleeps between writes.
-WRITER_RT_PRIORITY = 10
-
-
-def _writer_realtime() -> None:
-    """Best effort: without root or CAP_SYS_NICE the writer keeps normal priority."""
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(WRITER_RT_PRIORITY))  # 0: this thread
-    except (PermissionError, OSError, AttributeError):
-        pass
 
 
 class SerialDevice:
@@ -62,6 +50,10 @@ class SerialDevice:
         self._cond = threading.Condition()
         self._running = False
         self._threads: list[threading.Thread] = []
+        self.writer_rt = False  # the writer thread got SCHED_FIFO
+        # (CLOCK_MONOTONIC ns when write() returned, bytes) of the latest writes: when a command was
+        # handed to the port, for the tracker -> device latency (viestac bench latency)
+        self.writes: deque[tuple[int, bytes]] = deque(maxlen=1024)
 
     # ---- public, any thread --------------------------------------------------------------
 
@@ -97,14 +89,17 @@ class SerialDevice:
     def status(self) -> str:
         return self.protocol.status
 
-    def snapshot(self) -> dict:
+    def snapshot(self, writes: int = 0) -> dict:
+        """The console's view; `writes` > 0 adds the latest writes as [t_ns, hex]."""
+        recent = [[t, data.hex()] for t, data in list(self.writes)[-writes:]] if writes > 0 else None
         with self._cond:
             identity = self.protocol.identity
             return {"name": self.name, "port": str(self.spec), "path": self.path, "status": self.protocol.status,
                     "identity": _identity_dict(identity), "rtt_ms": None if self.protocol.rtt_s is None
                     else round(self.protocol.rtt_s * 1000, 3), "counters": dict(self.protocol.counters),
                     "connects": self.connects, "disconnects": self.disconnects, "last_error": self.last_error,
-                    "warning": self.warning, "events": list(self.events)[-20:]}
+                    "warning": self.warning, "writer_rt": self.writer_rt, "events": list(self.events)[-20:],
+                    **({"writes": recent} if recent is not None else {})}
 
     # ---- threads -------------------------------------------------------------------------
 
@@ -126,11 +121,11 @@ class SerialDevice:
                 with self._cond:
                     self.protocol.receive_data(data, self.clock())
                     events = self.protocol.events_received()
-                    self._cond.notify()
+                    self._cond.notify_all()
                 self._publish(events)
 
     def _run_writer(self) -> None:
-        _writer_realtime()
+        self.writer_rt = fifo_this_thread()  # woken by a new cue while other work keeps both CPUs busy
         while True:
             with self._cond:
                 if not self._running:
@@ -145,6 +140,7 @@ class SerialDevice:
             if data:
                 try:
                     port.write(data)
+                    self.writes.append((time.monotonic_ns(), data))
                 except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
                     self._drop(f"write failed: {exc}")
 

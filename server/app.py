@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import asyncio
 import gc
+import logging
+import sys
 from dataclasses import replace
 from contextlib import asynccontextmanager
 
@@ -18,8 +20,15 @@ from server.api.routes import router
 from server.config import Settings
 from server.experiment.engine import Experiment
 from server.experiment.store import Store, utc_now
+from server.hub.device_feed import DeviceFeed
 from server.hub.hub import Hub
 from server.hub.supervisor import LoopSupervisor
+from server.loop import tracker_udp
+
+log = logging.getLogger("viestac")
+
+
+GIL_SWITCH_INTERVAL_S = 0.00005
 
 
 async def _flush_recorder(experiment: Experiment, every_s: float = 0.25) -> None:
@@ -29,7 +38,9 @@ async def _flush_recorder(experiment: Experiment, every_s: float = 0.25) -> None
         await asyncio.to_thread(experiment.recorder.flush)
 
 
-def create_app(settings: Settings) -> FastAPI:
+def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
+    """`tracker_sock`: the tracker UDP port bound already (viestac serve binds it first, to fail
+    early and print it); otherwise it is bound at start-up from settings.tracker_address()."""
     hub = Hub(server_name=f"viestac/{__version__}", tick_hz=settings.tick_hz, state_hz=settings.state_hz)
     supervisor = LoopSupervisor(settings.loop_config(), hub.on_loop_record)
     hub.send_to_loop = supervisor.send
@@ -48,11 +59,25 @@ def create_app(settings: Settings) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
+        # The device feed and writer threads share this process's GIL with the event loop: a
+        # thread woken by a cue waits for the GIL until the event loop releases it, up to the
+        # switch interval (5 ms by default) when the loop is busy with a broadcast.
+        sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
         configs = list(settings.devices) + (await asyncio.to_thread(rig.start) if rig else [])
         manager = DeviceManager(configs)
         manager.start()
         hub.attach_devices(manager)
-        app.state.devices = manager
+        feed = DeviceFeed(manager)  # the loop's cues reach the devices past the event loop
+        supervisor.on_cue_channel = feed.attach
+        app.state.devices, app.state.device_feed = manager, feed
+        address = settings.tracker_address()
+        if tracker_sock is None and address is not None:
+            supervisor.tracker_sock = tracker_udp.bind(address)
+        else:
+            supervisor.tracker_sock = tracker_sock
+        if supervisor.tracker_sock is not None:  # samples a bridge sends here reach the loop without the hub
+            app.state.tracker_udp = "%s:%d" % supervisor.tracker_sock.getsockname()[:2]
+            log.info("tracker UDP port: %s (docs/protocol.md)", app.state.tracker_udp)
         supervisor.start()
         flusher = asyncio.get_running_loop().create_task(_flush_recorder(experiment))
         # The device threads share this process: a full collection over FastAPI's start-up heap
@@ -63,10 +88,13 @@ def create_app(settings: Settings) -> FastAPI:
         flusher.cancel()
         await asyncio.to_thread(experiment.recorder.flush)
         await supervisor.stop()
+        await asyncio.to_thread(feed.join)  # no late cue after the last "off"
         manager.submit(())  # leave every actuator off
         await asyncio.to_thread(manager.stop)
         if rig:
             await asyncio.to_thread(rig.stop)
+        if supervisor.tracker_sock is not None:
+            supervisor.tracker_sock.close()
         store.close()
 
     app = FastAPI(title="ViESTac", version=__version__, lifespan=lifespan,
@@ -77,6 +105,7 @@ def create_app(settings: Settings) -> FastAPI:
     app.state.supervisor = supervisor
     app.state.rig = rig
     app.state.experiment = experiment
+    app.state.tracker_udp = None  # "HOST:PORT" once bound
     app.include_router(router, prefix="/api")
     app.include_router(experiment_router, prefix="/api")
 

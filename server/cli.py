@@ -40,15 +40,23 @@ def _serve(args: argparse.Namespace) -> int:
                             gate_dwell_s=args.gate_dwell_ms / 1000.0, devices=tuple(devices),
                             simulated_rig=not args.no_rig, rig_models=tuple(m for m in args.rig.split(",") if m),
                             data_dir=Path(args.data_dir), studies_dir=Path(args.studies),
-                            record_every=args.record_every, force=args.force)
-    except (ParamError, ProfileError) as exc:
+                            record_every=args.record_every, force=args.force, tracker_udp=args.tracker_udp)
+    except (ParamError, ProfileError, ValueError) as exc:
         print(f"viestac serve: {exc}", file=sys.stderr)
         return 2
     report = settings.capability()
     if not report.ok and not args.force:
         print(f"viestac serve: {report.message} (--force runs it anyway)", file=sys.stderr)
         return 2
-    app = create_app(settings)
+    from server.loop import tracker_udp
+
+    address = settings.tracker_address()
+    try:
+        tracker_sock = tracker_udp.bind(address) if address is not None else None
+    except OSError as exc:
+        print(f"viestac serve: {exc.strerror}", file=sys.stderr)
+        return 2
+    app = create_app(settings, tracker_sock=tracker_sock)
     family = socket.AF_INET6 if ":" in settings.host else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -57,6 +65,8 @@ def _serve(args: argparse.Namespace) -> int:
     shown_host = f"[{settings.host}]" if family == socket.AF_INET6 else settings.host
     print(f"ViESTac serving scenario {settings.scenario} on http://{shown_host}:{port}/  "
           f"(WebSocket ws://{shown_host}:{port}/ws, API docs http://{shown_host}:{port}/docs)", flush=True)
+    if tracker_sock is not None:
+        print("tracker samples by UDP to %s:%d (docs/protocol.md)" % tracker_sock.getsockname()[:2], flush=True)
     config = uvicorn.Config(app, ws="websockets-sansio", ws_max_size=settings.max_frame_bytes,
                             ws_per_message_deflate=False, log_level=args.log_level, access_log=False)
     uvicorn.Server(config).run(sockets=[sock])
@@ -257,7 +267,7 @@ def _bench_link(args: argparse.Namespace) -> int:
 def _bench_latency(args: argparse.Namespace) -> int:
     from server.bench.latency_bench import run_latency_bench
 
-    result = run_latency_bench(seconds=args.seconds, clients=args.clients, warmup_s=args.warmup)
+    result = run_latency_bench(seconds=args.seconds, clients=args.clients, warmup_s=args.warmup, tracker=args.tracker)
     return _print_bench(result, args.json)
 
 
@@ -307,6 +317,9 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--studies", default=str(STUDIES_DIR), help="the directory of study files (*.toml)")
     serve.add_argument("--record-every", type=int, default=10, metavar="N",
                        help="trajectory rows every Nth tick during a trial (default 10 = 100 Hz; 1 = every tick)")
+    serve.add_argument("--tracker-udp", default="auto", metavar="HOST:PORT|PORT|auto|off",
+                       help="the UDP port the 1 kHz loop reads tracker samples from, the shortest tracker -> device "
+                            "path (docs/protocol.md); auto = the HTTP host and port + 1 (a free one with --port 0)")
     serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     serve.set_defaults(func=_serve)
 
@@ -376,6 +389,9 @@ def build_parser() -> argparse.ArgumentParser:
     latency.add_argument("--seconds", type=float, default=10.0)
     latency.add_argument("--clients", type=int, default=0, help="viewer clients (default 0)")
     latency.add_argument("--warmup", type=float, default=3.0)
+    latency.add_argument("--tracker", choices=("udp", "ws"), default="udp",
+                         help="udp: a tracker bridge sending to the loop's tracker UDP port (default); "
+                              "ws: a browser-style tracker on /ws, through the hub")
     latency.add_argument("--json", action="store_true", help="print one JSON object")
     latency.set_defaults(func=_bench_latency)
     for name, func, what in (("accuracy", _bench_accuracy, "cost against error of every contact method on fixed "

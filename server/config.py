@@ -37,6 +37,7 @@ class Settings:
     studies_dir: Path = STUDIES_DIR  # study files (*.toml) the console offers
     record_every: int = 10          # trajectory rows every Nth tick during a trial (1: every tick)
     force: bool = False             # run scenarios no configured device can show (serve --force; studies too)
+    tracker_udp: str = "auto"       # the loop's tracker UDP port: "auto" (HTTP host, HTTP port + 1), HOST:PORT, PORT, "off"
 
     def __post_init__(self) -> None:
         if not 0 <= self.port <= 65535:
@@ -57,6 +58,25 @@ class Settings:
         check_unique(list(self.devices))
         if self.scene_file is not None:
             Scene.load(self.scene_file)  # fails early with the offending field
+        self.tracker_address()  # fails early with what is wrong
+
+    def tracker_address(self) -> tuple[str, int] | None:
+        """Where the tracker UDP port binds; None when it is off. "auto" follows the HTTP server:
+        its host, its port + 1 (a free port when the HTTP port is 0)."""
+        text = self.tracker_udp.strip()
+        if text == "off":
+            return None
+        if text == "auto":
+            return self.host, (self.port + 1 if 0 < self.port < 65535 else 0)
+        host, colon, port = text.rpartition(":")
+        try:
+            number = int(port)
+        except ValueError:
+            number = -1
+        if not 0 <= number <= 65535 or (colon and not host):
+            raise ValueError(f"tracker UDP port {self.tracker_udp!r}: expected HOST:PORT, PORT (0..65535), "
+                             "'auto' or 'off'")
+        return (host or self.host), number
 
     def loop_config(self) -> LoopConfig:
         return LoopConfig(scenario=self.scenario, scenario_params=self.scenario_params, scene_file=self.scene_file,

@@ -7,7 +7,7 @@ from typing import Annotated
 
 from typing import Any, Literal
 
-from fastapi import APIRouter, Depends, HTTPException, Request
+from fastapi import APIRouter, Depends, HTTPException, Query, Request
 from pydantic import BaseModel, Field
 
 from scenarios.base import ParamError, describe
@@ -33,7 +33,7 @@ SupervisorDep = Annotated[LoopSupervisor, Depends(get_supervisor)]
 
 
 @router.get("/health", summary="Server and 1 kHz loop status, with loop timing over the last 10 s")
-def health(hub: HubDep, supervisor: SupervisorDep) -> dict:
+def health(request: Request, hub: HubDep, supervisor: SupervisorDep) -> dict:
     alive = supervisor.alive
     return {"status": "ok" if alive and hub.states_received else "starting" if alive else "degraded",
             "version": __version__, "uptime_s": round(time.monotonic() - _STARTED, 3),
@@ -42,6 +42,7 @@ def health(hub: HubDep, supervisor: SupervisorDep) -> dict:
                      "tick_hz": hub.tick_hz, "state_hz": hub.state_hz,
                      "dropped_to_loop": supervisor.dropped_to_loop},
             "telemetry": hub.telemetry_summary(), "clients": len(hub.sessions), "scene": hub.scene_hash,
+            "tracker_udp": getattr(request.app.state, "tracker_udp", None),
             "warnings": [r["text"] for r in hub.log_records if r["level"] == "warning"][-5:]}
 
 
@@ -143,11 +144,14 @@ def clients(hub: HubDep) -> list[dict]:
 
 
 @router.get("/devices", summary="Configured tactile devices: status, identity, link counters, refusals")
-def devices(request: Request) -> dict:
+def devices(request: Request, writes: int = Query(0, ge=0, le=1024, description=
+            "also list each device's latest N writes as [CLOCK_MONOTONIC ns when write() returned, hex bytes]")) -> dict:
     manager = getattr(request.app.state, "devices", None)
     rig = request.app.state.rig
-    snapshot = manager.snapshot() if manager is not None else {"devices": [], "refusals": []}
-    return {**snapshot, "simulated_rig": rig.info() if rig is not None else None}
+    snapshot = manager.snapshot(writes) if manager is not None else {"devices": [], "refusals": []}
+    feed = getattr(request.app.state, "device_feed", None)
+    return {**snapshot, "feed": feed.info() if feed is not None else None,
+            "simulated_rig": rig.info() if rig is not None else None}
 
 
 @router.get("/telemetry", summary="Loop timing since the last reset (exact to 1 µs)")

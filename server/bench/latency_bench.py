@@ -1,16 +1,23 @@
 """`viestac bench latency`: tracker message sent → device command written on an emulated FerroVibe's pty.
 
-The whole production path, nothing mocked: a participant tracker (WebSocket, in the load
-generator's process) → hub → loop tick (god-object, contact gate, tilt cue) → state record to
-the hub → DeviceManager → writer thread → pyserial → pty → FerroVibe emulator (the C firmware
-core, in this process). The tracker switches the HIP between in contact with the contact-angle
-dome (tilt cue on) and well above it (cue off) every 66-100 ms and stamps each switching message
-with CLOCK_MONOTONIC; the emulator stamps every frame it reads off the pty with the same clock.
+The whole production path, nothing mocked: a participant tracker (in the load generator's
+process; by default a tracker bridge sending to the loop's tracker UDP port, `--tracker ws` for
+the browser's /ws path through the hub) → loop tick (god-object, contact gate, tilt cue) → cue
+channel → the hub's device feed thread → DeviceManager → writer thread → pyserial → pty →
+FerroVibe emulator (the C firmware core, in this process). The tracker switches the HIP between
+in contact with the contact-angle dome (tilt cue on) and well above it (cue off) every 66-100 ms
+and stamps each switching message with CLOCK_MONOTONIC.
 
-Latency of a switch = from its send to when the emulator read the first frame that showed the new
-state (magnitude > 0 or == 0) off the pty, i.e. when the host's write had reached the pty. The
-emulator's timeline itself stamps frames later, at the modelled arrival of their last byte on a
-115200-baud wire (86.8 µs per byte, ~0.87 ms for a SET_TILT): reported as `wire_*`.
+Three end points, all on the same clock, for the first command frame that shows the switch's
+new state (magnitude > 0 or == 0):
+- written (`p50_ms`, `p99_ms`, `max_ms`): the host's write() of that frame to the pty returned
+  (the writer thread stamps every write, `/api/devices?writes=N`);
+- read (`read_*`): the emulator's thread read it off the pty master. This adds the kernel's pty
+  hand-over, done by a normal-priority kworker that waits for a CPU on a busy machine (up to
+  3-4 ms at 64 viewers); a USB serial adapter has no such step on the way out (it has USB's own
+  frame timing);
+- wire (`wire_*`): the modelled arrival of the frame's last byte on a 115200-baud line (86.8 µs
+  per byte, ~0.87 ms for a SET_TILT), what a real FerroVibe would see.
 """
 
 from __future__ import annotations
@@ -30,22 +37,36 @@ from devices.emulator import Emulator
 from server.bench.loop_bench import _rss_summary, _tree_rss_mb, get_json, percentile, start_server, stop_server
 
 
-def match_switches(switches: list[list], edges, read_at: list[tuple[int, int]]) -> list[tuple | None]:
-    """For every switch [send t_us, seq, in_contact]: (read t_us, arrival t_us) of the first command
-    edge read off the pty at or after the send that shows the switch's state, or None if none did
-    before the next switch was sent (a later one would be the next switch's, or a resend)."""
-    read_of = dict(read_at)  # arrival t_us → read t_us; a command edge is stamped at its frame's arrival
-    shown = sorted((read_of[e.t_us], e.t_us, e.magnitude > 0) for e in edges
+def match_switches(switches: list[list], edges, read_at: list[tuple[int, int, bytes]]) -> list[tuple | None]:
+    """For every switch [send t_us, seq, in_contact]: (read t_us, arrival t_us, frame bytes) of the
+    first command edge read off the pty at or after the send that shows its state, or None if none
+    did before the next switch was sent (a later one would be the next switch's, or a resend)."""
+    read_of = {arrival: (read, chunk) for arrival, read, chunk in read_at}  # a command edge is stamped at its frame's arrival
+    shown = sorted((*read_of[e.t_us], e.t_us, e.magnitude > 0) for e in edges
                    if e.cause == "command" and e.t_us in read_of)
     reads = [s[0] for s in shown]
     matches: list[tuple | None] = []
     for i, (t_us, _seq, on) in enumerate(switches):
         limit = switches[i + 1][0] if i + 1 < len(switches) else math.inf
         k = bisect.bisect_left(reads, t_us)
-        while k < len(shown) and shown[k][0] < limit and shown[k][2] != bool(on):
+        while k < len(shown) and shown[k][0] < limit and shown[k][3] != bool(on):
             k += 1
-        matches.append(shown[k][:2] if k < len(shown) and shown[k][0] < limit else None)
+        matches.append((shown[k][0], shown[k][2], shown[k][1]) if k < len(shown) and shown[k][0] < limit else None)
     return matches
+
+
+def written_at(frame: bytes, read_us: int, writes: list[tuple[int, bytes]], window_us: int = 50_000) -> int | None:
+    """When the host's write() that carried `frame` returned (t_us): the write containing those
+    bytes nearest to the emulator's read of them, within `window_us` (frames carry a sequence
+    number, so the same bytes recur only 256 frames later). None if no write carried them."""
+    best = None
+    k = bisect.bisect_left(writes, (read_us - window_us, b""))
+    while k < len(writes) and writes[k][0] <= read_us + window_us:
+        t_us, data = writes[k]
+        if frame in data and (best is None or abs(t_us - read_us) < abs(best - read_us)):
+            best = t_us
+        k += 1
+    return best
 
 
 def _wait_connected(base: str, timeout_s: float = 10.0) -> None:
@@ -59,15 +80,20 @@ def _wait_connected(base: str, timeout_s: float = 10.0) -> None:
         time.sleep(0.05)
 
 
-def run_latency_bench(seconds: float = 10.0, clients: int = 0, warmup_s: float = 3.0) -> dict:
+TRACKERS = ("udp", "ws")
+
+
+def run_latency_bench(seconds: float = 10.0, clients: int = 0, warmup_s: float = 3.0, tracker: str = "udp") -> dict:
     if not 0 < seconds <= 3600:
         raise ValueError(f"seconds must be in (0, 3600], got {seconds}")
     if clients < 0:
         raise ValueError(f"clients must be >= 0, got {clients}")
     if warmup_s < 0:
         raise ValueError(f"warmup_s must be >= 0, got {warmup_s}")
+    if tracker not in TRACKERS:
+        raise ValueError(f"tracker must be one of {', '.join(TRACKERS)}, got {tracker!r}")
     directory = Path(tempfile.mkdtemp(prefix="viestac-latency-"))
-    emulator = Emulator("ferrovibe", link=directory / "ferrovibe")
+    emulator = Emulator("ferrovibe", link=directory / "ferrovibe", realtime=True)
     emulator.start()
     # The emulator's thread stamps the reads: a full collection in this process would delay them
     # (the server freezes its start-up heap the same way, server/app.py).
@@ -78,8 +104,9 @@ def run_latency_bench(seconds: float = 10.0, clients: int = 0, warmup_s: float =
         proc, base = start_server("contact-angle", extra=["--no-rig", "--device", f"ferrovibe@{emulator.path}"])
         _wait_connected(base)
         ws_url = base.replace("http://", "ws://") + "/ws"
+        udp = ["--latency-udp", get_json(base + "/api/health")["tracker_udp"]] if tracker == "udp" else []
         load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers", str(clients),
-                                 "--trackers", "0", "--latency-tracker", "--warmup", str(warmup_s),
+                                 "--trackers", "0", "--latency-tracker", *udp, "--warmup", str(warmup_s),
                                  "--seconds", str(seconds)], stdout=subprocess.PIPE, text=True)
         time.sleep(warmup_s)
         get_json(base + "/api/telemetry/reset", "POST")
@@ -96,6 +123,9 @@ def run_latency_bench(seconds: float = 10.0, clients: int = 0, warmup_s: float =
         load_result = json.loads(out.strip().splitlines()[-1])
         time.sleep(0.05)
         edges, read_at = emulator.snapshot_edges(), emulator.snapshot_read_at()
+        snapshot = get_json(base + "/api/devices?writes=1024")
+        device, feed = snapshot["devices"][0], snapshot.get("feed") or {}
+        writes = sorted((t_ns // 1000, bytes.fromhex(data)) for t_ns, data in device["writes"])
     finally:
         if load is not None and load.poll() is None:
             load.kill()
@@ -108,31 +138,40 @@ def run_latency_bench(seconds: float = 10.0, clients: int = 0, warmup_s: float =
     switches = load_result["switches"]
     matches = match_switches(switches, edges, read_at)
     applied_us = {row[1]: row[4] // 1000 for row in tracker_rows}  # seq → tick that applied it (one tracker)
-    to_pty, to_wire, to_tick, tick_to_pty = [], [], [], []
-    unmatched = 0
+    series: dict[str, list[float]] = {k: [] for k in ("written", "read", "wire", "to_tick", "tick_to_write")}
+    unmatched = unwritten = 0
     for (t_us, seq, _on), match in zip(switches, matches):
         if not start_us <= t_us <= end_us:
             continue
         if match is None:
             unmatched += 1
             continue
-        read_us, arrival_us = match
-        to_pty.append((read_us - t_us) / 1000)
-        to_wire.append((arrival_us - t_us) / 1000)
-        if seq in applied_us:  # split: tracker → loop tick, and tick → pty (hub, writer thread, pyserial)
-            to_tick.append((applied_us[seq] - t_us) / 1000)
-            tick_to_pty.append((read_us - applied_us[seq]) / 1000)
-    for values in (to_pty, to_wire, to_tick, tick_to_pty):
+        read_us, arrival_us, frame = match
+        write_us = written_at(frame, read_us, writes)
+        if write_us is None:  # older than the device's write log: cannot happen within 1024 writes
+            unwritten += 1
+            continue
+        series["written"].append((write_us - t_us) / 1000)
+        series["read"].append((read_us - t_us) / 1000)
+        series["wire"].append((arrival_us - t_us) / 1000)
+        if seq in applied_us:  # split at the loop tick that applied the sample
+            series["to_tick"].append((applied_us[seq] - t_us) / 1000)
+            series["tick_to_write"].append((write_us - applied_us[seq]) / 1000)
+    for values in series.values():
         values.sort()
+
+    def stats(name: str, key: str, points=(("p50", 0.5), ("p99", 0.99), ("max", 1.0))) -> dict:
+        return {f"{name}{p}_ms": percentile(series[key], q) for p, q in points}
+
     return {
-        "p50_ms": percentile(to_pty, 0.5), "p99_ms": percentile(to_pty, 0.99), "max_ms": percentile(to_pty, 1.0),
-        "wire_p50_ms": percentile(to_wire, 0.5), "wire_p99_ms": percentile(to_wire, 0.99),
-        "wire_max_ms": percentile(to_wire, 1.0),
-        "tracker_to_tick_p50_ms": percentile(to_tick, 0.5), "tracker_to_tick_p99_ms": percentile(to_tick, 0.99),
-        "tick_to_pty_p50_ms": percentile(tick_to_pty, 0.5), "tick_to_pty_p99_ms": percentile(tick_to_pty, 0.99),
-        "samples": len(to_pty), "unmatched": unmatched, "clients": clients,
-        "frames_received_per_client_hz": load_result["frames_received_per_client_hz"]["mean"],
+        **stats("", "written"), **stats("read_", "read"), **stats("wire_", "wire"),
+        **stats("tracker_to_tick_", "to_tick", (("p50", 0.5), ("p99", 0.99))),
+        **stats("tick_to_write_", "tick_to_write", (("p50", 0.5), ("p99", 0.99))),
+        "samples": len(series["written"]), "unmatched": unmatched, "unwritten": unwritten, "tracker": tracker,
+        "clients": clients, "frames_received_per_client_hz": load_result["frames_received_per_client_hz"]["mean"],
         "period_p99_us": telemetry["period_p99_us"], "period_max_us": telemetry["period_max_us"],
-        "overruns": telemetry["overruns"], "rt": telemetry["rt"],
+        "overruns": telemetry["overruns"], "rt": telemetry["rt"], "device_feed_rt": feed.get("rt"),
+        "device_feed_delay": feed.get("delay"),
+        "writer_rt": device.get("writer_rt"), "emulator_rt": emulator.rt,
         **_rss_summary(rss_samples, seconds), "seconds": seconds,
     }

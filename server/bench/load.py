@@ -7,7 +7,8 @@ gate and the tilt cues are all exercised. Prints one JSON object when done.
 
 `--latency-tracker` adds the participant tracker of `viestac bench latency`: at 120 Hz it holds
 the HIP either 3 mm inside the dome (tilt cue on) or well above it (cue off), switches every
-66-100 ms, and reports the CLOCK_MONOTONIC send time of every switching message.
+66-100 ms, and reports the CLOCK_MONOTONIC send time of every switching message; over /ws, or
+with `--latency-udp HOST:PORT` to the loop's tracker UDP port.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import contextlib
 import json
 import math
 import random
+import socket
 import time
 
 import msgpack
@@ -75,15 +77,26 @@ LATENCY_IN = 0.6 + 0.06 - 0.003  # 3 mm inside the dilated dome (radius + proxy 
 LATENCY_OUT = 0.6 + 0.06 + 0.03  # 30 mm outside it: far beyond the gate's 2 mm hysteresis band
 
 
-async def latency_tracker(url: str, rate_hz: float, switches: list[list], stop: float, seed: int = 8) -> None:
+async def latency_tracker(url: str, rate_hz: float, switches: list[list], stop: float, seed: int = 8,
+                          udp: tuple[str, int] | None = None) -> None:
     """Alternate between in contact and well above the dome; record [send t_us, seq, in_contact] of
     each switching message. Between switches the same position is resent at rate_hz, like a real
     tracker. A switch comes after 8-12 samples (66-100 ms at 120 Hz): clear of the gate's 30 ms
-    minimum dwell, and random so that switches do not lock to the heartbeat or the tick."""
+    minimum dwell, and random so that switches do not lock to the heartbeat or the tick.
+    With `udp` the samples go to the loop's tracker UDP port (a tracker bridge), else over /ws."""
     rng = random.Random(seed)
     a = math.radians(LATENCY_ANGLE_DEG)
     inside, above = ([0.0, -r * math.sin(a), r * math.cos(a)] for r in (LATENCY_IN, LATENCY_OUT))
-    async with participant(url, "bench-latency") as ws:
+    async with contextlib.AsyncExitStack() as stack:
+        if udp is None:
+            ws = await stack.enter_async_context(participant(url, "bench-latency"))
+            send = ws.send
+        else:
+            sock = stack.enter_context(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
+            sock.setblocking(False)
+
+            async def send(data: bytes) -> None:
+                sock.sendto(data, udp)
         period = 1.0 / rate_hz
         next_t = time.monotonic()
         seq = 0
@@ -97,7 +110,7 @@ async def latency_tracker(url: str, rate_hz: float, switches: list[list], stop: 
                 left = rng.randint(8, 12)
             t_us = time.monotonic_ns() // 1000  # the emulator stamps with the same clock
             pos = inside if in_contact else above
-            await ws.send(msgpack.packb({"type": "tracker", "seq": seq, "t": t_us / 1e3, "pos": pos}))
+            await send(msgpack.packb({"type": "tracker", "seq": seq, "t": t_us / 1e3, "pos": pos}))
             if switch:
                 switches.append([t_us, seq, in_contact])
             seq += 1
@@ -106,7 +119,7 @@ async def latency_tracker(url: str, rate_hz: float, switches: list[list], stop: 
 
 
 async def main_async(url: str, viewers: int, trackers: int, warmup_s: float, seconds: float,
-                     latency: bool = False) -> dict:
+                     latency: bool = False, latency_udp: tuple[str, int] | None = None) -> dict:
     start = time.monotonic()
     window = (start + warmup_s, start + warmup_s + seconds)
     stop = window[1] + 0.2
@@ -116,7 +129,7 @@ async def main_async(url: str, viewers: int, trackers: int, warmup_s: float, sec
     tasks += [tracker(url, 120.0, i * 1.3, sent, stop) for i in range(trackers)]
     switches: list[list] = []
     if latency:
-        tasks.append(latency_tracker(url, 120.0, switches, stop))
+        tasks.append(latency_tracker(url, 120.0, switches, stop, udp=latency_udp))
     await asyncio.gather(*tasks)
     rates = [c / seconds for c in counts]
     result = {"viewers": viewers, "frames_received_per_client_hz": {
@@ -136,9 +149,15 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=10.0)
     parser.add_argument("--latency-tracker", action="store_true",
                         help="add the switching participant tracker of `viestac bench latency`")
+    parser.add_argument("--latency-udp", metavar="HOST:PORT", default=None,
+                        help="the latency tracker sends to this tracker UDP port instead of /ws")
     args = parser.parse_args()
+    udp = None
+    if args.latency_udp:
+        host, _, port = args.latency_udp.rpartition(":")
+        udp = (host, int(port))
     print(json.dumps(asyncio.run(main_async(args.url, args.viewers, args.trackers, args.warmup, args.seconds,
-                                            args.latency_tracker))))
+                                            args.latency_tracker, udp))))
 
 
 if __name__ == "__main__":

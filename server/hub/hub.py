@@ -23,7 +23,6 @@ from typing import Any
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from devices.capability import CapabilityReport, check
-from devices.cues import cue_from_wire
 from scenarios import registry
 from scenarios.base import ParamError, Trial, describe, find_control
 from server.hub.telemetry import LoopTelemetry
@@ -85,8 +84,7 @@ class Hub:
         self.loop_info: dict = {}
         self.last_state: dict | None = None
         self.states_received = 0
-        self.devices = None  # DeviceManager, attached by the app
-        self._last_cues: list | None = None
+        self.devices = None  # DeviceManager, attached by the app (fed by the device feed, not by the hub)
         self._device_report: dict | None = None
         self.tracker_applied: deque[list] = deque(maxlen=4096)  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.log_records: deque[dict] = deque(maxlen=200)
@@ -118,8 +116,6 @@ class Hub:
             self.scenario_state = record[1]
             self.scenario_cls = registry.resolve(record[1]["id"]).factory
             self.on_scenario(record[1])
-        elif kind == "fail_safe":  # a tick failed: every actuator off until a good tick says otherwise
-            self._submit_cues([])
         elif kind == "log":
             level = logging.ERROR if record[1] == "error" else logging.WARNING
             log.log(level, "loop: %s", record[2])
@@ -156,11 +152,6 @@ class Hub:
         manager.listeners.append(lambda: loop.call_soon_threadsafe(self._devices_changed))
         self._devices_changed()
 
-    def _submit_cues(self, cues: list) -> None:
-        self._last_cues = cues
-        if self.devices is not None:
-            self.devices.submit(tuple(cue_from_wire(c) for c in cues))
-
     def _devices_changed(self) -> None:
         if self.devices is None:
             return
@@ -173,8 +164,7 @@ class Hub:
                 listener(["devices", report])
 
     def _on_state(self, rec: dict) -> None:
-        if rec["cues"] != self._last_cues:  # first: the device command leaves before any broadcast work
-            self._submit_cues(rec["cues"])
+        # The devices got this tick's cues already, from the device feed thread (device_feed.py).
         self.telemetry.add(rec["samples"])
         self.telemetry.resyncs = rec.get("resyncs", 0)
         if rec["trackers"]:

@@ -3,6 +3,9 @@
 Adapter only: records from the loop are handed to a callback on the asyncio loop (add_reader,
 no thread); records to the loop are sent without blocking. A dead loop process is logged and
 restarted with backoff, so a crash in a scenario cannot take the server down silently.
+Every loop process also gets a cue channel of its own, handed to `on_cue_channel` (the device
+feed thread, server/hub/device_feed.py), so device commands do not wait on this event loop, and
+the tracker UDP socket (server/loop/tracker_udp.py), which the hub binds once and keeps.
 """
 
 from __future__ import annotations
@@ -10,6 +13,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import os
+import socket
 import subprocess
 import sys
 from typing import Callable
@@ -21,9 +25,12 @@ log = logging.getLogger("viestac.loop")
 
 
 class LoopSupervisor:
-    def __init__(self, config: LoopConfig, on_record: Callable[[list], None]):
+    def __init__(self, config: LoopConfig, on_record: Callable[[list], None],
+                 on_cue_channel: Callable[[socket.socket], None] | None = None):
         self.config = config
         self.on_record = on_record
+        self.on_cue_channel = on_cue_channel
+        self.tracker_sock: socket.socket | None = None  # the tracker UDP port, read by every loop process
         self.proc: subprocess.Popen | None = None
         self.restarts = 0
         self.dropped_to_loop = 0
@@ -40,13 +47,26 @@ class LoopSupervisor:
         loop = asyncio.get_running_loop()
         ours, theirs = ipc.channel_pair()
         self._doorbell = ipc.Doorbell()
+        args = ["--fd", str(theirs.fileno()), "--doorbell", str(self._doorbell.fd)]
+        loop_ends = [theirs]
+        feed_end = None
+        if self.on_cue_channel is not None:
+            feed_end, loop_cues = ipc.channel_pair()
+            args += ["--cues-fd", str(loop_cues.fileno())]
+            loop_ends.append(loop_cues)
+        passed = [end.fileno() for end in loop_ends] + [self._doorbell.fd]
+        if self.tracker_sock is not None:  # ours to keep: a restarted loop reads the same port
+            args += ["--tracker-fd", str(self.tracker_sock.fileno())]
+            passed.append(self.tracker_sock.fileno())
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "server.loop.process", "--fd", str(theirs.fileno()),
-             "--doorbell", str(self._doorbell.fd), "--config", self.config.to_json()],
-            pass_fds=(theirs.fileno(), self._doorbell.fd), cwd=os.getcwd(),
+            [sys.executable, "-m", "server.loop.process", *args, "--config", self.config.to_json()],
+            pass_fds=tuple(passed), cwd=os.getcwd(),
             start_new_session=True)  # Ctrl-C in a terminal stops the hub, which stops the loop in order
-        theirs.close()
+        for end in loop_ends:  # the loop process holds them now
+            end.close()
         self._sock = ours
+        if feed_end is not None:
+            self.on_cue_channel(feed_end)
         loop.add_reader(ours.fileno(), self._readable)
         if self._watch is None:
             self._watch = asyncio.create_task(self._watchdog())

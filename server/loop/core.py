@@ -4,10 +4,12 @@ Records in (tracker samples, keys and commands, trials, scenario switches, devic
 applied between ticks; then one simulation step; then, if a publish is due, one state record goes
 out. Scenario events (key presses, taps) ride with the next state record, each stamped with its
 tick, so none is lost between publishes. A state record is due on
-the regular cadence (state_hz, 60 by default) AND in any tick whose cues changed: the hub hands
-the cues of every such record to the device manager (serial I/O lives in the hub process, never
-here), so the device command and the picture of the same tick leave together and a tactile cue
-never leads the picture (haptic-before-visual is noticed from ~15 ms, Di Luca & Mahnan 2019).
+the regular cadence (state_hz, 60 by default) AND in any tick whose cues changed, so the picture
+of that tick leaves with its device command and a tactile cue never leads the picture
+(haptic-before-visual is noticed from ~15 ms, Di Luca & Mahnan 2019). The device command itself
+leaves first, on a channel of its own (`device_cues`): the process adapter sends it straight to
+the hub's device feed thread, past the hub's event loop (serial I/O lives in the hub process,
+never here).
 
 Pure apart from the clock values it is handed: the process adapter (process.py) owns sockets,
 priority and sleeping; tests drive this class directly on a virtual clock.
@@ -50,6 +52,7 @@ class LoopCore:
         self.frames = 0
         self.record_every = 0        # trajectory sampling: every Nth tick while an experiment records; 0 = off
         self.trajectory: list[list] = []  # rows since the last state record (TRAJECTORY_COLUMNS)
+        self._device_cues: tuple | None = None  # what the devices were last given; None: unknown (start)
 
     def apply(self, record: list, now_ns: int) -> None:
         """Apply one mailbox record (between ticks)."""
@@ -111,6 +114,28 @@ class LoopCore:
             return result, None
         self._publish_slot = slot
         return result, self._state_record(result, now_ns)
+
+    def device_cues(self, result: TickResult) -> list[dict] | None:
+        """The tick's cues (wire form) when they differ from what the devices were last given,
+        else None. Compared with what was sent, not with the previous tick: a scenario switch
+        starts a new simulation whose first tick may look unchanged while the devices still show
+        the old scenario's cue; after a (re)start the first tick always sends."""
+        cues = result.output.cues
+        if cues == self._device_cues:
+            return None
+        self._device_cues = cues
+        return [cue_to_wire(c) for c in cues]
+
+    def resend_device_cues(self) -> None:
+        """The last cues could not be handed over: the next tick sends its cues whatever they are."""
+        self._device_cues = None
+
+    def fail_safe_cues(self) -> list | None:
+        """A failed tick: every actuator off ([]), unless the devices are off already (None)."""
+        if self._device_cues == ():
+            return None
+        self._device_cues = ()
+        return []
 
     def _record_trajectory(self, r: TickResult) -> None:
         held = r.output.held

@@ -7,10 +7,13 @@ p99 1.03 ms with 64 viewers. Without CAP_SYS_NICE/root it falls back to normal p
 clear warning, reported in telemetry as `rt: false`.
 
 It owns: the clock, the deadline scheduler and the simulation; no serial port, no socket to a
-client, no thread (the device drivers live in the hub process, fed with the cues of every state
-record). It talks to the hub only through the non-blocking mailbox (ipc.py) and exits when the
+client, no thread (the device drivers live in the hub process). It talks to the hub only through
+non-blocking sockets (ipc.py): the mailbox, and the cue channel that carries a tick's changed
+cues to the hub's device feed thread before the tick's state record leaves. It also reads the
+tracker UDP port (tracker_udp.py, bound by the hub) at the start of every tick. It exits when the
 hub goes away.
-Run as `python -m server.loop.process --fd N --doorbell M --config JSON` by the hub (server/hub/supervisor.py).
+Run as `python -m server.loop.process --fd N --cues-fd C --doorbell M --config JSON` by the hub
+(server/hub/supervisor.py).
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from server.loop.clock import Clock, MonotonicClock
 from server.loop.core import LoopCore
 from server.loop.scheduler import DeadlineScheduler
 from server.loop.simulation import Simulation
+from server.loop.tracker_udp import TrackerPort
 from server.scene import Scene
 
 
@@ -85,7 +89,8 @@ def try_realtime(priority: int) -> str | None:
 
 
 def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
-        doorbell: ipc.Doorbell | None = None) -> None:
+        doorbell: ipc.Doorbell | None = None, cue_sock: socket.socket | None = None,
+        tracker_port: TrackerPort | None = None) -> None:
     clock = clock or MonotonicClock()
     core = build_core(config)
     rt_warning = try_realtime(config.rt_priority) if config.realtime else "real-time priority disabled by configuration"
@@ -119,21 +124,37 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
                 core.apply(record, start)
             except Exception:  # noqa: BLE001 - a bad switch or trial must not kill the loop
                 ipc.send_record(sock, ["log", "error", f"record {record[0]} failed: {traceback.format_exc()}"])
+        if tracker_port is not None:  # after the mailbox: a UDP sample read now is the newest
+            for record in tracker_port.drain(start):
+                core.apply(record, start)
+            if tracker_port.notices:
+                for text in tracker_port.notices:
+                    ipc.send_record(sock, ["log", "warning", text])
+                tracker_port.notices.clear()
         if core.outbox:
             for record in core.outbox:
                 ipc.send_record(sock, record)
             core.outbox.clear()
         try:
-            _, state = core.step(start)
+            result, state = core.step(start)
+            cues = core.device_cues(result)
         except Exception:  # noqa: BLE001 - a scenario bug must not kill the loop: fail safe, report
             failures += 1
-            if core.sim.cues:  # fail safe: the hub turns every device off; the next good tick re-sends
+            cues = core.fail_safe_cues()  # every device off; the next good tick sends its cues again
+            if core.sim.cues:
                 core.sim.cues = ()
                 ipc.send_record(sock, ["fail_safe"])
             core.sim.tick += 1
             state = None
             if failures <= 10 or failures % 1000 == 0:
                 ipc.send_record(sock, ["log", "error", f"tick failed ({failures}): {traceback.format_exc()}"])
+        if cues is not None and cue_sock is not None:  # first: the device command leaves before the frame
+            try:
+                if not ipc.send_record(cue_sock, ["cues", core.sim.tick - 1, clock.now_ns(), cues]):
+                    core.resend_device_cues()  # the feed is behind: try again next tick (latest wins)
+            except OSError as exc:  # the hub closed the feed's end: nobody drives the devices now
+                cue_sock = None
+                ipc.send_record(sock, ["log", "error", f"cue channel closed ({exc}); device cues stop"])
         if state is not None:
             state["resyncs"] = scheduler.resyncs
             ipc.send_record(sock, ["state", state])
@@ -147,12 +168,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--fd", type=int, required=True)
     parser.add_argument("--config", required=True)
     parser.add_argument("--doorbell", type=int, default=None, help="memfd of the mailbox doorbell")
+    parser.add_argument("--cues-fd", type=int, default=None, help="the cue channel to the hub's device feed")
+    parser.add_argument("--tracker-fd", type=int, default=None, help="the tracker UDP socket (bound by the hub)")
     args = parser.parse_args(argv)
     sock = socket.socket(fileno=args.fd)
     sock.setblocking(False)
     try:
         doorbell = ipc.Doorbell(args.doorbell) if args.doorbell is not None else None
-        run(sock, LoopConfig.from_json(args.config), doorbell=doorbell)
+        cue_sock = None
+        if args.cues_fd is not None:
+            cue_sock = socket.socket(fileno=args.cues_fd)
+            cue_sock.setblocking(False)
+        tracker_port = None
+        if args.tracker_fd is not None:
+            tracker_port = TrackerPort(socket.socket(fileno=args.tracker_fd))
+        run(sock, LoopConfig.from_json(args.config), doorbell=doorbell, cue_sock=cue_sock, tracker_port=tracker_port)
     except KeyboardInterrupt:
         pass
     return 0

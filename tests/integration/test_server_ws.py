@@ -6,6 +6,7 @@ import asyncio
 import csv
 import json
 import math
+import socket
 import time
 from pathlib import Path
 
@@ -292,3 +293,38 @@ def test_departed_clients_leave_the_table_at_once(live_server):
 
     client_id, clients = run(go())
     assert client_id not in {c["client_id"] for c in clients}
+
+
+def test_a_tracker_bridge_on_the_udp_port_drives_the_loop_and_the_devices(live_server):
+    """Samples sent to the tracker UDP port (no WebSocket) move the HIP, show in /api/trackers
+    under the sender's address, and reach the FerroVibe as a tilt; a bad datagram gets an error."""
+    host, port = live_server.get("/api/health")["tracker_udp"].rsplit(":", 1)
+
+    async def go():
+        viewer = await Client.connect(live_server.ws_url, role="observer")
+        await viewer.recv_type("scene")
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as bridge:
+            bridge.settimeout(2.0)
+            bridge.sendto(b'{"type":"tracker","seq":0,"t":0,"pos":[0,0]}', (host, int(port)))
+            error = json.loads(bridge.recv(2048))
+            state = None
+            for seq in range(1, 200):
+                bridge.sendto(msgpack.packb({"type": "tracker", "seq": seq, "t": time.monotonic() * 1e3,
+                                             "pos": _on_dome(40.0)}), (host, int(port)))
+                state = await viewer.recv_type("state")
+                if state["values"].get("angle_deg") is not None and abs(state["values"]["angle_deg"] - 40.0) < 0.5:
+                    break
+            name = "udp:127.0.0.1:%d" % bridge.getsockname()[1]
+        await viewer.close()
+        return error, state, name
+
+    error, state, name = run(go())
+    assert error["type"] == "error" and error["code"] == "bad_message"
+    assert state["contact"] is True and abs(state["hip"][1] - _on_dome(40.0)[1]) < 1e-9
+    rows = live_server.get("/api/trackers?limit=4096")["rows"]
+    mine = [r for r in rows if r[0] == name]
+    assert mine and mine[-1][3] <= mine[-1][4], "read by the loop at the start of the tick that applied it"
+    tilts = [c for c in state["cues"] if c["kind"] == "tilt"]
+    assert tilts and abs(tilts[0]["direction_deg"] - 320.0) < 0.5
+    feed = live_server.get("/api/devices")["feed"]
+    assert feed["records"] > 0 and feed["delay"]["handed_over"]["max_us"] > 0

@@ -171,3 +171,39 @@ def test_trajectory_rows_ride_with_the_state_records_when_asked():
     assert len(rows[0]) == len(TRAJECTORY_COLUMNS) and rows[0][8] is None, "no carried object here"
     core.apply(["record", 0], 130 * MS)
     assert all(r["trajectory"] == [] for t in range(130, 200) if (r := core.step(t * MS)[1]) is not None)
+
+
+def test_device_cues_leave_once_per_change_across_scenario_switches_and_fail_safe():
+    core = make_core()
+    tilt = [{"kind": "tilt", "direction_deg": 0.0, "magnitude_pct": 100.0}]
+    sent = []
+
+    def tick(t):
+        result, _ = core.step(t * MS)
+        sent.append((t, core.device_cues(result)))
+
+    tick(0)
+    assert sent[-1] == (0, []), "after a (re)start the first tick tells the devices, even 'all off'"
+    for t in range(1, 5):
+        tick(t)
+    assert all(cues is None for _, cues in sent[1:]), "nothing changed: nothing to send"
+    core.apply(["tracker", 1, 0, 0.0, _dome(), None, 5 * MS], 5 * MS)
+    tick(5)
+    tick(6)
+    assert sent[-2:] == [(5, tilt), (6, None)]
+    # A switch builds a new simulation whose first tick has no previous cues to differ from;
+    # the devices still show the tilt, so "off" must go out.
+    core.apply(["scenario", "stiffness", {}, 0], 7 * MS)
+    tick(7)
+    assert sent[-1] == (7, [])
+    assert core.fail_safe_cues() is None, "already off: nothing to send"
+    core.apply(["scenario", "contact-angle", {}, 0], 8 * MS)
+    core.apply(["tracker", 1, 1, 0.0, _dome(), None, 8 * MS], 8 * MS)
+    tick(8)
+    assert sent[-1] == (8, tilt)
+    assert core.fail_safe_cues() == [] and core.fail_safe_cues() is None
+    tick(9)
+    assert sent[-1] == (9, tilt), "the next good tick sends its cues again"
+    core.resend_device_cues()  # the cue channel was full: the same cues go again next tick
+    tick(10)
+    assert sent[-1] == (10, tilt)

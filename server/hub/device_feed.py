@@ -1,0 +1,98 @@
+"""DeviceFeed: the loop's cue records → the DeviceManager, on a thread of its own.
+
+The loop sends a `["cues", tick, sent_ns, [cue, ...]]` record on the cue channel (server/loop/ipc.py) in
+every tick whose cues differ from what the devices were last given, before that tick's state
+record. Not on the hub's event loop: with 64 viewers it is busy sending the same tick's frame to
+every viewer right when a cue changes, and the device command waited behind that fan-out (tick →
+pty p99 2.3–3 ms, docs/performance.md). This thread sleeps in `recv` (no GIL held), runs at
+SCHED_FIFO below the loop when allowed (devices/realtime.py), and hands each cue set to the
+DeviceManager, whose writer threads put it on the ports; `submit` never touches a port, so a
+dead or slow device cannot hold the feed up.
+
+One thread per loop process: the supervisor attaches the channel of every (re)started loop; the
+thread ends when the loop's end closes.
+"""
+
+from __future__ import annotations
+
+import logging
+import socket
+import threading
+import time
+from collections import deque
+
+import msgpack
+
+from devices.cues import cue_from_wire
+from devices.realtime import fifo_this_thread
+from server.loop import ipc
+
+log = logging.getLogger("viestac.devices")
+
+
+class DeviceFeed:
+    def __init__(self, manager):
+        self.manager = manager
+        self.records = 0
+        self.bad_records = 0
+        self.last_tick: int | None = None
+        self.rt = False
+        self.delays_ns: deque[tuple[int, int]] = deque(maxlen=1000)  # loop send → (received, handed over)
+        self._threads: list[threading.Thread] = []
+
+    def handle(self, record: list, received_ns: int | None = None) -> None:
+        """One cue record: decode and hand it to the devices; ValueError names what is wrong.
+        With `received_ns`, the hop from the loop's send to the hand-over is kept (info())."""
+        if not (isinstance(record, list) and len(record) == 4 and record[0] == "cues" and isinstance(record[3], list)
+                and isinstance(record[2], int)):
+            raise ValueError(f"not a cue record: {record!r:.120}")
+        cues = tuple(cue_from_wire(c) for c in record[3])
+        self.manager.submit(cues)
+        self.records += 1
+        self.last_tick = record[1]
+        if received_ns is not None:
+            self.delays_ns.append((received_ns - record[2], time.monotonic_ns() - record[2]))
+
+    def attach(self, sock: socket.socket) -> None:
+        """Serve a new loop process's cue channel until the loop closes its end."""
+        self._threads = [t for t in self._threads if t.is_alive()]
+        thread = threading.Thread(target=self._run, args=(sock,), name="device-feed", daemon=True)
+        self._threads.append(thread)
+        thread.start()
+
+    def join(self, timeout_s: float = 1.0) -> None:
+        """Wait for the feed threads (their loops have stopped): no cue arrives after this."""
+        for thread in self._threads:
+            thread.join(timeout_s)
+
+    def info(self) -> dict:
+        """Counts, and the hop from the loop's send to the feed (received, handed to the devices)
+        over the last 1000 cue changes, in µs."""
+        delays = list(self.delays_ns)
+        hop = {}
+        for i, name in enumerate(("received", "handed_over")):
+            values = sorted(d[i] for d in delays)
+            hop[name] = ({"p50_us": round(values[len(values) // 2] / 1000, 1),
+                          "p99_us": round(values[min(len(values) - 1, int(len(values) * 0.99))] / 1000, 1),
+                          "max_us": round(values[-1] / 1000, 1)} if values else None)
+        return {"records": self.records, "bad_records": self.bad_records, "last_tick": self.last_tick, "rt": self.rt,
+                "delay": hop}
+
+    def _run(self, sock: socket.socket) -> None:
+        self.rt = fifo_this_thread()
+        sock.setblocking(True)
+        with sock:
+            while True:
+                try:
+                    data = sock.recv(ipc.MAX_RECORD_BYTES)
+                except OSError:
+                    return
+                if not data:
+                    return  # the loop process closed its end (stopped or died)
+                received_ns = time.monotonic_ns()
+                try:
+                    self.handle(msgpack.unpackb(data, raw=False), received_ns)
+                except Exception:  # noqa: BLE001 - one bad record must not stop the devices' feed
+                    self.bad_records += 1
+                    if self.bad_records <= 10 or self.bad_records % 1000 == 0:
+                        log.exception("device feed: bad cue record (%d so far)", self.bad_records)

@@ -1,0 +1,105 @@
+"""Tracker samples over UDP, read by the loop process itself at the start of every tick.
+
+The shortest path from a tracker to the haptic loop. A tracker bridge (Leap Motion, an optical
+tracker, anything on the server machine or its network) sends one datagram per sample; the
+loop reads every waiting datagram at the start of the next tick, so a sample waits only for
+that tick (≤ 1 ms), never for the hub's event loop, which with 64 viewers is busy sending
+frames when samples arrive (docs/performance.md "Tracker → device latency"). The WebSocket
+tracker message on /ws stays for browsers (WebXR), which cannot send UDP.
+
+A datagram is one tracker message exactly as on /ws (docs/protocol.md): a map with type
+"tracker", seq, t, pos and optional quat, as msgpack or as UTF-8 JSON (a datagram that starts
+with "{" is JSON). Anything else gets one `error` datagram back, in the sender's format, with
+the same codes as on /ws, and is counted; the sample is not applied. The sender is named
+"udp:HOST:PORT" in the applied-sample rows (/api/trackers) and the recorder's tracker watch.
+
+`parse_datagram` is pure; `TrackerPort` is the thin non-blocking socket adapter the loop polls.
+It reads at most MAX_PER_TICK datagrams per tick, so a flood cannot stretch a tick; the rest
+wait for the next one.
+"""
+
+from __future__ import annotations
+
+import socket
+
+from server.wire import codec, messages
+from server.wire.codec import WireError
+
+MAX_PER_TICK = 32
+MAX_DATAGRAM_BYTES = 2048  # a tracker message is ~60-120 bytes
+NOTICE_EVERY = 1000        # after the first bad datagram, one log line per this many
+
+
+def parse_datagram(data: bytes, source: str, recv_ns: int) -> list:
+    """One datagram → the loop's tracker record ["tracker", source, seq, t_ms, pos, quat, recv_ns];
+    WireError (code, message) when it is not a valid tracker message."""
+    fmt = "json" if data[:1] == b"{" else "msgpack"
+    if fmt == "json":
+        try:
+            data = data.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise WireError("bad_encoding", f"JSON datagram is not UTF-8: {exc}") from None
+    message = messages.parse_client_message(codec.decode(data, fmt))
+    if not isinstance(message, messages.Tracker):
+        raise WireError("bad_message", f"the tracker port takes only 'tracker' messages, not '{type(message).__name__.lower()}'")
+    return ["tracker", source, message.seq, message.t_ms, list(message.pos),
+            list(message.quat) if message.quat else None, recv_ns]
+
+
+def error_reply(data: bytes, exc: WireError) -> bytes:
+    fmt = "json" if data[:1] == b"{" else "msgpack"
+    reply = codec.encode(messages.error(exc.code, exc.message), fmt)
+    return reply.encode() if isinstance(reply, str) else reply
+
+
+class TrackerPort:
+    """The loop's end of the tracker UDP socket (bound by the hub, passed to every loop process)."""
+
+    def __init__(self, sock: socket.socket):
+        sock.setblocking(False)
+        self.sock = sock
+        self.received = 0
+        self.bad = 0
+        self.notices: list[str] = []  # for the hub's log: the first bad datagram, then every NOTICE_EVERY-th
+
+    def drain(self, now_ns: int) -> list[list]:
+        records = []
+        for _ in range(MAX_PER_TICK):
+            try:
+                data, address = self.sock.recvfrom(MAX_DATAGRAM_BYTES)
+            except (BlockingIOError, InterruptedError):
+                break
+            except OSError:  # e.g. ECONNREFUSED left over from an error reply to a closed sender
+                continue
+            source = f"udp:{address[0]}:{address[1]}"
+            try:
+                records.append(parse_datagram(data, source, now_ns))
+                self.received += 1
+            except WireError as exc:
+                self._refuse(data, address, source, exc)
+        return records
+
+    def _refuse(self, data: bytes, address, source: str, exc: WireError) -> None:
+        self.bad += 1
+        if self.bad == 1 or self.bad % NOTICE_EVERY == 0:
+            self.notices.append(f"tracker port: bad datagram from {source} ({exc.code}: {exc.message}); "
+                                f"{self.bad} refused so far")
+        try:
+            self.sock.sendto(error_reply(data, exc), address)
+        except OSError:  # a full buffer or a sender that is gone: the count above still tells
+            pass
+
+
+def bind(address: tuple[str, int]) -> socket.socket:
+    """The hub binds the port once (it outlives loop restarts); OSError says which address failed."""
+    family = socket.AF_INET6 if ":" in address[0] else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_DGRAM)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 256 * 1024)
+        sock.bind(address)
+    except OSError as exc:
+        sock.close()
+        raise OSError(exc.errno, f"cannot bind the tracker UDP port {address[0]}:{address[1]}: {exc.strerror}; "
+                                 "choose another with --tracker-udp HOST:PORT, or --tracker-udp off") from None
+    sock.setblocking(False)
+    return sock
