@@ -160,13 +160,15 @@ class DeviceManager:
         for d in self.devices.values():
             d.driver.stop()
 
-    def submit(self, cues: tuple[Cue, ...]) -> tuple[Refusal, ...]:
-        """A new cue set from the loop: encode for every device, hand over, return the refusals."""
+    def submit(self, cues: tuple[Cue, ...], *, write_now: bool = False) -> tuple[Refusal, ...]:
+        """A new cue set from the loop: encode for every device, hand over, return the refusals.
+        `write_now`: the caller writes each device's first frame itself when that cannot block
+        (SerialDevice.set_commands; the device feed does, saving a thread wake-up)."""
         with self._lock:
             self.cues = tuple(cues)
             for d in self.devices.values():
                 encoding = d.encoder.encode(self.cues)
-                d.driver.set_commands(encoding.commands.values())
+                d.driver.set_commands(encoding.commands.values(), write_now=write_now)
                 d.refusals = encoding.refusals
             return self._update_refusals()
 
@@ -227,6 +229,10 @@ class DeviceManager:
         for listener in self.listeners:
             listener()
 
+    def report(self) -> dict:
+        """What the hub and the loop need to know: refusals no device shows, and every status."""
+        return {"refusals": unshown_refusals(self.refusals, len(self.devices)), "status": self.status()}
+
     def status(self) -> dict[str, str]:
         return {name: d.driver.status for name, d in self.devices.items()}
 
@@ -234,3 +240,13 @@ class DeviceManager:
         return {"devices": [{**d.driver.snapshot(writes), "profile": d.profile.to_dict(),
                              "refusals": [r.to_dict() for r in d.refusals]} for d in self.devices.values()],
                 "refusals": [r.to_dict() for r in self.refusals]}
+
+
+def unshown_refusals(refusals, device_count: int) -> list[str]:
+    """The reasons for cues that NO device shows: what the participant would otherwise miss
+    without a word. A cue one device refuses and another shows (a FingerTac beside a FerroVibe
+    in the contact-angle task) stays in /api/devices but does not clutter the participant's HUD."""
+    by_cue: dict[str, list] = {}
+    for r in refusals:
+        by_cue.setdefault(r.cue, []).append(r)
+    return [r.reason for cue, rs in by_cue.items() if len({r.device for r in rs}) >= device_count for r in rs]

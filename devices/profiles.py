@@ -120,6 +120,17 @@ class DeviceProfile:
                 "channels": list(self.channels), "carrier_hz": self.carrier_hz, "caps": sorted(self.caps),
                 "dimensions": {d: self.dimensions[d].value for d in DIMENSIONS}, "table_2_2": self.table_row()}
 
+    def to_table(self) -> dict:
+        """The profile as a table `from_dict` reads back (to_dict is the console's view)."""
+        return {"model": self.model, "title": self.title, "firmware": self.firmware, "channels": list(self.channels),
+                "carrier_hz": self.carrier_hz, "caps": sorted(self.caps),
+                "dimensions": {d: how.value for d, how in self.dimensions.items()}, "protocol": self.protocol,
+                "line": dict(self.line), "notes": self.notes}
+
+    def __reduce__(self):
+        # the read-only mappings do not pickle; the device host process gets its configs pickled
+        return (_profile_from_table, (self.to_table(),))
+
     @classmethod
     def from_dict(cls, data: Mapping, *, where: str = "profile") -> DeviceProfile:
         """A profile from a TOML/JSON table (see docs/devices.md); ProfileError names the bad key."""
@@ -140,6 +151,10 @@ class DeviceProfile:
             raise ProfileError(f"{where}: {exc}") from None
         except (TypeError, ValueError) as exc:
             raise ProfileError(f"{where}: {exc}") from None
+
+
+def _profile_from_table(table: dict) -> DeviceProfile:
+    return DeviceProfile.from_dict(table)
 
 
 FINGERTAC = DeviceProfile(

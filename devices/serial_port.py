@@ -48,6 +48,8 @@ class SerialDevice:
         self.events: deque[dict] = deque(maxlen=200)  # recent facts, for the console
         self._port: serial.Serial | None = None
         self._cond = threading.Condition()
+        self._kick = False  # set with every wake-up of the writer, cleared when it polls
+        self._write_lock = threading.Lock()  # one writer of frames at a time: the writer thread or the feed
         self._running = False
         self._threads: list[threading.Thread] = []
         self.writer_rt = False  # the writer thread got SCHED_FIFO
@@ -72,18 +74,64 @@ class SerialDevice:
             while self._port is not None and self.protocol.book.pending and time.monotonic() < deadline:
                 self._cond.wait(0.01)
             self._running = False
-            self._cond.notify_all()
+            self._wake()
         self._drop("stopped", report=False)
         for thread in self._threads:
             thread.join(timeout=2)
 
-    def set_commands(self, commands: Iterable[object]) -> None:
-        """The newest value of each layer; never blocks on the port."""
+    def set_commands(self, commands: Iterable[object], *, write_now: bool = False) -> None:
+        """The newest value of each layer; never blocks on the port.
+
+        With `write_now` (the device feed, devices/feed.py) the caller also writes the first frame
+        itself when the link budget allows it and the port's output queue is empty, so the write
+        cannot block; that saves the writer thread's wake-up (~0.1-0.3 ms on this VM). The rest
+        (a busy budget, more frames, heartbeats) stays with the writer thread."""
         now = self.clock()
         with self._cond:
             for command in commands:
                 self.protocol.set(command, now)
-            self._cond.notify()
+            if not write_now:
+                self._wake()
+        if not write_now:
+            return
+        if self._write_lock.acquire(blocking=False):  # else the writer thread is at it already
+            try:
+                self._write_inline()
+            finally:
+                self._write_lock.release()
+        with self._cond:
+            self._wake()  # after the write: the rest (and the events) are the writer thread's
+
+    def _write_inline(self) -> None:
+        port = self._port
+        try:
+            if port is None or port.out_waiting:
+                return
+        except (serial.SerialException, OSError, TypeError, AttributeError, ValueError):
+            return  # the threads find out what is wrong with the port
+        with self._cond:
+            if port is not self._port:
+                return
+            data, _ = self.protocol.poll(self.clock())  # its events stay queued for the threads
+        if data:
+            self._write(port, data, drop_on_error=False)  # the caller may hold the manager's lock: no events here
+
+    def _write(self, port, data: bytes, *, drop_on_error: bool = True) -> None:
+        """One frame to the port, with the write lock held. A failed inline write is left to the
+        threads: the reader's next read fails the same way and reports it, and the frame is
+        resent when its ACK does not come."""
+        try:
+            port.write(data)
+            self.writes.append((time.monotonic_ns(), data))
+        except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
+            self.last_error = f"write failed: {exc}"
+            if drop_on_error:
+                self._drop(self.last_error)
+
+    def _wake(self) -> None:
+        """With the condition held: something for the writer to look at (no wake-up is lost)."""
+        self._kick = True
+        self._cond.notify_all()
 
     @property
     def status(self) -> str:
@@ -121,28 +169,28 @@ class SerialDevice:
                 with self._cond:
                     self.protocol.receive_data(data, self.clock())
                     events = self.protocol.events_received()
-                    self._cond.notify_all()
+                    self._wake()
                 self._publish(events)
 
     def _run_writer(self) -> None:
         self.writer_rt = fifo_this_thread()  # woken by a new cue while other work keeps both CPUs busy
         while True:
-            with self._cond:
-                if not self._running:
-                    return
-                port = self._port
-                data, wake_at = (self.protocol.poll(self.clock()) if port is not None else (b"", None))
-                events = self.protocol.events_received()
-                if not data:
-                    timeout = 0.25 if wake_at is None else min(0.25, max(0.0, wake_at - self.clock()))
-                    self._cond.wait(timeout)
+            with self._write_lock:  # polled and written in one go, so frames leave in sequence order
+                with self._cond:
+                    if not self._running:
+                        return
+                    self._kick = False
+                    port = self._port
+                    data, wake_at = (self.protocol.poll(self.clock()) if port is not None else (b"", None))
+                    events = self.protocol.events_received()
+                if data:
+                    self._write(port, data)
             self._publish(events)
-            if data:
-                try:
-                    port.write(data)
-                    self.writes.append((time.monotonic_ns(), data))
-                except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
-                    self._drop(f"write failed: {exc}")
+            if not data:
+                with self._cond:
+                    if self._running and not self._kick:  # nothing new since the poll
+                        timeout = 0.25 if wake_at is None else min(0.25, max(0.0, wake_at - self.clock()))
+                        self._cond.wait(timeout)
 
     def _open(self) -> bool:
         path = resolve(self.spec, on_warning=self._warn)
@@ -163,7 +211,7 @@ class SerialDevice:
             self.connects += 1
             self.protocol.connection_made(self.clock())
             events = self.protocol.events_received()
-            self._cond.notify_all()
+            self._wake()
         log.debug("%s: opened %s", self.name, path)
         self._publish(events)
         return True
@@ -177,7 +225,7 @@ class SerialDevice:
             self.last_error = reason
             self.protocol.connection_lost(self.clock(), reason)
             events = self.protocol.events_received()
-            self._cond.notify_all()
+            self._wake()
         try:
             port.close()
         except Exception:  # the port is gone already; closing is best effort

@@ -5,14 +5,12 @@ from __future__ import annotations
 import asyncio
 import gc
 import logging
-import sys
 from dataclasses import replace
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, WebSocket
 from fastapi.staticfiles import StaticFiles
 
-from devices.manager import DeviceManager
 from devices.rig import SimulatedRig, default_rig_dir
 from server import __version__
 from server.api.experiment_routes import router as experiment_router
@@ -20,15 +18,12 @@ from server.api.routes import router
 from server.config import Settings
 from server.experiment.engine import Experiment
 from server.experiment.store import Store, utc_now
-from server.hub.device_feed import DeviceFeed
+from server.hub.device_host import DeviceHost
 from server.hub.hub import Hub
 from server.hub.supervisor import LoopSupervisor
 from server.loop import tracker_udp
 
 log = logging.getLogger("viestac")
-
-
-GIL_SWITCH_INTERVAL_S = 0.00005
 
 
 async def _flush_recorder(experiment: Experiment, every_s: float = 0.25) -> None:
@@ -59,17 +54,13 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
-        # The device feed and writer threads share this process's GIL with the event loop: a
-        # thread woken by a cue waits for the GIL until the event loop releases it, up to the
-        # switch interval (5 ms by default) when the loop is busy with a broadcast.
-        sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
         configs = list(settings.devices) + (await asyncio.to_thread(rig.start) if rig else [])
-        manager = DeviceManager(configs)
-        manager.start()
-        hub.attach_devices(manager)
-        feed = DeviceFeed(manager)  # the loop's cues reach the devices past the event loop
-        supervisor.on_cue_channel = feed.attach
-        app.state.devices, app.state.device_feed = manager, feed
+        hub.device_profiles = {c.name: c.profile for c in configs}  # until the devices identify themselves
+        devices = DeviceHost(configs, on_report=hub.on_device_report,
+                             on_profiles=lambda profiles: setattr(hub, "device_profiles", profiles))
+        devices.start()  # the serial devices and the cue feed run in a process of their own
+        supervisor.cue_sock = devices.loop_end  # the loop sends changed cues straight to it
+        app.state.device_host = devices
         address = settings.tracker_address()
         if tracker_sock is None and address is not None:
             supervisor.tracker_sock = tracker_udp.bind(address)
@@ -80,17 +71,15 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
             log.info("tracker UDP port: %s (docs/protocol.md)", app.state.tracker_udp)
         supervisor.start()
         flusher = asyncio.get_running_loop().create_task(_flush_recorder(experiment))
-        # The device threads share this process: a full collection over FastAPI's start-up heap
-        # paused them for 10-20 ms (measured in tests/devices/test_serial_path.py); freeze it.
+        # A full collection over FastAPI's start-up heap pauses the event loop for 10-20 ms
+        # (measured in tests/devices/test_serial_path.py when the devices lived here); freeze it.
         gc.collect()
         gc.freeze()
         yield
         flusher.cancel()
         await asyncio.to_thread(experiment.recorder.flush)
         await supervisor.stop()
-        await asyncio.to_thread(feed.join)  # no late cue after the last "off"
-        manager.submit(())  # leave every actuator off
-        await asyncio.to_thread(manager.stop)
+        await devices.stop()  # every actuator off first, then the ports are closed
         if rig:
             await asyncio.to_thread(rig.stop)
         if supervisor.tracker_sock is not None:

@@ -13,6 +13,7 @@ from pydantic import BaseModel, Field
 from scenarios.base import ParamError, describe
 from scenarios.registry import SCENARIOS, UnknownScenario
 from server import __version__
+from server.hub.device_host import DeviceHostUnavailable
 from server.hub.hub import BusyError, Hub, ScenarioRefused
 from server.hub.supervisor import LoopSupervisor
 
@@ -144,14 +145,16 @@ def clients(hub: HubDep) -> list[dict]:
 
 
 @router.get("/devices", summary="Configured tactile devices: status, identity, link counters, refusals")
-def devices(request: Request, writes: int = Query(0, ge=0, le=1024, description=
-            "also list each device's latest N writes as [CLOCK_MONOTONIC ns when write() returned, hex bytes]")) -> dict:
-    manager = getattr(request.app.state, "devices", None)
+async def devices(request: Request, writes: int = Query(0, ge=0, le=1024, description=
+                  "also list each device's latest N writes as [CLOCK_MONOTONIC ns when write() returned, hex bytes]")) -> dict:
+    host = getattr(request.app.state, "device_host", None)
     rig = request.app.state.rig
-    snapshot = manager.snapshot(writes) if manager is not None else {"devices": [], "refusals": []}
-    feed = getattr(request.app.state, "device_feed", None)
-    return {**snapshot, "feed": feed.info() if feed is not None else None,
-            "simulated_rig": rig.info() if rig is not None else None}
+    try:
+        snapshot = await host.snapshot(writes) if host is not None else {"devices": [], "refusals": [], "feed": None}
+    except DeviceHostUnavailable as exc:
+        raise HTTPException(503, str(exc)) from None
+    return {**snapshot, "host": {"pid": host.info.get("pid"), "alive": host.alive, "restarts": host.restarts}
+            if host is not None else None, "simulated_rig": rig.info() if rig is not None else None}
 
 
 @router.get("/telemetry", summary="Loop timing since the last reset (exact to 1 µs)")

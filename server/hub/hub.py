@@ -84,8 +84,8 @@ class Hub:
         self.loop_info: dict = {}
         self.last_state: dict | None = None
         self.states_received = 0
-        self.devices = None  # DeviceManager, attached by the app (fed by the device feed, not by the hub)
         self._device_report: dict | None = None
+        self.device_profiles: dict = {}  # name → DeviceProfile as the devices identified themselves (device host)
         self.tracker_applied: deque[list] = deque(maxlen=4096)  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.log_records: deque[dict] = deque(maxlen=200)
         self._frames: dict[str, bytes | str] = {}
@@ -145,18 +145,9 @@ class Hub:
         return self._telemetry_summary
 
     # ---- devices ----------------------------------------------------------------------------
-    def attach_devices(self, manager) -> None:
-        self.devices = manager
-        loop = asyncio.get_running_loop()
-        # Listeners fire on serial threads too; the report is built on the event loop.
-        manager.listeners.append(lambda: loop.call_soon_threadsafe(self._devices_changed))
-        self._devices_changed()
-
-    def _devices_changed(self) -> None:
-        if self.devices is None:
-            return
-        report = {"refusals": unshown_refusals(self.devices.refusals, len(self.devices.devices)),
-                  "status": self.devices.status()}
+    def on_device_report(self, report: dict) -> None:
+        """The rig's report (device host process): refusals no device shows, and each device's
+        status. The loop learns it (TickContext.refusals), listeners record it."""
         if report != self._device_report:
             self._device_report = report
             self.send_to_loop(["devices", report])
@@ -164,7 +155,7 @@ class Hub:
                 listener(["devices", report])
 
     def _on_state(self, rec: dict) -> None:
-        # The devices got this tick's cues already, from the device feed thread (device_feed.py).
+        # The devices got this tick's cues already: the loop sent them to the device host's feed.
         self.telemetry.add(rec["samples"])
         self.telemetry.resyncs = rec.get("resyncs", 0)
         if rec["trackers"]:
@@ -324,8 +315,7 @@ class Hub:
 
     def capability(self, scenario_cls=None) -> CapabilityReport:
         cls = scenario_cls or self.scenario_cls
-        profiles = {name: d.profile for name, d in self.devices.devices.items()} if self.devices else {}
-        return check(cls.id, tuple(cls.REQUIRES), profiles)
+        return check(cls.id, tuple(cls.REQUIRES), self.device_profiles)
 
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
         """Ask the loop to run another scenario (registry.UnknownScenario, ParamError,
@@ -376,16 +366,6 @@ class Hub:
 
     def clients(self) -> list[dict]:
         return [s.info() for s in self.sessions.values()]
-
-
-def unshown_refusals(refusals, device_count: int) -> list[str]:
-    """The reasons for cues that NO device shows: what the participant would otherwise miss
-    without a word. A cue one device refuses and another shows (a FingerTac beside a FerroVibe
-    in the contact-angle task) stays in /api/devices but does not clutter the participant's HUD."""
-    by_cue: dict[str, list] = {}
-    for r in refusals:
-        by_cue.setdefault(r.cue, []).append(r)
-    return [r.reason for cue, rs in by_cue.items() if len({r.device for r in rs}) >= device_count for r in rs]
 
 
 class BusyError(RuntimeError):

@@ -3,9 +3,9 @@
 Adapter only: records from the loop are handed to a callback on the asyncio loop (add_reader,
 no thread); records to the loop are sent without blocking. A dead loop process is logged and
 restarted with backoff, so a crash in a scenario cannot take the server down silently.
-Every loop process also gets a cue channel of its own, handed to `on_cue_channel` (the device
-feed thread, server/hub/device_feed.py), so device commands do not wait on this event loop, and
-the tracker UDP socket (server/loop/tracker_udp.py), which the hub binds once and keeps.
+Every loop process also gets the loop end of the cue channel (to the device host process,
+server/hub/device_host.py), so device commands never pass this event loop, and the tracker UDP
+socket (server/loop/tracker_udp.py); both are made once and kept across loop restarts.
 """
 
 from __future__ import annotations
@@ -25,12 +25,12 @@ log = logging.getLogger("viestac.loop")
 
 
 class LoopSupervisor:
-    def __init__(self, config: LoopConfig, on_record: Callable[[list], None],
-                 on_cue_channel: Callable[[socket.socket], None] | None = None):
+    def __init__(self, config: LoopConfig, on_record: Callable[[list], None]):
         self.config = config
         self.on_record = on_record
-        self.on_cue_channel = on_cue_channel
-        self.tracker_sock: socket.socket | None = None  # the tracker UDP port, read by every loop process
+        # Sockets owned elsewhere and passed to every loop process:
+        self.cue_sock: socket.socket | None = None      # the loop end of the cue channel (device host)
+        self.tracker_sock: socket.socket | None = None  # the tracker UDP port
         self.proc: subprocess.Popen | None = None
         self.restarts = 0
         self.dropped_to_loop = 0
@@ -48,25 +48,17 @@ class LoopSupervisor:
         ours, theirs = ipc.channel_pair()
         self._doorbell = ipc.Doorbell()
         args = ["--fd", str(theirs.fileno()), "--doorbell", str(self._doorbell.fd)]
-        loop_ends = [theirs]
-        feed_end = None
-        if self.on_cue_channel is not None:
-            feed_end, loop_cues = ipc.channel_pair()
-            args += ["--cues-fd", str(loop_cues.fileno())]
-            loop_ends.append(loop_cues)
-        passed = [end.fileno() for end in loop_ends] + [self._doorbell.fd]
-        if self.tracker_sock is not None:  # ours to keep: a restarted loop reads the same port
-            args += ["--tracker-fd", str(self.tracker_sock.fileno())]
-            passed.append(self.tracker_sock.fileno())
+        passed = [theirs.fileno(), self._doorbell.fd]
+        for option, shared in (("--cues-fd", self.cue_sock), ("--tracker-fd", self.tracker_sock)):
+            if shared is not None:  # ours to keep: a restarted loop gets the same one
+                args += [option, str(shared.fileno())]
+                passed.append(shared.fileno())
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "server.loop.process", *args, "--config", self.config.to_json()],
             pass_fds=tuple(passed), cwd=os.getcwd(),
             start_new_session=True)  # Ctrl-C in a terminal stops the hub, which stops the loop in order
-        for end in loop_ends:  # the loop process holds them now
-            end.close()
+        theirs.close()
         self._sock = ours
-        if feed_end is not None:
-            self.on_cue_channel(feed_end)
         loop.add_reader(ours.fileno(), self._readable)
         if self._watch is None:
             self._watch = asyncio.create_task(self._watchdog())

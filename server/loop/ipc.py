@@ -16,6 +16,8 @@ Records, hub → loop: ["tracker", client_id, seq, t_ms, [x,y,z], quat|None, rec
 ["devices", report], ["record", every_n_ticks], ["stop"].
 Records, loop → hub: ["hello", info], ["scene", scene_map, hash], ["scenario", info],
 ["state", state_map], ["fail_safe"], ["log", level, text].
+The cue channel (loop → device host process, devices/feed.py) is a second pair of the same kind:
+["cues", tick, sent_ns, [cue, ...]] in every tick whose cues changed.
 """
 
 from __future__ import annotations

@@ -103,9 +103,12 @@ def test_pulse_train_50_200_has_exact_on_and_off_times_on_both_lras(rig):
 
 
 @pytest.mark.slow
-def test_a_cue_changing_every_tick_arrives_in_order_ends_on_the_newest_value_and_keeps_the_link_budget(rig):
+@pytest.mark.parametrize("write_now", [False, True], ids=["writer-thread", "inline-too"])
+def test_a_cue_changing_every_tick_arrives_in_order_ends_on_the_newest_value_and_keeps_the_link_budget(rig, write_now):
     """Behaviour only: how fast the newest value arrives (≤ 20 ms) is `viestac bench link`'s
-    number (docs/performance.md), since a loaded CI machine can stall these threads for longer."""
+    number (docs/performance.md), since a loaded CI machine can stall these threads for longer.
+    With write_now (the device feed) the caller writes too, racing the writer thread: frames
+    must still leave in order and within the budget."""
     emulator, manager = rig("ferrovibe")
     driver = manager.devices["ferrovibe"].driver
     t0 = time.monotonic_ns() // 1000
@@ -114,7 +117,7 @@ def test_a_cue_changing_every_tick_arrives_in_order_ends_on_the_newest_value_and
     submitted = []
     next_tick = time.monotonic()
     for i in range(1, 3001):  # a new tilt direction every 1 ms for ~3 s (fewer if the machine is busy)
-        manager.submit((Tilt(i / 100, 100),))
+        manager.submit((Tilt(i / 100, 100),), write_now=write_now)
         submitted.append(i)
         next_tick += 0.001
         time.sleep(max(0.0, next_tick - time.monotonic()))
@@ -134,6 +137,27 @@ def test_a_cue_changing_every_tick_arrives_in_order_ends_on_the_newest_value_and
     # next the host cannot have written more than half the line's time, plus the last frame.
     budget_bytes = 0.5 * (s_after - s_before) / BYTE_TIME_S + 32
     assert bytes_out - bytes_before <= budget_bytes, (bytes_out - bytes_before, budget_bytes)
+
+
+def test_with_write_now_the_caller_writes_the_frame_itself_when_the_link_is_idle(rig):
+    """The device feed's shortcut: no writer-thread wake-up between a cue and its write."""
+    emulator, manager = rig("ferrovibe")
+    driver = manager.devices["ferrovibe"].driver
+    port = driver._port
+    writers = []
+    real_write = port.write
+    port.write = lambda data: writers.append((threading.current_thread().name, bytes(data))) or real_write(data)
+    inline = 0
+    for i in range(10):  # a heartbeat may have just used the budget: then the writer thread sends it
+        time.sleep(0.05)
+        before = len(writers)
+        manager.submit((Tilt(10 + i, 100),), write_now=True)
+        inline += any(name == threading.current_thread().name for name, _ in writers[before:])
+    assert inline >= 5, f"only {inline} of 10 cues were written by the caller"
+    wait_for(lambda: any(e.direction_cdeg == 1900 and e.magnitude == 100 for e in emulator.snapshot_edges()), 3.0,
+             "the last tilt never reached the device")
+    names = {name for name, _ in writers}
+    assert names <= {threading.current_thread().name, "ferrovibe-writer"}
 
 
 def test_unplug_reports_disconnected_within_1_s_and_reconnects_by_itself(rig):

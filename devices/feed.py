@@ -1,16 +1,13 @@
 """DeviceFeed: the loop's cue records → the DeviceManager, on a thread of its own.
 
-The loop sends a `["cues", tick, sent_ns, [cue, ...]]` record on the cue channel (server/loop/ipc.py) in
-every tick whose cues differ from what the devices were last given, before that tick's state
-record. Not on the hub's event loop: with 64 viewers it is busy sending the same tick's frame to
-every viewer right when a cue changes, and the device command waited behind that fan-out (tick →
-pty p99 2.3–3 ms, docs/performance.md). This thread sleeps in `recv` (no GIL held), runs at
-SCHED_FIFO below the loop when allowed (devices/realtime.py), and hands each cue set to the
-DeviceManager, whose writer threads put it on the ports; `submit` never touches a port, so a
-dead or slow device cannot hold the feed up.
-
-One thread per loop process: the supervisor attaches the channel of every (re)started loop; the
-thread ends when the loop's end closes.
+The loop sends a `["cues", tick, sent_ns, [cue, ...]]` record on the cue channel (server/loop/ipc.py)
+in every tick whose cues differ from what the devices were last given, before that tick's state
+record. The feed runs in the device host process (devices/host_process.py), never on the hub's
+event loop: with 64 viewers that loop is busy sending the same tick's frame to every viewer right
+when a cue changes (docs/performance.md "Tracker → device latency"). The thread sleeps in `recv`,
+runs at SCHED_FIFO below the loop when allowed (devices/realtime.py), and hands each cue set to
+the DeviceManager, whose writer threads put it on the ports; `submit` never touches a port, so
+a dead or slow device cannot hold the feed up.
 """
 
 from __future__ import annotations
@@ -37,6 +34,7 @@ class DeviceFeed:
         self.bad_records = 0
         self.last_tick: int | None = None
         self.rt = False
+        self.stopped = False  # set when the host stops: later records are dropped (everything stays off)
         self.delays_ns: deque[tuple[int, int]] = deque(maxlen=1000)  # loop send → (received, handed over)
         self._threads: list[threading.Thread] = []
 
@@ -47,14 +45,16 @@ class DeviceFeed:
                 and isinstance(record[2], int)):
             raise ValueError(f"not a cue record: {record!r:.120}")
         cues = tuple(cue_from_wire(c) for c in record[3])
-        self.manager.submit(cues)
+        if self.stopped:
+            return
+        self.manager.submit(cues, write_now=True)
         self.records += 1
         self.last_tick = record[1]
         if received_ns is not None:
             self.delays_ns.append((received_ns - record[2], time.monotonic_ns() - record[2]))
 
     def attach(self, sock: socket.socket) -> None:
-        """Serve a new loop process's cue channel until the loop closes its end."""
+        """Serve a cue channel until its other end is closed (by every process that holds it)."""
         self._threads = [t for t in self._threads if t.is_alive()]
         thread = threading.Thread(target=self._run, args=(sock,), name="device-feed", daemon=True)
         self._threads.append(thread)

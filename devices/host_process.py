@@ -1,0 +1,114 @@
+"""The device host process: the rig's serial devices, in a process of their own.
+
+Why not in the hub process: its event loop sends every tick's frame to every viewer, and on a
+2-core machine with 64 viewers any other thread there waits for the GIL (and for the CPU the GIL
+holder needs) every time it wakes: the device feed and writer threads lost 0.2-0.6 ms at each of
+their two wake-ups per cue change (docs/performance.md "Tracker → device latency"). Here the
+only Python threads are the devices' own (reader, writer; SCHED_FIFO for the writers) and the
+feed, which blocks in `recv` on the cue channel the loop process writes to directly.
+
+Started by the hub (server/hub/device_host.py) as
+`python -m devices.host_process --control-fd C --cues-fd Q`, with the pickled device configs on
+stdin. Control records (msgpack arrays on a SEQPACKET socket):
+  hub → here: ["snapshot", request_id, writes], ["submit", [cue, ...]], ["stop"]
+  here → hub: ["hello", {"pid", "feed_rt"}], ["report", {"refusals", "status"}],
+              ["profiles", {name: profile table}], ["snapshot", request_id, snapshot]
+A closed control socket (the hub died) is a stop. Stopping turns every actuator off first.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import pickle
+import socket
+import sys
+import threading
+
+import msgpack
+
+from devices.cues import cue_from_wire
+from devices.feed import DeviceFeed
+from devices.manager import DeviceManager
+from server.loop import ipc
+
+log = logging.getLogger("viestac.devices")
+
+
+class DeviceHost:
+    """The child's side: a DeviceManager, the cue feed, and the hub's control channel."""
+
+    def __init__(self, manager: DeviceManager, control: socket.socket):
+        self.manager = manager
+        self.control = control
+        self.feed = DeviceFeed(manager)
+        self._send_lock = threading.Lock()  # reports come from device threads, replies from the control thread
+        self._report: dict | None = None
+        self._profiles: dict | None = None
+        manager.listeners.append(self._changed)
+
+    def send(self, record: list) -> None:
+        with self._send_lock:
+            try:
+                self.control.sendall(msgpack.packb(record, use_bin_type=True))
+            except OSError:
+                pass  # the hub is gone; the control thread sees it and stops
+
+    def _changed(self) -> None:
+        """A device's status, identity or refusals changed: tell the hub what it needs."""
+        report = self.manager.report()
+        if report != self._report:
+            self._report = report
+            self.send(["report", report])
+        profiles = {name: d.profile.to_table() for name, d in self.manager.devices.items()}
+        if profiles != self._profiles:
+            self._profiles = profiles
+            self.send(["profiles", profiles])
+
+    def run(self, cues: socket.socket) -> None:
+        self.manager.start()
+        self.feed.attach(cues)
+        self.send(["hello", {"pid": os.getpid()}])
+        self._changed()
+        try:
+            self._serve_control()
+        finally:
+            self.feed.stopped = True  # a cue still in the channel must not turn anything back on
+            self.manager.submit(())
+            self.manager.stop()
+
+    def _serve_control(self) -> None:
+        self.control.setblocking(True)
+        while True:
+            try:
+                data = self.control.recv(ipc.MAX_RECORD_BYTES)
+            except OSError:
+                return
+            if not data:
+                return
+            record = msgpack.unpackb(data, raw=False)
+            kind = record[0]
+            if kind == "stop":
+                return
+            if kind == "snapshot":
+                self.send(["snapshot", record[1], {**self.manager.snapshot(int(record[2])), "feed": self.feed.info()}])
+            elif kind == "submit":
+                self.manager.submit(tuple(cue_from_wire(c) for c in record[1]))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="viestac-devices")
+    parser.add_argument("--control-fd", type=int, required=True)
+    parser.add_argument("--cues-fd", type=int, required=True)
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    configs = pickle.loads(sys.stdin.buffer.read())  # from the hub, our parent: trusted
+    control = socket.socket(fileno=args.control_fd)
+    cues = socket.socket(fileno=args.cues_fd)
+    DeviceHost(DeviceManager(configs), control).run(cues)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
