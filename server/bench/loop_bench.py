@@ -153,6 +153,7 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         "period_p999_us": telemetry["period_p999_us"], "period_max_us": telemetry["period_max_us"],
         "overruns": telemetry["overruns"], "ticks": telemetry["ticks"],
         "tick_cost_p50_us": telemetry["tick_cost_p50_us"], "tick_cost_p99_us": telemetry["tick_cost_p99_us"],
+        "tick_cost_max_us": telemetry["tick_cost_max_us"],
         "clients": viewers, "trackers": trackers,
         "frames_received_per_client_hz": load_result["frames_received_per_client_hz"]["mean"],
         "frames_received_per_client_hz_min": load_result["frames_received_per_client_hz"]["min"],
