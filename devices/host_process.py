@@ -87,14 +87,19 @@ class DeviceHost:
                 return
             if not data:
                 return
-            record = msgpack.unpackb(data, raw=False)
-            kind = record[0]
-            if kind == "stop":
-                return
-            if kind == "snapshot":
-                self.send(["snapshot", record[1], {**self.manager.snapshot(int(record[2])), "feed": self.feed.info()}])
-            elif kind == "submit":
-                self.manager.submit(tuple(cue_from_wire(c) for c in record[1]))
+            try:
+                record = msgpack.unpackb(data, raw=False)
+                kind = record[0]
+                if kind == "stop":
+                    return
+                if kind == "snapshot":
+                    self.send(["snapshot", record[1], {**self.manager.snapshot(int(record[2])), "feed": self.feed.info()}])
+                elif kind == "submit":
+                    self.manager.submit(tuple(cue_from_wire(c) for c in record[1]))
+                else:
+                    raise ValueError(f"unknown control record {kind!r}")
+            except Exception:  # noqa: BLE001 - one bad request must not take the devices down
+                log.exception("device host: bad control record %r", data[:80])
 
 
 def main(argv: list[str] | None = None) -> int:

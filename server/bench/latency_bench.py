@@ -3,7 +3,7 @@
 The whole production path, nothing mocked: a participant tracker (in the load generator's
 process; by default a tracker bridge sending to the loop's tracker UDP port, `--tracker ws` for
 the browser's /ws path through the hub) → loop tick (god-object, contact gate, tilt cue) → cue
-channel → the hub's device feed thread → DeviceManager → writer thread → pyserial → pty →
+channel → the device host process (feed thread, DeviceManager, encoder) → pyserial → pty →
 FerroVibe emulator (the C firmware core, in this process). The tracker switches the HIP between
 in contact with the contact-angle dome (tilt cue on) and well above it (cue off) every 66-100 ms
 and stamps each switching message with CLOCK_MONOTONIC.

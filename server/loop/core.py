@@ -8,8 +8,8 @@ the regular cadence (state_hz, 60 by default) AND in any tick whose cues changed
 of that tick leaves with its device command and a tactile cue never leads the picture
 (haptic-before-visual is noticed from ~15 ms, Di Luca & Mahnan 2019). The device command itself
 leaves first, on a channel of its own (`device_cues`): the process adapter sends it straight to
-the hub's device feed thread, past the hub's event loop (serial I/O lives in the hub process,
-never here).
+the device host process's feed thread, past the hub's event loop (serial I/O lives there, never
+here).
 
 Pure apart from the clock values it is handed: the process adapter (process.py) owns sockets,
 priority and sleeping; tests drive this class directly on a virtual clock.

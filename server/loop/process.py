@@ -7,9 +7,9 @@ p99 1.03 ms with 64 viewers. Without CAP_SYS_NICE/root it falls back to normal p
 clear warning, reported in telemetry as `rt: false`.
 
 It owns: the clock, the deadline scheduler and the simulation; no serial port, no socket to a
-client, no thread (the device drivers live in the hub process). It talks to the hub only through
-non-blocking sockets (ipc.py): the mailbox, and the cue channel that carries a tick's changed
-cues to the hub's device feed thread before the tick's state record leaves. It also reads the
+client, no thread (the device drivers live in the device host process). It talks only through
+non-blocking sockets (ipc.py): the mailbox to the hub, and the cue channel that carries a tick's
+changed cues to the device host's feed thread before the tick's state record leaves. It also reads the
 tracker UDP port (tracker_udp.py, bound by the hub) at the start of every tick. It exits when the
 hub goes away.
 Run as `python -m server.loop.process --fd N --cues-fd C --doorbell M --config JSON` by the hub
@@ -152,7 +152,7 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
             try:
                 if not ipc.send_record(cue_sock, ["cues", core.sim.tick - 1, clock.now_ns(), cues]):
                     core.resend_device_cues()  # the feed is behind: try again next tick (latest wins)
-            except OSError as exc:  # the hub closed the feed's end: nobody drives the devices now
+            except OSError as exc:  # the device host's end is gone for good: nobody drives the devices now
                 cue_sock = None
                 ipc.send_record(sock, ["log", "error", f"cue channel closed ({exc}); device cues stop"])
         if state is not None:
@@ -168,7 +168,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--fd", type=int, required=True)
     parser.add_argument("--config", required=True)
     parser.add_argument("--doorbell", type=int, default=None, help="memfd of the mailbox doorbell")
-    parser.add_argument("--cues-fd", type=int, default=None, help="the cue channel to the hub's device feed")
+    parser.add_argument("--cues-fd", type=int, default=None, help="the cue channel to the device host's feed")
     parser.add_argument("--tracker-fd", type=int, default=None, help="the tracker UDP socket (bound by the hub)")
     args = parser.parse_args(argv)
     sock = socket.socket(fileno=args.fd)

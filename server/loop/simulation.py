@@ -64,7 +64,7 @@ class Simulation:
         self.hip: Vec3 = home_position(self.scene)
         self.held: Vec3 | None = None  # where the scenario holds the HIP, overriding the tracker
         self.cues: tuple[Cue, ...] = ()
-        self.refusals: tuple[str, ...] = ()  # reported by the hub's device manager
+        self.refusals: tuple[str, ...] = ()  # reported by the device host, through the hub
         self.events: list[dict] = []  # scenario events not yet published, stamped with their tick
         self.trial: Trial | None = None
         self._settled = None  # (hip, ProxyStep) of a verified fixed point; reused while nothing moves

@@ -54,10 +54,12 @@ def test_cues_from_the_loop_end_reach_the_device_and_stopping_turns_it_off(emula
             assert profiles and profiles[-1]["ferro"].model == "ferrovibe"
             assert ipc.send_record(host.loop_end, ["cues", 1, time.monotonic_ns(), [TILT]])  # as the loop does
             await until(lambda: shows(emulator, 100, 9000), 3.0, "the tilt never reached the device")
+            assert host._send(["bogus"]) and host._send(["submit", [{"kind": "nonsense"}]])  # logged, survived
             snapshot = await host.snapshot(writes=8)
             device = snapshot["devices"][0]
             assert device["name"] == "ferro" and device["status"] == "connected" and device["writes"]
             assert snapshot["feed"]["records"] == 1 and snapshot["feed"]["last_tick"] == 1
+            assert shows(emulator, 100, 9000), "the bad requests changed nothing"
             assert host.info["pid"] == host.proc.pid
 
             os.kill(host.proc.pid, signal.SIGKILL)  # a crash: the hub starts it again, the channel stays
