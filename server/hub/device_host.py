@@ -1,8 +1,7 @@
 """The hub's handle on the device host process (devices/host_process.py).
 
-Adapter only, on the asyncio loop like the loop supervisor: it starts the process, reads its
-control records with add_reader (no thread), hands reports to the hub, answers /api/devices with
-a snapshot request, and restarts the process with backoff if it dies.
+Adapter only (server/hub/child.py: add_reader, no thread; restart with backoff): it starts the
+process, hands its reports to the hub and answers /api/devices with a snapshot request.
 
 It owns the cue channel: one SEQPACKET pair made at start and kept for the server's life. The
 device end goes to every device host process, the loop end to every loop process (the
@@ -14,19 +13,17 @@ from __future__ import annotations
 
 import asyncio
 import itertools
-import logging
 import os
 import pickle
+import socket
 import subprocess
 import sys
 from typing import Callable
 
-
 from devices.manager import DeviceConfig
 from devices.profiles import DeviceProfile
+from server.hub.child import ChildProcess
 from server.loop import ipc
-
-log = logging.getLogger("viestac.devices")
 
 SNAPSHOT_TIMEOUT_S = 2.0
 
@@ -35,52 +32,29 @@ class DeviceHostUnavailable(RuntimeError):
     """The device host process did not answer (starting, restarting or stuck)."""
 
 
-class DeviceHost:
+class DeviceHost(ChildProcess):
+    what = "device host process"
+
     def __init__(self, configs: list[DeviceConfig], *, on_report: Callable[[dict], None],
                  on_profiles: Callable[[dict], None] = lambda profiles: None):
+        super().__init__()
         self.configs = list(configs)
         self.on_report = on_report
         self.on_profiles = on_profiles
         self.device_end, self.loop_end = ipc.channel_pair()
-        self.proc: subprocess.Popen | None = None
         self.info: dict = {}
-        self.restarts = 0
-        self._control = None
         self._requests: dict[int, asyncio.Future] = {}
         self._ids = itertools.count(1)
-        self._watch: asyncio.Task | None = None
-        self._closing = False
 
-    @property
-    def alive(self) -> bool:
-        return self.proc is not None and self.proc.poll() is None
-
-    def start(self) -> None:
-        ours, theirs = ipc.channel_pair()
-        self.proc = subprocess.Popen(
+    def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
+        proc = subprocess.Popen(
             [sys.executable, "-m", "devices.host_process", "--control-fd", str(theirs.fileno()),
              "--cues-fd", str(self.device_end.fileno())],
             stdin=subprocess.PIPE, pass_fds=(theirs.fileno(), self.device_end.fileno()), cwd=os.getcwd(),
             start_new_session=True)  # Ctrl-C stops the hub, which stops the devices in order (all off first)
-        theirs.close()
-        self.proc.stdin.write(pickle.dumps(self.configs))
-        self.proc.stdin.close()
-        self._control = ours
-        asyncio.get_running_loop().add_reader(ours.fileno(), self._readable)
-        if self._watch is None:
-            self._watch = asyncio.create_task(self._watchdog())
-
-    def _readable(self) -> None:
-        try:
-            records = ipc.drain(self._control)
-        except ipc.PeerClosed:
-            asyncio.get_running_loop().remove_reader(self._control.fileno())
-            return
-        for record in records:
-            try:
-                self._on_record(record)
-            except Exception:  # noqa: BLE001 - one bad record must not stop the reader
-                log.exception("failed to handle a device host record of kind %r", record[0] if record else None)
+        proc.stdin.write(pickle.dumps(self.configs))
+        proc.stdin.close()
+        return proc
 
     def _on_record(self, record: list) -> None:
         kind = record[0]
@@ -95,14 +69,6 @@ class DeviceHost:
                 future.set_result(record[2])
         elif kind == "hello":
             self.info = record[1]
-
-    def _send(self, record: list) -> bool:
-        if self._control is None:
-            return False
-        try:
-            return ipc.send_record(self._control, record)
-        except OSError:
-            return False
 
     async def snapshot(self, writes: int = 0) -> dict:
         """The devices as the console shows them (DeviceManager.snapshot plus the feed's info)."""
@@ -123,38 +89,8 @@ class DeviceHost:
         """Cues (wire form) from the hub itself, e.g. everything off; the loop's go by the feed."""
         return self._send(["submit", cues])
 
-    async def _watchdog(self) -> None:
-        backoff = 0.5
-        while not self._closing:
-            await asyncio.sleep(0.2)
-            if self.proc is not None and self.proc.poll() is not None and not self._closing:
-                log.error("device host process exited with code %s; restarting in %.1f s", self.proc.returncode, backoff)
-                self._close_control()
-                await asyncio.sleep(backoff)
-                backoff = min(backoff * 2, 10.0)
-                self.restarts += 1
-                self.start()
-
-    def _close_control(self) -> None:
-        if self._control is not None:
-            try:
-                asyncio.get_running_loop().remove_reader(self._control.fileno())
-            except (ValueError, RuntimeError):
-                pass
-            self._control.close()
-            self._control = None
-
     async def stop(self) -> None:
         """Every actuator off, the ports drained and closed, the process gone."""
-        self._closing = True
-        if self._watch:
-            self._watch.cancel()
-        self._send(["stop"])
-        if self.proc is not None:
-            try:
-                await asyncio.wait_for(asyncio.to_thread(self.proc.wait), 5.0)
-            except asyncio.TimeoutError:
-                self.proc.kill()
-        self._close_control()
+        await self._stop(["stop"], 5.0)
         self.device_end.close()
         self.loop_end.close()
