@@ -36,7 +36,7 @@ class DeviceFeed:
         self.rt = False
         self.stopped = False  # set when the host stops: later records are dropped (everything stays off)
         self.delays_ns: deque[tuple[int, int]] = deque(maxlen=1000)  # loop send → (received, handed over)
-        self._threads: list[threading.Thread] = []
+        self.thread: threading.Thread | None = None
 
     def handle(self, record: list, received_ns: int | None = None) -> None:
         """One cue record: decode and hand it to the devices; ValueError names what is wrong.
@@ -54,16 +54,9 @@ class DeviceFeed:
             self.delays_ns.append((received_ns - record[2], time.monotonic_ns() - record[2]))
 
     def attach(self, sock: socket.socket) -> None:
-        """Serve a cue channel until its other end is closed (by every process that holds it)."""
-        self._threads = [t for t in self._threads if t.is_alive()]
-        thread = threading.Thread(target=self._run, args=(sock,), name="device-feed", daemon=True)
-        self._threads.append(thread)
-        thread.start()
-
-    def join(self, timeout_s: float = 1.0) -> None:
-        """Wait for the feed threads (their loops have stopped): no cue arrives after this."""
-        for thread in self._threads:
-            thread.join(timeout_s)
+        """Serve the cue channel on a thread of its own until every holder of its other end closed it."""
+        self.thread = threading.Thread(target=self._run, args=(sock,), name="device-feed", daemon=True)
+        self.thread.start()
 
     def info(self) -> dict:
         """Counts, and the hop from the loop's send to the feed (received, handed to the devices)
@@ -88,7 +81,7 @@ class DeviceFeed:
                 except OSError:
                     return
                 if not data:
-                    return  # the loop process closed its end (stopped or died)
+                    return  # nobody can send any more
                 received_ns = time.monotonic_ns()
                 try:
                     self.handle(msgpack.unpackb(data, raw=False), received_ns)

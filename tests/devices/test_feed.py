@@ -40,8 +40,8 @@ def test_the_feed_thread_hands_every_cue_record_to_the_devices_and_survives_bad_
     loop_end.sendall(b"\xc1")  # not msgpack at all
     assert ipc.send_record(loop_end, ["cues", 5, time.monotonic_ns(), []])
     loop_end.close()  # the loop process went away: the thread ends
-    feed.join(2.0)
-    assert not any(t.is_alive() for t in feed._threads)
+    feed.thread.join(2.0)
+    assert not feed.thread.is_alive()
     assert manager.submitted == [(Tilt(90.0, 100.0),), (), (Tilt(90.0, 100.0),), ()]
     assert manager.threads == {"device-feed"}, "submitted on the feed thread, not the caller's"
     info = feed.info()
