@@ -10,7 +10,7 @@ feed, which blocks in `recv` on the cue channel the loop process writes to direc
 Started by the hub (server/hub/device_host.py) as
 `python -m devices.host_process --control-fd C --cues-fd Q`, with the pickled device configs on
 stdin. Control records (msgpack arrays on a SEQPACKET socket):
-  hub → here: ["snapshot", request_id, writes], ["submit", [cue, ...]], ["stop"]
+  hub → here: ["snapshot", request_id, writes], ["stop"]
   here → hub: ["hello", {"pid", "feed_rt"}], ["report", {"refusals", "status"}],
               ["profiles", {name: profile table}], ["snapshot", request_id, snapshot]
 A closed control socket (the hub died) is a stop. Stopping turns every actuator off first.
@@ -28,7 +28,6 @@ import threading
 
 import msgpack
 
-from devices.cues import cue_from_wire
 from devices.feed import DeviceFeed
 from devices.manager import DeviceManager
 from server.loop import ipc
@@ -94,8 +93,6 @@ class DeviceHost:
                     return
                 if kind == "snapshot":
                     self.send(["snapshot", record[1], {**self.manager.snapshot(int(record[2])), "feed": self.feed.info()}])
-                elif kind == "submit":
-                    self.manager.submit(tuple(cue_from_wire(c) for c in record[1]))
                 else:
                     raise ValueError(f"unknown control record {kind!r}")
             except Exception:  # noqa: BLE001 - one bad request must not take the devices down

@@ -85,10 +85,6 @@ class DeviceHost(ChildProcess):
         finally:
             self._requests.pop(request, None)
 
-    def submit(self, cues: list[dict]) -> bool:
-        """Cues (wire form) from the hub itself, e.g. everything off; the loop's go by the feed."""
-        return self._send(["submit", cues])
-
     async def stop(self) -> None:
         """Every actuator off, the ports drained and closed, the process gone."""
         await self._stop(["stop"], 5.0)
