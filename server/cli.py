@@ -239,10 +239,15 @@ def _analyze_after_simulation(data_dir: Path, out: Path) -> int:
 
 
 def _bench_loop(args: argparse.Namespace) -> int:
+    from server.bench.kernel_trace import KernelTraceUnavailable
     from server.bench.loop_bench import run_loop_bench
 
-    result = run_loop_bench(seconds=args.seconds, viewers=args.clients, trackers=args.trackers,
-                            warmup_s=args.warmup, scenario=args.scenario)
+    try:
+        result = run_loop_bench(seconds=args.seconds, viewers=args.clients, trackers=args.trackers,
+                                warmup_s=args.warmup, scenario=args.scenario, kernel_trace=args.kernel_trace)
+    except KernelTraceUnavailable as exc:
+        print(f"viestac: {exc}", file=sys.stderr)
+        return 2
     return _print_bench(result, args.json)
 
 
@@ -375,6 +380,9 @@ def build_parser() -> argparse.ArgumentParser:
     loop.add_argument("--trackers", type=int, default=2)
     loop.add_argument("--warmup", type=float, default=3.0)
     loop.add_argument("--scenario", default="contact-angle")
+    loop.add_argument("--kernel-trace", action="store_true",
+                      help="also trace the loop's wake-ups with the kernel's tracer (root, tracefs) and say what "
+                           "made late ones late: the timer interrupt or the scheduling")
     loop.add_argument("--json", action="store_true", help="print one JSON object")
     loop.set_defaults(func=_bench_loop)
     link = bench_sub.add_parser("link", help="a cue changing every tick through pyserial to an emulated FerroVibe: "

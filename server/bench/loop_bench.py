@@ -21,6 +21,8 @@ import urllib.request
 
 import psutil
 
+from server.bench.kernel_trace import LoopWakeTrace, summarize
+
 
 def get_json(url: str, method: str = "GET", timeout: float = 5.0, body: dict | None = None) -> dict:
     """GET (or POST, DELETE with an optional JSON body) a URL of the server and decode its JSON
@@ -115,20 +117,30 @@ def _rss_summary(samples: list[tuple[float, float]], seconds: float) -> dict:
 
 
 def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, warmup_s: float = 3.0,
-                   scenario: str = "contact-angle") -> dict:
+                   scenario: str = "contact-angle", kernel_trace: bool = False) -> dict:
+    """Loop timing and memory of the real server under load. `kernel_trace` also records the
+    loop's timed wake-ups with the kernel's tracer (root, tracefs) and says what made late ones
+    late (server/bench/kernel_trace.py)."""
     if seconds <= 0:
         raise ValueError(f"seconds must be > 0, got {seconds}")
     if viewers < 0 or trackers < 0:
         raise ValueError(f"viewers and trackers must be >= 0, got {viewers} and {trackers}")
     if warmup_s < 0:
         raise ValueError(f"warmup_s must be >= 0, got {warmup_s}")
+    if kernel_trace:
+        LoopWakeTrace.check()  # before anything starts: a clear error, nothing to clean up
     proc, base = start_server(scenario)
+    wake_trace = None
     try:
         ws_url = base.replace("http://", "ws://") + "/ws"
         load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers", str(viewers),
                                  "--trackers", str(trackers), "--warmup", str(warmup_s), "--seconds", str(seconds)],
                                 stdout=subprocess.PIPE, text=True)
         time.sleep(warmup_s)
+        if kernel_trace:
+            buffer_kb = int(min(256 * 1024, 8192 + 400 * seconds))  # the whole window up to ~10 min
+            wake_trace = LoopWakeTrace(get_json(base + "/api/health")["loop"]["pid"], buffer_kb=buffer_kb)
+            wake_trace.start()
         get_json(base + "/api/telemetry/reset", "POST")
         start = time.monotonic()
         end = start + seconds
@@ -137,10 +149,13 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
             rss_samples.append((time.monotonic() - start, _tree_rss_mb(proc.pid)))
             time.sleep(0.25)
         telemetry = get_json(base + "/api/telemetry")
+        wakeups = wake_trace.stop() if wake_trace is not None else None
         tracker_rows = get_json(base + "/api/trackers?limit=4096")["rows"]
         out, _ = load.communicate(timeout=60)
         load_result = json.loads(out.strip().splitlines()[-1])
     finally:
+        if wake_trace is not None and wake_trace.instance.exists():
+            wake_trace.stop()
         stop_server(proc)
     # The bench's trackers stamp `t` with CLOCK_MONOTONIC in ms (same machine, same clock), so
     # applied - t is the whole path: WebSocket send, hub read and validation, mailbox, next tick.
@@ -162,4 +177,6 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         "tracker_to_tick_p99_ms": percentile(send_to_tick, 0.99),
         "hub_to_tick_p99_ms": percentile(hub_to_tick, 0.99), "tracker_samples": len(send_to_tick),
         **rss, "rt": telemetry["rt"], "seconds": seconds, "resyncs": telemetry["resyncs"],
+        **({"kernel_trace": {**summarize(wakeups), "lost_events": wake_trace.lost_events}}
+           if wakeups is not None else {}),
     }

@@ -7,7 +7,16 @@ import math
 
 import pytest
 
+from server.bench.kernel_trace import KernelTraceUnavailable, LoopWakeTrace
 from server.bench.loop_bench import _rss_summary, run_loop_bench
+
+
+def _tracefs_usable() -> bool:
+    try:
+        LoopWakeTrace.check()
+        return True
+    except KernelTraceUnavailable:
+        return False
 
 
 def test_rss_growth_compares_medians_of_the_first_and_last_window_so_one_spike_does_not_count():
@@ -33,7 +42,8 @@ def test_bad_arguments_are_refused_before_anything_starts(kwargs):
 
 @pytest.mark.slow
 def test_a_short_live_run_reports_loop_timing_and_memory():
-    result = run_loop_bench(seconds=2, viewers=2, warmup_s=1)
+    traced = _tracefs_usable()  # where the kernel's tracer can be used, check its account too
+    result = run_loop_bench(seconds=2, viewers=2, warmup_s=1, kernel_trace=traced)
     print(f"\n{result}")
     for key in ("period_p50_us", "period_p99_us", "tick_cost_p50_us", "frames_received_per_client_hz",
                 "tracker_to_tick_p50_ms", "rss_mb", "rss_start_mb", "rss_end_mb"):
@@ -42,3 +52,10 @@ def test_a_short_live_run_reports_loop_timing_and_memory():
     assert result["ticks"] > 1000 and result["overruns"] >= 0 and result["clients"] == 2
     assert result["rss_start_mb"] <= result["rss_mb"] and result["rss_end_mb"] <= result["rss_mb"]
     assert math.isfinite(result["rss_growth_mb"])
+    if traced:  # one traced wake-up per tick of the window, give or take the moments around it
+        kernel = result["kernel_trace"]
+        assert abs(kernel["traced_wakeups"] - result["ticks"]) < 0.1 * result["ticks"]
+        assert 0 <= kernel["timer_late_p50_us"] <= kernel["timer_late_p99_us"] <= kernel["timer_late_max_us"]
+        assert kernel["late_wakeups"] == kernel["late_by_timer_interrupt"] + kernel["late_by_scheduling"]
+    else:
+        assert "kernel_trace" not in result
