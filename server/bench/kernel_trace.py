@@ -174,6 +174,14 @@ class LoopWakeTrace:
         if not os.access(tracefs / "instances", os.W_OK):
             raise KernelTraceUnavailable(f"{tracefs}/instances is not writable: --kernel-trace needs root")
 
+    @classmethod
+    def usable(cls, tracefs: Path | None = None) -> bool:
+        try:
+            cls.check(tracefs)
+            return True
+        except KernelTraceUnavailable:
+            return False
+
     def _write(self, relative: str, value: str) -> None:
         (self.instance / relative).write_text(value)
 

@@ -154,9 +154,11 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         out, _ = load.communicate(timeout=60)
         load_result = json.loads(out.strip().splitlines()[-1])
     finally:
-        if wake_trace is not None and wake_trace.instance.exists():
-            wake_trace.stop()
-        stop_server(proc)
+        try:
+            if wake_trace is not None and wake_trace.instance.exists():
+                wake_trace.stop()  # an error on the way: still remove the trace instance
+        finally:
+            stop_server(proc)
     # The bench's trackers stamp `t` with CLOCK_MONOTONIC in ms (same machine, same clock), so
     # applied - t is the whole path: WebSocket send, hub read and validation, mailbox, next tick.
     send_to_tick = sorted((row[4] - row[2] * 1e6) / 1e6 for row in tracker_rows)

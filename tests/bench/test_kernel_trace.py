@@ -83,6 +83,7 @@ def test_late_wakeups_and_long_runs_are_put_down_to_their_cause():
 def test_a_machine_without_tracefs_gets_a_clear_refusal(tmp_path):
     with pytest.raises(KernelTraceUnavailable, match="no tracefs"):
         LoopWakeTrace.check(tmp_path / "missing")
+    assert not LoopWakeTrace.usable(tmp_path / "missing")
 
 
 def test_bench_loop_refuses_kernel_trace_up_front_without_tracefs(tmp_path, monkeypatch, capsys):
@@ -95,13 +96,6 @@ def test_bench_loop_refuses_kernel_trace_up_front_without_tracefs(tmp_path, monk
     assert started == []  # refused before any server started
 
 
-def _tracefs_usable() -> bool:
-    try:
-        LoopWakeTrace.check()
-        return True
-    except KernelTraceUnavailable:
-        return False
-
 
 SLEEPER = """
 import time
@@ -112,7 +106,7 @@ for _ in range(200):
 """
 
 
-@pytest.mark.skipif(not _tracefs_usable(), reason="needs root and tracefs at /sys/kernel/tracing")
+@pytest.mark.skipif(not LoopWakeTrace.usable(), reason="needs root and tracefs at /sys/kernel/tracing")
 def test_a_live_trace_of_a_1_khz_sleeper_sees_its_wakeups_and_leaves_no_instance_behind():
     sleeper = subprocess.Popen([sys.executable, "-c", SLEEPER])
     trace = LoopWakeTrace(sleeper.pid)

@@ -7,16 +7,9 @@ import math
 
 import pytest
 
-from server.bench.kernel_trace import KernelTraceUnavailable, LoopWakeTrace
+from server.bench.kernel_trace import LoopWakeTrace
 from server.bench.loop_bench import _rss_summary, run_loop_bench
 
-
-def _tracefs_usable() -> bool:
-    try:
-        LoopWakeTrace.check()
-        return True
-    except KernelTraceUnavailable:
-        return False
 
 
 def test_rss_growth_compares_medians_of_the_first_and_last_window_so_one_spike_does_not_count():
@@ -42,7 +35,7 @@ def test_bad_arguments_are_refused_before_anything_starts(kwargs):
 
 @pytest.mark.slow
 def test_a_short_live_run_reports_loop_timing_and_memory():
-    traced = _tracefs_usable()  # where the kernel's tracer can be used, check its account too
+    traced = LoopWakeTrace.usable()  # where the kernel's tracer can be used, check its account too
     result = run_loop_bench(seconds=2, viewers=2, warmup_s=1, kernel_trace=traced)
     print(f"\n{result}")
     for key in ("period_p50_us", "period_p99_us", "tick_cost_p50_us", "frames_received_per_client_hz",
