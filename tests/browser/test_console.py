@@ -264,3 +264,47 @@ def test_console_runs_a_session(open_page, console_server):
     assert not console.page_errors, console.page_errors
     assert not other.page_errors, other.page_errors
     assert not participant.page_errors, participant.page_errors
+
+
+def test_finish_checks_the_answers_against_the_session_read_after_saving_them(open_page, console_server):
+    """Finish saves the typed answer, reloads the session and checks it is in. A periodic refresh
+    that overtakes that reload must not leave the check looking at the session from before the
+    save (which has no answer, while the typed draft is gone once saved): every session read is
+    made slower than the 2 s refresh period here, so one always overtakes it."""
+    server = console_server
+    console = Console(open_page(), server).open()
+    page = console.page
+    page.fill("#experimenter", "alice")
+    page.fill("#participant", "P43")
+    page.fill("#device", "ferrovibe")
+    page.click("#create")
+    console.wait_state("s.sessionId && s.control === 'yes' && s.next === 0")
+    sid = console.state()["sessionId"]
+    page.click("#start")
+    wait_status(server, sid, 0, "running")
+    page.click("#finish")  # the training asks nothing
+    wait_status(server, sid, 0, "answered")
+    console.wait_state("s.next === 1 && s.running === null")
+    page.click("#start")
+    wait_status(server, sid, 1, "running")
+    angle = page.locator('fieldset[data-question="answer_deg"] input[type="number"]')
+    angle.wait_for()
+    angle.fill("30")
+    console.wait_text("#finish-hint", "All required answers are in")
+
+    def slow_session_read(route):
+        time.sleep(2.5)  # longer than the console's refresh period (REFRESH_MS, 2 s)
+        route.continue_()
+
+    from playwright.sync_api import TimeoutError as PlaywrightTimeout  # (the browser tests skip without it)
+
+    page.route(f"**/api/sessions/{sid}", slow_session_read)  # handled while Playwright waits below
+    page.click("#finish")
+    try:
+        console.wait_text("#run-msg", "finished (answered)", timeout_ms=30_000)
+    except PlaywrightTimeout:
+        pytest.fail(f"Finish did not finish; the page says: {console.text('#run-msg')!r}")
+    page.unroute(f"**/api/sessions/{sid}")
+    answered = trial(server, sid, 1)
+    assert answered["status"] == "answered" and answered["responses"] == {"answer_deg": 30.0}
+    assert not console.page_errors, console.page_errors

@@ -272,18 +272,21 @@ async function takeControl() {
 
 // ---- refresh ---------------------------------------------------------------------------------
 
+/** Reload the session and render it; returns the session it read (undefined if it could not),
+ * also when a newer refresh overtook this one and that one will render. */
 async function refresh() {
   const sid = state.sessionId;
-  if (!sid) return;
+  if (!sid) return undefined;
   const n = ++state.refreshN;
+  let session;
   try {
-    const session = await api.session(sid);
-    if (n !== state.refreshN || sid !== state.sessionId) return;
+    session = await api.session(sid);
+    if (n !== state.refreshN || sid !== state.sessionId) return session;
     state.session = session;
     say($('queue-msg'), '');
   } catch (e) {
     if (n === state.refreshN) say($('queue-msg'), e.message, 'error');
-    return;
+    return undefined;
   }
   if (state.control === 'yes') {
     const ok = await api.probeControl(sid);
@@ -293,6 +296,7 @@ async function refresh() {
     }
   }
   render();
+  return session;
 }
 
 // ---- rendering -------------------------------------------------------------------------------
@@ -519,8 +523,14 @@ async function onFinish() {
       say(msg, 'Not finished: some answers were not accepted (see the form; what you typed is kept).', 'error');
       return;
     }
-    await refresh();
-    const fresh = trialBySeq(state.session, t.seq);
+    // Check against the session read after the save: a periodic refresh may overtake this one,
+    // and then state.session would still be the one from before the save.
+    const session = await refresh();
+    if (!session) {
+      say(msg, 'Not finished: the session could not be reloaded to check the answers; try again.', 'error');
+      return;
+    }
+    const fresh = trialBySeq(session, t.seq);
     const missing = missingAnswers(fieldsFor(fresh), fresh.responses, draftsFor(fresh).drafts);
     if (missing.length) {
       say(msg, `Not finished: answer ${missing.map((f) => `${f.id} (${f.text})`).join('; ')} first.`, 'error');
