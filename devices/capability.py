@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping
 
-from devices.cues import Friction, Stiffness, Temperature, Texture, Tilt
+from server.core.cues import Friction, Stiffness, Temperature, Texture, Tilt
 from devices.encoder import CueEncoder
 from devices.profiles import DIMENSIONS, DeviceProfile, Display
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from devices.cues import Cue, Friction, PulseTrain, Stiffness, Stop, Temperature, Texture, Tilt, Vibration
+from server.core.cues import Cue, Friction, PulseTrain, Stiffness, Stop, Temperature, Texture, Tilt, Vibration
 from devices.messages import ALL_CHANNELS, SetFriction, SetPattern, SetTemperature, SetTilt
 from devices.profiles import DeviceProfile, Display
 

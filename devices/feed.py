@@ -1,6 +1,6 @@
 """DeviceFeed: the loop's cue records → the DeviceManager, on a thread of its own.
 
-The loop sends a `["cues", tick, sent_ns, [cue, ...]]` record on the cue channel (server/loop/ipc.py)
+The loop sends a `["cues", tick, sent_ns, [cue, ...]]` record on the cue channel (server/ipc.py)
 in every tick whose cues differ from what the devices were last given, before that tick's state
 record. The feed runs in the device host process (devices/host_process.py), never on the hub's
 event loop: with 64 viewers that loop is busy sending the same tick's frame to every viewer right
@@ -20,9 +20,9 @@ from collections import deque
 
 import msgpack
 
-from devices.cues import cue_from_wire
+from server.core.cues import cue_from_wire
 from devices.realtime import fifo_this_thread
-from server.loop import ipc
+from server import ipc
 
 log = logging.getLogger("viestac.devices")
 

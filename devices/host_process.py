@@ -30,7 +30,7 @@ import msgpack
 
 from devices.feed import DeviceFeed
 from devices.manager import DeviceManager
-from server.loop import ipc
+from server import ipc
 
 log = logging.getLogger("viestac.devices")
 

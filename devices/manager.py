@@ -23,7 +23,7 @@ from pathlib import Path
 
 import serial
 
-from devices.cues import Cue
+from server.core.cues import Cue
 from devices.encoder import CueEncoder, Refusal
 from devices.line_protocol import CommandRefused, DeviceLine, LineProtocol
 from devices.link import BYTE_TIME_S

@@ -19,10 +19,10 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from devices.cues import Tilt, tilt_direction
-from scenarios.base import (Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with)
-from server.haptics.primitives import Hemisphere, Plane, Pose
-from server.scene import AngleScale, Camera, Material, Scene, SceneObject
+from server.core.cues import Tilt, tilt_direction
+from server.core.scenario import (Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with)
+from server.core.haptics.primitives import Hemisphere, Plane, Pose
+from server.core.scene import AngleScale, Camera, Material, Scene, SceneObject
 
 RADIUS = 0.6
 CENTRE = (0.0, 0.0, 0.0)

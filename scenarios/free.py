@@ -7,8 +7,8 @@ through it without writing a scenario.
 
 from __future__ import annotations
 
-from scenarios.base import ScenarioOutput, TickContext, Trial
-from server.scene import Scene
+from server.core.scenario import ScenarioOutput, TickContext, Trial
+from server.core.scene import Scene
 
 _NOTHING = ScenarioOutput()
 

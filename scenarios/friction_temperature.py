@@ -13,11 +13,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from devices.cues import Friction, Temperature
-from scenarios.base import Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
+from server.core.cues import Friction, Temperature
+from server.core.scenario import Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
 from scenarios.stiffness import LEFT, MIDDLE, RIGHT, SPHERE_RADIUS, SPHERES
-from server.haptics.primitives import Plane, Pose, Sphere
-from server.scene import Camera, Label, Material, Scene, SceneObject
+from server.core.haptics.primitives import Plane, Pose, Sphere
+from server.core.scene import Camera, Label, Material, Scene, SceneObject
 
 PLANE_ID = "plane"
 TEMPERATURES_C = {LEFT: 20.0, MIDDLE: 32.0, RIGHT: 40.0}  # (default) cool, skin-neutral, warm

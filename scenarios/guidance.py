@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from devices.cues import PulseTrain, Tilt, Vibration
+from server.core.cues import PulseTrain, Tilt, Vibration
 
 BOUNDARY = 2.0          # B: cue zone radius around the target
 TARGET_THRESHOLD = 0.05  # "at target": within this on every axis (default)

@@ -23,12 +23,12 @@ from typing import Any
 
 import trimesh
 
-from scenarios.base import Control, Param, ScenarioOutput, TickContext, Trial
+from server.core.scenario import Control, Param, ScenarioOutput, TickContext, Trial
 from scenarios.guidance import hot_wire_cue
 from scenarios.positioning import TABLE
 from scenarios.wire_path import PATH_KINDS, Path, make_path
-from server.haptics.primitives import Plane, Pose, Sphere
-from server.scene import Camera, Material, Mesh, Scene, SceneObject
+from server.core.haptics.primitives import Plane, Pose, Sphere
+from server.core.scene import Camera, Material, Mesh, Scene, SceneObject
 
 HIP_RADIUS = 0.06
 START_RADIUS = 0.1    # the HIP centre within this of the start begins a run (default)

@@ -22,11 +22,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from scenarios.base import Control, Param, ScenarioOutput, TickContext, Trial, in_contact_with
+from server.core.scenario import Control, Param, ScenarioOutput, TickContext, Trial, in_contact_with
 from scenarios.guidance import BOUNDARY, TARGET_THRESHOLD, peg_cue
 from scenarios.positioning import ITEM_IDS, ITEMS, Item, carried_position, inserted, table_objects
-from server.haptics.primitives import Pose
-from server.scene import Camera, Scene
+from server.core.haptics.primitives import Pose
+from server.core.scene import Camera, Scene
 
 PROXY_RADIUS = 0.06
 

@@ -27,11 +27,11 @@ from typing import Any
 
 import trimesh
 
-from scenarios.base import Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
+from server.core.scenario import Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
 from scenarios.guidance import (BOUNDARY, MODES, PATTERNS, TARGET_THRESHOLD, PatternGuide, guidance_cues, mode_t_off,
                                 pulse_cue)
-from server.haptics.primitives import Box, Cone, Cylinder, Plane, Pose, Sphere
-from server.scene import Camera, Material, Mesh, Scene, SceneObject
+from server.core.haptics.primitives import Box, Cone, Cylinder, Plane, Pose, Sphere
+from server.core.scene import Camera, Material, Mesh, Scene, SceneObject
 
 TABLE = (3.0, 4.0)            # depth (x) × width (y)
 LEG_HEIGHT, LEG_RADIUS = 5.0, 0.05

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Callable
 
-from scenarios.base import ParamError, Scenario, check_params
+from server.core.scenario import ParamError, Scenario, check_params
 from scenarios.contact_angle import ContactAngle
 from scenarios.friction_temperature import FrictionTemperature
 from scenarios.hot_wire import HotWire

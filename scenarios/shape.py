@@ -19,12 +19,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from devices.cues import Texture, Tilt, tilt_direction
-from scenarios.base import Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
+from server.core.cues import Texture, Tilt, tilt_direction
+from server.core.scenario import Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
 from scenarios.contact_angle import contact_angle_deg
 from scenarios.texture import PERIODS_US
-from server.haptics.primitives import Box, Cone, Plane, Pose, Sphere
-from server.scene import Camera, Label, Material, Scene, SceneObject
+from server.core.haptics.primitives import Box, Cone, Plane, Pose, Sphere
+from server.core.scene import Camera, Label, Material, Scene, SceneObject
 
 SHAPES = ("cube", "sphere", "cone")
 SIDE = 1.0

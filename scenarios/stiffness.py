@@ -19,10 +19,10 @@ from __future__ import annotations
 import random
 from typing import Any
 
-from devices.cues import Stiffness
-from scenarios.base import Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
-from server.haptics.primitives import Plane, Pose, Sphere
-from server.scene import Camera, Label, Material, Scene, SceneObject
+from server.core.cues import Stiffness
+from server.core.scenario import Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
+from server.core.haptics.primitives import Plane, Pose, Sphere
+from server.core.scene import Camera, Label, Material, Scene, SceneObject
 
 LEVELS = tuple(range(1, 11))
 SPHERE_RADIUS = 0.4

@@ -22,10 +22,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from devices.cues import Texture
-from scenarios.base import Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
-from server.haptics.primitives import Plane, Pose
-from server.scene import Camera, Material, Scene, SceneObject, Skin
+from server.core.cues import Texture
+from server.core.scenario import Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
+from server.core.haptics.primitives import Plane, Pose
+from server.core.scene import Camera, Material, Scene, SceneObject, Skin
 
 PERIODS_US = (2000.0, 3000.0, 4000.0, 5000.0, 6000.0)
 REFERENCE_US = 4000.0  # 250 Hz, the comparison standard of sub-task A

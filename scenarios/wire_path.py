@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from server.scene import Mesh
+from server.core.scene import Mesh
 
 PATH_KINDS = ("segments", "circle", "spiral")
 MAX_POINTS = 500

@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
-# Set up (if needed) and run every test: JS unit tests (node), then the Python suite (pytest),
-# which includes the real-server integration tests and the headless-Chromium browser tests.
+# Set up (if needed) and run every test: lint and layer contracts, JS unit tests (node), then the
+# Python suite (pytest), which includes the real-server integration tests and the headless-Chromium browser tests.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh --test
+echo "== lint (ruff) and layers (import-linter, docs/architecture.md \"Layers\")"
+.venv/bin/ruff check .
+.venv/bin/lint-imports --no-cache
 echo "== browser client unit tests (node --test)"
 (cd clients/web && node --test --test-reporter=dot test/)
 echo "== Python tests (pytest)"

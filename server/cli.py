@@ -10,10 +10,10 @@ import socket
 import sys
 from pathlib import Path
 
-from scenarios.base import ParamError
+from server.core.scenario import ParamError
 from scenarios.registry import UnknownScenario
 from server.config import STUDIES_DIR
-from server.scene import SceneError
+from server.core.scene import SceneError
 
 
 def _serve(args: argparse.Namespace) -> int:

@@ -10,7 +10,7 @@ from devices.manager import DeviceConfig, check_unique
 from devices.profiles import profile_by_model
 from scenarios import registry
 from server.loop.process import LoopConfig
-from server.scene import Scene
+from server.core.scene import Scene
 
 WEB_ROOT = Path(__file__).resolve().parents[1] / "clients" / "web"
 STUDIES_DIR = Path(__file__).resolve().parents[1] / "studies"

@@ -14,11 +14,11 @@ import json
 import math
 from pathlib import Path
 
-from devices.cues import cue_to_wire
+from server.core.cues import cue_to_wire
 from scenarios import registry
 from scenarios.free import FreeExploration
 from server.loop.simulation import Simulation
-from server.scene import Scene
+from server.core.scene import Scene
 
 OUT_COLUMNS = ["t", "tick", "hip_x", "hip_y", "hip_z", "proxy_x", "proxy_y", "proxy_z",
                "force_x", "force_y", "force_z", "contact", "touching", "cues", "values"]

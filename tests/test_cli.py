@@ -58,7 +58,7 @@ def test_viestac_devices_lists_ports_configured_devices_and_a_running_servers_st
     assert f"Configured tac (fingertac) on {tmp_path / 'absent'}: not present" in result.stdout
     # the live server runs the simulated rig: both emulated devices are connected, with firmware and RTT
     for model in ("fingertac", "ferrovibe"):
-        line = next(l for l in result.stdout.splitlines() if l.strip().startswith(model))
+        line = next(row for row in result.stdout.splitlines() if row.strip().startswith(model))
         assert "connected" in line and "firmware 1.0.0" in line and "rtt" in line
     as_json = subprocess.run([sys.executable, "-m", "server.cli", "devices", "--json", "--server", "http://127.0.0.1:9"],
                              capture_output=True, text=True, timeout=60)
@@ -70,7 +70,7 @@ def test_viestac_emulate_prints_its_port_and_records_the_timeline(tmp_path):
     import csv
     import time
 
-    from devices.cues import PulseTrain
+    from server.core.cues import PulseTrain
     from devices.manager import DeviceConfig, DeviceManager
 
     link, timeline = tmp_path / "ft", tmp_path / "ft.csv"

@@ -3,7 +3,7 @@
 import pytest
 
 from scenarios.contact_angle import ContactAngle
-from server.scene import Scene, SceneError
+from server.core.scene import Scene, SceneError
 
 
 def test_round_trip_and_hash_stability():
@@ -34,7 +34,7 @@ def test_bad_scenes_name_the_field(patch, message):
 
 
 def test_mesh_objects_round_trip_are_drawn_only_and_checked():
-    from server.scene import Mesh, Scene, SceneError
+    from server.core.scene import Mesh, Scene, SceneError
 
     tri = {"type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "faces": [[0, 1, 2]]}
     base = {"name": "m", "objects": [{"id": "tri", "shape": tri, "haptic": False}]}

@@ -12,7 +12,7 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Depends, Header, HTTPException, Request
 from pydantic import BaseModel, Field
 
-from scenarios.base import ParamError
+from server.core.scenario import ParamError
 from scenarios.registry import UnknownScenario
 from server.experiment.engine import Experiment, ExperimentError, Forbidden, NotFound
 from server.experiment.plan import plan_session

@@ -10,7 +10,7 @@ from typing import Any, Literal
 from fastapi import APIRouter, Depends, HTTPException, Query, Request
 from pydantic import BaseModel, Field
 
-from scenarios.base import ParamError, describe
+from server.core.scenario import ParamError, describe
 from scenarios.registry import SCENARIOS, UnknownScenario
 from server import __version__
 from server.hub.device_host import DeviceHostUnavailable

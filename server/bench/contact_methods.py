@@ -4,11 +4,11 @@ Every method answers the same question each tick: given the HIP, where is the pr
 force k (proxy - HIP), and is there contact? They differ in how the geometry is represented and
 how the proxy is found:
 
-* ``analytic``: the server's god-object (server/haptics/god_object.py) on the exact primitives.
+* ``analytic``: the server's god-object (server/core/haptics/god_object.py) on the exact primitives.
 * ``mesh``: the same god-object on triangle-mesh tessellations of the primitives
-  (server/haptics/mesh_shape.py): the geometry error of a tessellation, at a mesh query's cost.
+  (server/bench/mesh_shape.py): the geometry error of a tessellation, at a mesh query's cost.
 * ``sdf``: the same god-object on signed-distance grids sampled from the primitives
-  (server/haptics/sdf_grid.py): interpolation error and a sphere-traced cast.
+  (server/bench/sdf_grid.py): interpolation error and a sphere-traced cast.
 * ``penalty``: no proxy memory at all; the nearest surface point of the HIP's current sample,
   like CHAI3D's analytic shapes (cShape*::computeLocalInteraction + cEffectSurface,
   rendering-notes.md 1.5), with its pop-through and tunnelling (1.3).
@@ -20,11 +20,11 @@ from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import Sequence
 
-from server.haptics.god_object import GodObject
-from server.haptics.mesh_shape import LEVELS, MeshShape
-from server.haptics.primitives import Body, _Shape
-from server.haptics.sdf_grid import CELLS, GridBody, GridShape
-from server.haptics.vec import Vec3
+from server.core.haptics.god_object import GodObject
+from server.bench.mesh_shape import LEVELS, MeshShape
+from server.core.haptics.primitives import Body, _Shape
+from server.bench.sdf_grid import CELLS, GridBody, GridShape
+from server.core.haptics.vec import Vec3
 
 ZERO: Vec3 = (0.0, 0.0, 0.0)
 

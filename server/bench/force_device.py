@@ -5,7 +5,7 @@ Theory of operation
 -------------------
 The device is a mass ``m`` with physical damping ``b`` (its own friction and motor/amplifier
 damping). The user pushes it with a constant force toward a wall; the servo loop samples its
-position every T = 1/f s, runs the REAL god-object (server/haptics/god_object.py) on a Plane body
+position every T = 1/f s, runs the REAL god-object (server/core/haptics/god_object.py) on a Plane body
 of stiffness K to get the spring force K (proxy - HIP), and holds that force until the next sample
 (zero-order hold). Between samples the force is constant, so m v' = -b v + F has the closed form
 
@@ -28,8 +28,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from math import exp, expm1, isfinite, log
 
-from server.haptics.god_object import GodObject
-from server.haptics.primitives import Body, Plane
+from server.core.haptics.god_object import GodObject
+from server.core.haptics.primitives import Body, Plane
 
 WALL_SIZE = (1.0, 1.0)  # metres: far wider than any motion of the 1-DoF device
 GROWTH_FLOOR = 0.01  # below 1 % of the static penetration F/K an oscillation counts as gone

@@ -16,7 +16,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from devices.cues import Tilt
+from server.core.cues import Tilt
 from devices.emulator import BYTE_TIME_US, Emulator
 from devices.manager import DeviceConfig, DeviceManager
 from devices.ports import PortSpec

@@ -47,9 +47,9 @@ from server.bench.machine import machine_info
 from server.bench.force_device import (START_HEIGHT_M, START_VELOCITY_M_S, ForceDevice, refine_boundary,
                                       wall_cell)
 from server.config import Settings
-from server.haptics.contact_gate import ContactGate
-from server.haptics.god_object import GodObject
-from server.haptics.primitives import Body, Box, Pose
+from server.core.haptics.contact_gate import ContactGate
+from server.core.haptics.god_object import GodObject
+from server.core.haptics.primitives import Body, Box, Pose
 
 SCENE_ID = "contact-angle-v1"
 PLATE_SIDE = 0.2  # metres; the plate's extent in x and y

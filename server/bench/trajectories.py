@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from math import cos, pi, radians, sin, sqrt
 from typing import Callable, Optional
 
-from server.haptics.vec import Vec3
+from server.core.haptics.vec import Vec3
 
 TICK_S = 0.001
 LIFT = 0.05  # approach from / lift to this far outside the dilated surface

@@ -9,7 +9,7 @@ Theory of operation:
    permuted among the positions they occupy in the file: the participant's row of the block's
    order (order.py) over the block's tasks as listed. Two tasks A, B under "latin" give AB for
    even participant indices and BA for odd ones (13 participants → 7 AB, 6 BA).
-2. Each task expands into phases (scenarios.base.PHASES), then its questionnaire:
+2. Each task expands into phases (server.core.scenario.PHASES), then its questionnaire:
    - training: one item of `training_s` (free exploration, no trial set), or one item per
      training condition, which share `training_s` evenly;
    - trial (practice): `practice` items whose conditions are drawn from the main conditions by
@@ -38,7 +38,7 @@ KINDS = ("training", "trial", "main", "questionnaire")
 class PlannedTrial:
     seq: int                          # 0-based position in the session
     task: str                         # task id
-    kind: str                         # one of KINDS (the first three are scenarios.base.PHASES)
+    kind: str                         # one of KINDS (the first three are server.core.scenario.PHASES)
     index: int                        # 0-based number within its task and kind
     scenario: str                     # versioned scenario id
     scenario_params: Mapping[str, Any]

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Mapping
 
-from scenarios.base import Param
+from server.core.scenario import Param
 
 QUESTION_KINDS = ("likert", "number", "choice", "text")
 TEXT_ANSWER_MAX = 2000                 # characters of a free-text answer

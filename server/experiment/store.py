@@ -28,7 +28,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Iterable, Iterator
 
-from server.loop.core import TRAJECTORY_COLUMNS
+from server.core.records import TRAJECTORY_COLUMNS
 
 SCHEMA_VERSION = 1
 TRIAL_STATUSES = ("pending", "running", "answered", "aborted", "excluded")

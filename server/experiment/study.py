@@ -14,7 +14,7 @@ Theory of operation:
 - Scenario names resolve through the scenario registry to the versioned id, which is what the
   Study stores (a later scenario version cannot silently change a recorded study). Scenario
   parameters and trial parameters are checked by the scenario's own Param declarations
-  (`scenarios.base.check_params`), so the file accepts exactly what the scenario accepts and
+  (`server.core.scenario.check_params`), so the file accepts exactly what the scenario accepts and
   stores the values with their defaults filled in.
 - `subtask = "name"` borrows the design a scenario already declares (SUBTASKS): conditions,
   practice trials, training time, time limit and the answer as a question. Fields written in
@@ -35,7 +35,7 @@ from types import MappingProxyType
 from typing import Any, Callable, Mapping
 
 from devices.profiles import PROFILES
-from scenarios.base import ParamError, Param, SubTask, Trial
+from server.core.scenario import ParamError, Param, SubTask, Trial
 from scenarios.registry import UnknownScenario, check_scenario_params, resolve
 from server.experiment.order import ORDERS
 from server.experiment.question import (QUESTION_KINDS, Question, as_number, format_bound, frozen_mapping,
@@ -319,7 +319,7 @@ def _conditions(t: _Table, name: str, phase: str, specs: tuple[Param, ...], defa
     for i, raw in enumerate(raws):
         if not isinstance(raw, dict):
             raise t.error(f"{name}[{i}] must be a table of trial parameters, got {raw!r}")
-        out.append(_checked(t, lambda: Trial.parse(specs, phase, raw, where=f"{name}[{i}]").params))
+        out.append(_checked(t, lambda raw=raw, i=i: Trial.parse(specs, phase, raw, where=f"{name}[{i}]").params))
     return tuple(out)
 
 

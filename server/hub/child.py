@@ -13,7 +13,7 @@ import logging
 import socket
 import subprocess
 
-from server.loop import ipc
+from server import ipc
 
 log = logging.getLogger("viestac.hub")
 

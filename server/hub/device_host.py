@@ -23,7 +23,7 @@ from typing import Callable
 from devices.manager import DeviceConfig
 from devices.profiles import DeviceProfile
 from server.hub.child import ChildProcess
-from server.loop import ipc
+from server import ipc
 
 SNAPSHOT_TIMEOUT_S = 2.0
 

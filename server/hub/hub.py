@@ -24,7 +24,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from devices.capability import CapabilityReport, check
 from scenarios import registry
-from scenarios.base import ParamError, Trial, describe, find_control
+from server.core.scenario import ParamError, Trial, describe, find_control
 from server.hub.telemetry import LoopTelemetry
 from server.wire import codec, messages
 from server.wire.codec import WireError

@@ -17,7 +17,7 @@ import sys
 from typing import Callable
 
 from server.hub.child import ChildProcess
-from server.loop import ipc
+from server import ipc
 from server.loop.process import LoopConfig
 
 

@@ -20,15 +20,12 @@ from __future__ import annotations
 from array import array
 from typing import Any, Callable
 
-from devices.cues import cue_to_wire
+from server.core.cues import cue_to_wire
 from scenarios import registry
-from scenarios.base import Trial
+from server.core.scenario import Trial
 from server.loop.simulation import Simulation, TickResult
 
 
-# One row per recorded tick (experiment/store.py SAMPLE_COLUMNS): held = the carried object's id.
-TRAJECTORY_COLUMNS = ("tick", "hip_x", "hip_y", "hip_z", "proxy_x", "proxy_y", "proxy_z", "contact",
-                      "held", "held_x", "held_y", "held_z")
 
 
 def _round(v, digits: int = 9) -> list[float]:
@@ -51,7 +48,7 @@ class LoopCore:
         self.tracker_applied: list[list] = []  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.frames = 0
         self.record_every = 0        # trajectory sampling: every Nth tick while an experiment records; 0 = off
-        self.trajectory: list[list] = []  # rows since the last state record (TRAJECTORY_COLUMNS)
+        self.trajectory: list[list] = []  # rows since the last state record (server/core/records.py TRAJECTORY_COLUMNS)
         self._device_cues: tuple | None = None  # what the devices were last given; None: unknown (start)
 
     def apply(self, record: list, now_ns: int) -> None:

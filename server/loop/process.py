@@ -28,14 +28,14 @@ import traceback
 from dataclasses import asdict, dataclass, field
 
 from scenarios import registry
-from server.haptics.contact_gate import ContactGate
-from server.loop import ipc
+from server.core.haptics.contact_gate import ContactGate
+from server import ipc
 from server.loop.clock import Clock, MonotonicClock
 from server.loop.core import LoopCore
 from server.loop.scheduler import DeadlineScheduler
 from server.loop.simulation import Simulation
 from server.loop.tracker_udp import TrackerPort
-from server.scene import Scene
+from server.core.scene import Scene
 
 
 @dataclass(frozen=True)

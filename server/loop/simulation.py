@@ -14,13 +14,13 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Any
 
-from devices.cues import Cue
-from scenarios.base import Scenario, ScenarioOutput, TickContext, Trial
-from server.haptics.contact_gate import ContactGate
-from server.haptics.god_object import Contact, GodObject
-from server.haptics.primitives import Pose
-from server.haptics.vec import Vec3
-from server.scene import Scene
+from server.core.cues import Cue
+from server.core.scenario import Scenario, ScenarioOutput, TickContext, Trial
+from server.core.haptics.contact_gate import ContactGate
+from server.core.haptics.god_object import Contact, GodObject
+from server.core.haptics.primitives import Pose
+from server.core.haptics.vec import Vec3
+from server.core.scene import Scene
 
 
 @dataclass(frozen=True)

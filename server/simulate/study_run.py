@@ -70,7 +70,7 @@ def progress_bar(done: int, total: int, label: str, stream=sys.stderr, width: in
 def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_dir: str | Path,
                    make_participant: Callable[[int, int], object],
                    progress: Callable[[int, int, str], None] | None = None,
-                   agent_params: AgentParams = AgentParams()) -> SimulationResult:
+                   agent_params: AgentParams = AgentParams()) -> SimulationResult:  # noqa: B008 (frozen)
     """Run `participants` synthetic sessions of the study into OUT/data/viestac.sqlite.
 
     make_participant(seed, index) → an object with answer(trial, question) and

@@ -17,7 +17,7 @@ from typing import Callable
 
 from devices.capability import check
 from scenarios import registry
-from scenarios.base import Trial
+from server.core.scenario import Trial
 from server.hub.hub import ScenarioRefused
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation

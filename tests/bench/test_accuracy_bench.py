@@ -11,9 +11,9 @@ import pytest
 from server.bench.accuracy import choose, pareto, run_accuracy_bench, scene_bodies
 from server.bench.contact_methods import PenaltyMethod, ProxyMethod, build_methods, grid_bodies, mesh_bodies
 from server.bench.trajectories import SCENES, scene_trajectory
-from server.haptics.mesh_shape import MeshShape
-from server.haptics.primitives import Body, Box, Cone, Cylinder, Hemisphere, Plane, Pose, Sphere
-from server.haptics.sdf_grid import GridBody, GridShape
+from server.bench.mesh_shape import MeshShape
+from server.core.haptics.primitives import Body, Box, Cone, Cylinder, Hemisphere, Plane, Pose, Sphere
+from server.bench.sdf_grid import GridBody, GridShape
 
 SHAPES = [Sphere(0.5), Hemisphere(0.6), Box((1.0, 0.6, 0.4)), Plane((3.0, 3.0)), Cylinder(0.2, 0.4),
           Cone(0.5, 1.0)]
@@ -136,7 +136,7 @@ def test_the_quick_bench_writes_finite_numbers_for_every_method(quick_run):
     assert data["quick"] is True and data["machine"]["cores"] >= 1
     assert (out / "accuracy.png").stat().st_size > 10_000 and (out / "accuracy.svg").stat().st_size > 10_000
     assert summary["json"] == str(out / "accuracy.json")
-    for scene, s in data["scenes"].items():
+    for s in data["scenes"].values():
         labels = [p["label"] for p in s["methods"]]
         assert {p["family"] for p in s["methods"]} == {"analytic", "mesh", "sdf", "penalty"}
         for p in s["methods"]:
@@ -151,7 +151,7 @@ def test_the_quick_bench_writes_finite_numbers_for_every_method(quick_run):
 
 def test_the_chart_puts_the_server_method_first_and_the_baselines_in_error(quick_run):
     _, summary, data = quick_run
-    for scene, s in data["scenes"].items():
+    for s in data["scenes"].values():
         by = {p["label"]: p for p in s["methods"]}
         assert by["analytic"]["err_max_mm"] < 1e-3  # the closed-form truth, to floating point
         assert "analytic" in s["pareto"] and s["choice"] == "analytic" and s["server_follows_chart"]

@@ -15,7 +15,7 @@ from server.bench.contact_methods import MethodStep
 from server.bench.force_device import ForceDevice, measure_oscillation, simulate_wall
 from server.bench.stability import (KIND_DELAYED, KIND_LOST, KIND_POP, KIND_TUNNEL, chatter_rate, contact_signal,
                                     first_failure, pass_heights, resting_point, run_stability_bench)
-from server.haptics.contact_gate import ContactGate
+from server.core.haptics.contact_gate import ContactGate
 
 CHARTS = ("popthrough", "stiffness", "chatter")
 

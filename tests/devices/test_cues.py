@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from devices.cues import (CUE_CLASSES, Friction, PulseTrain, Stop, Temperature, Texture, Tilt, Vibration, cue_from_wire,
+from server.core.cues import (CUE_CLASSES, Friction, PulseTrain, Stop, Temperature, Texture, Tilt, Vibration, cue_from_wire,
                           cue_to_wire, tilt_direction)
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from devices.cues import Temperature, Texture, Tilt
+from server.core.cues import Temperature, Texture, Tilt
 from devices.manager import DeviceConfig, DeviceConfigError, DeviceManager, load_device_file
 from devices.profiles import ProfileError
 

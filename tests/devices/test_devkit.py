@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from devices.cues import Friction, Temperature, Texture
+from server.core.cues import Friction, Temperature, Texture
 from devices.emulator import TIMELINE_COLUMNS, Emulator, edge_row
 from devices.encoder import NEUTRAL_SKIN_C, CueEncoder
 from devices.fwcore import MODELS, FirmwareCore, encode_frame

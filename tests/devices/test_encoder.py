@@ -2,7 +2,7 @@
 
 import pytest
 
-from devices.cues import Friction, PulseTrain, Stop, Temperature, Texture, Tilt, Vibration
+from server.core.cues import Friction, PulseTrain, Stop, Temperature, Texture, Tilt, Vibration
 from devices.encoder import CueEncoder
 from devices.messages import ALL_CHANNELS, PatternMode, SetPattern, SetTemperature, SetTilt
 from devices.profiles import FERROVIBE, FINGERTAC, DeviceProfile, Display, ProfileError, profile_by_model

@@ -7,9 +7,9 @@ import time
 import msgpack
 import pytest
 
-from devices.cues import Tilt
+from server.core.cues import Tilt
 from devices.feed import DeviceFeed
-from server.loop import ipc
+from server import ipc
 
 
 class FakeManager:

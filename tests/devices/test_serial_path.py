@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from devices.cues import PulseTrain, Texture, Tilt
+from server.core.cues import PulseTrain, Texture, Tilt
 from devices.emulator import Emulator
 from devices.framing import encode_frame
 from devices.link import BYTE_TIME_S

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from scenarios.base import Param
+from server.core.scenario import Param
 from server.experiment.question import AnswerError, Question, question_from_answer
 from server.experiment.study import StudyError, load_study, parse_study
 

@@ -6,9 +6,9 @@ import random
 
 import pytest
 
-from server.haptics.contact_gate import ContactGate
-from server.haptics.god_object import GodObject
-from server.haptics.primitives import Body, Hemisphere, Plane
+from server.core.haptics.contact_gate import ContactGate
+from server.core.haptics.god_object import GodObject
+from server.core.haptics.primitives import Body, Hemisphere, Plane
 
 RATE_HZ = 120.0  # Leap Motion frame rate
 SIGMA_M = 0.0005  # static jitter sigma (Guna et al. 2014: < 0.5 mm)
@@ -53,7 +53,7 @@ def test_real_press_and_release_still_switch():
     rng = random.Random(4)
     bodies = [Body("ground", Plane((3.0, 3.0)))]
     samples = []
-    for cycle in range(4):  # 0.5 s pressed 3 mm in, 0.5 s lifted 20 mm out, with jitter
+    for _cycle in range(4):  # 0.5 s pressed 3 mm in, 0.5 s lifted 20 mm out, with jitter
         for z in [-0.003] * 60 + [0.02] * 60:
             samples.append((0.0, 0.0, z + rng.gauss(0.0, SIGMA_M)))
     gate = ContactGate()

@@ -1,4 +1,4 @@
-"""Acceptance tests for the god-object (server.haptics.god_object).
+"""Acceptance tests for the god-object (server.core.haptics.god_object).
 
 Ground truth is the analytic signed distance of each body (tested on its own in
 test_primitives.py); "free segment" is decided independently of Body.cast by minimising the
@@ -13,9 +13,9 @@ import time
 
 import pytest
 
-from server.haptics import vec
-from server.haptics.god_object import GodObject
-from server.haptics.primitives import (Body, Box, Cone, Cylinder, Hemisphere, Plane, Pose,
+from server.core.haptics import vec
+from server.core.haptics.god_object import GodObject
+from server.core.haptics.primitives import (Body, Box, Cone, Cylinder, Hemisphere, Plane, Pose,
                                        Sphere)
 
 Q = (0.9238795325112867, 0.2126311, -0.1876923, 0.25)  # an arbitrary rotation (normalised)

@@ -1,4 +1,4 @@
-"""Property tests for server.haptics.primitives and vec: exact SDFs, poses, casts, dicts.
+"""Property tests for server.core.haptics.primitives and vec: exact SDFs, poses, casts, dicts.
 
 Oracles are independent of the implementation where it matters: the surface is checked with
 the max-of-constraints boundary function (zero exactly on the boundary), the sign with plain
@@ -14,8 +14,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from server.haptics import vec
-from server.haptics.primitives import (Body, Box, Cone, Cylinder, Hemisphere, Plane, Pose,
+from server.core.haptics import vec
+from server.core.haptics.primitives import (Body, Box, Cone, Cylinder, Hemisphere, Plane, Pose,
                                        Sphere, shape_from_dict)
 
 SETTINGS = settings(derandomize=True, database=None, deadline=None, max_examples=300,

@@ -16,7 +16,7 @@ from devices.manager import DeviceConfig
 from devices.ports import PortSpec
 from devices.profiles import profile_by_model
 from server.hub.device_host import DeviceHost
-from server.loop import ipc
+from server import ipc
 
 TILT = {"kind": "tilt", "direction_deg": 90.0, "magnitude_pct": 100.0}
 

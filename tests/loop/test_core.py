@@ -3,7 +3,8 @@
 import msgpack
 
 from scenarios.contact_angle import ContactAngle
-from server.loop.core import TRAJECTORY_COLUMNS, LoopCore
+from server.core.records import TRAJECTORY_COLUMNS
+from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
 
 MS = 1_000_000
@@ -83,7 +84,7 @@ def test_reusing_settled_steps_changes_nothing():
     """The held-HIP shortcut gives exactly what stepping the god-object every tick gives."""
     import math
 
-    from server.haptics.god_object import GodObject
+    from server.core.haptics.god_object import GodObject
 
     sim = Simulation(ContactAngle())
     reference = GodObject(sim.scene.proxy_radius)
@@ -106,14 +107,14 @@ def test_mailbox_doorbell_rings_once_per_change_across_processes():
     import subprocess
     import sys
 
-    from server.loop import ipc
+    from server import ipc
 
     bell = ipc.Doorbell()
     assert not bell.rung()
     bell.ring()
     assert bell.rung() and not bell.rung()
     # Another process sees the same memory through the inherited fd.
-    code = ("import sys; from server.loop import ipc; b = ipc.Doorbell(int(sys.argv[1])); "
+    code = ("import sys; from server import ipc; b = ipc.Doorbell(int(sys.argv[1])); "
             "print(b.rung()); b.ring(); b.ring()")
     out = subprocess.run([sys.executable, "-c", code, str(bell.fd)], pass_fds=(bell.fd,),
                          capture_output=True, text=True, check=True).stdout

@@ -6,7 +6,7 @@ import pytest
 
 from devices.capability import check
 from devices.profiles import FERROVIBE, FINGERTAC
-from scenarios.base import PHASES, Param, ParamError, Trial, check_params, describe
+from server.core.scenario import PHASES, Param, ParamError, Trial, check_params, describe
 from scenarios.registry import SCENARIOS, create
 
 TACTILE_PROPERTY = ("contact-angle-v1", "texture-v1", "stiffness-v1", "shape-v1", "friction-temperature-v1")

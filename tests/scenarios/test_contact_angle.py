@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from devices.cues import Tilt
+from server.core.cues import Tilt
 from scenarios.contact_angle import RADIUS, ContactAngle, contact_angle_deg
 from scenarios.registry import UnknownScenario, create, resolve
 from server.loop.simulation import Simulation
@@ -59,7 +59,7 @@ def test_registry_resolves_versions_and_suggests():
 
 # -- study aids: angle scale, experimenter's tap, phases --------------------------------------
 
-from scenarios.base import Trial  # noqa: E402
+from server.core.scenario import Trial  # noqa: E402
 from scenarios.contact_angle import SCALE_ID, STUDY_ANGLES, point_at_angle  # noqa: E402
 
 

@@ -4,9 +4,9 @@ and the refusal of a device that shows neither."""
 import pytest
 
 from devices.capability import check
-from devices.cues import Friction, Temperature
+from server.core.cues import Friction, Temperature
 from devices.profiles import FERROVIBE, FINGERTAC
-from scenarios.base import ParamError, Trial
+from server.core.scenario import ParamError, Trial
 from scenarios.friction_temperature import FrictionTemperature
 from scenarios.registry import create
 from scenarios.stiffness import SPACING

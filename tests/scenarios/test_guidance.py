@@ -4,7 +4,7 @@ FerroVibe directions, peg-in-hole and hot-wire cues."""
 
 import pytest
 
-from devices.cues import PulseTrain, Tilt, Vibration
+from server.core.cues import PulseTrain, Tilt, Vibration
 from scenarios.guidance import (PatternGuide, guidance_cues, guidance_tilt, hot_wire_cue, mode_t_off, p2_t_off,
                                 peg_cue, pulse_cue)
 

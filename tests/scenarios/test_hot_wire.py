@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from devices.cues import PulseTrain
-from scenarios.base import ParamError, Trial
+from server.core.cues import PulseTrain
+from server.core.scenario import ParamError, Trial
 from scenarios.hot_wire import END_RADIUS, HotWire
 from scenarios.registry import create
 from scenarios.wire_path import Path, make_path, parse_points

@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from devices.cues import PulseTrain, Vibration
-from scenarios.base import Trial
+from server.core.cues import PulseTrain, Vibration
+from server.core.scenario import Trial
 from scenarios.peg_in_hole import PegInHole, hole_centre
 from scenarios.positioning import ITEMS
 from scenarios.registry import create

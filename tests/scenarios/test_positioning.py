@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from devices.cues import PulseTrain, Tilt, Vibration
-from scenarios.base import ParamError, Trial
+from server.core.cues import PulseTrain, Tilt, Vibration
+from server.core.scenario import ParamError, Trial
 from scenarios.positioning import ITEMS, Positioning, inserted, tube_mesh
 from server.loop.simulation import Simulation
 from tests.scenarios.driving import drive as run_path, line

@@ -2,8 +2,8 @@
 
 import pytest
 
-from devices.cues import Texture, Tilt
-from scenarios.base import Trial
+from server.core.cues import Texture, Tilt
+from server.core.scenario import Trial
 from scenarios.shape import SHAPES, ShapeScenario, algorithm2
 from server.loop.simulation import Simulation
 

@@ -3,11 +3,11 @@ level, keys for estimation and production, recording with the left sphere hidden
 
 import pytest
 
-from devices.cues import Stiffness
+from server.core.cues import Stiffness
 from devices.encoder import CueEncoder
 from devices.messages import PatternMode
 from devices.profiles import FERROVIBE, FINGERTAC
-from scenarios.base import Trial
+from server.core.scenario import Trial
 from scenarios.stiffness import LEFT, MIDDLE, RIGHT, SPACING, StiffnessScenario, level_cue, level_k
 from server.loop.simulation import Simulation
 

@@ -3,8 +3,8 @@ identification with labels only in training."""
 
 import pytest
 
-from devices.cues import Texture
-from scenarios.base import ParamError, Trial
+from server.core.cues import Texture
+from server.core.scenario import ParamError, Trial
 from scenarios.texture import PERIODS_US, PLANE_ID, WRAP, TextureScenario, frequency_hz, texture_name
 from server.loop.simulation import Simulation
 

@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import pytest
 
-from devices.cues import PulseTrain, Tilt
+from server.core.cues import PulseTrain, Tilt
 from devices.profiles import profile_by_model
 from server.simulate.agent import AgentParams, GaveUp, PositioningAgent
 from server.simulate.virtual_device import VirtualDevice

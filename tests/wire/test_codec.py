@@ -102,8 +102,11 @@ def _rotate(q, p):
 
 def test_coordinate_vectors_are_consistent_rotations():
     """Converting then rotating equals rotating then converting, for three.js and Unity."""
-    to_three = lambda p: (p[1], p[2], p[0])
-    to_unity = lambda p: (p[1], p[2], -p[0])
+    def to_three(p):
+        return (p[1], p[2], p[0])
+
+    def to_unity(p):
+        return (p[1], p[2], -p[0])
     for point in COORDS["points"]:
         assert list(to_three(point["scene"])) == point["three"]
         assert list(to_unity(point["scene"])) == point["unity"]

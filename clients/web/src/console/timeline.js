@@ -1,5 +1,5 @@
 // Live cue timeline: the device-independent cues of the state frames (docs/protocol.md `cues`,
-// devices/cues.py) over the last seconds, one lane per kind of cue: contact, vibration intensity,
+// server/core/cues.py) over the last seconds, one lane per kind of cue: contact, vibration intensity,
 // pulse train on/off, tilt direction, and texture / stiffness / temperature / friction when a
 // scenario uses them.
 //
@@ -111,7 +111,7 @@ export function laneText(id, value) {
   }
 }
 
-/** Tilt directions of devices/cues.py (0 front, 90 right, 180 back, 270 left) as F, FR, R, … */
+/** Tilt directions of server/core/cues.py (0 front, 90 right, 180 back, 270 left) as F, FR, R, … */
 export function directionName(deg) {
   const names = ['F', 'FR', 'R', 'BR', 'B', 'BL', 'L', 'FL'];
   return names[Math.round((((deg % 360) + 360) % 360) / 45) % 8];

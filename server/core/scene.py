@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
-from server.haptics.primitives import Body, Pose, shape_from_dict
+from server.core.haptics.primitives import Body, Pose, shape_from_dict
 
 _COLOR = re.compile(r"^#[0-9a-fA-F]{6}$")
 _ID = re.compile(r"^[A-Za-z0-9_.:-]{1,64}$")
@@ -241,7 +241,7 @@ def overlay_from_dict(d: Any, where: str) -> Overlay:
 @dataclass(frozen=True)
 class SceneObject:
     id: str
-    shape: Any  # a shape from server.haptics.primitives (local frame)
+    shape: Any  # a shape from server.core.haptics.primitives (local frame)
     pose: Pose = Pose()
     material: Material = Material()
     haptic: bool = True   # False: drawn only (e.g. table legs)

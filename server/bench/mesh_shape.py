@@ -17,7 +17,7 @@ from math import sqrt
 import numpy as np
 import trimesh
 
-from .primitives import FEATURE_TOL, Box, Cone, Cylinder, Hemisphere, Plane, Sphere, _Shape
+from server.core.haptics.primitives import FEATURE_TOL, Box, Cone, Cylinder, Hemisphere, Plane, Sphere, _Shape
 
 LEVELS = (1, 2, 3, 4)  # icosphere subdivisions; round shapes get 4 * 2**level sections
 

@@ -18,7 +18,7 @@ from array import array
 from dataclasses import dataclass
 from math import sqrt
 
-from .primitives import (EPS_SURFACE, NEWTON_TOL, SLOPE_TOL, Body, Box, Cone, Cylinder, Hemisphere, Plane,
+from server.core.haptics.primitives import (EPS_SURFACE, NEWTON_TOL, SLOPE_TOL, Body, Box, Cone, Cylinder, Hemisphere, Plane,
                          Sphere, _Shape)
 
 CELLS = (16, 32, 64, 128)

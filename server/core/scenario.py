@@ -22,10 +22,10 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, ClassVar, Mapping, Protocol
 
-from devices.cues import Cue
-from server.haptics.primitives import Pose
-from server.haptics.vec import Vec3
-from server.scene import Scene
+from server.core.cues import Cue
+from server.core.haptics.primitives import Pose
+from server.core.haptics.vec import Vec3
+from server.core.scene import Scene
 
 PHASES = ("training", "trial", "main")  # spec.md: training → trial phase → main trials
 PARAM_KINDS = ("number", "int", "choice", "bool", "text")
