@@ -201,6 +201,7 @@ class ScenarioOutput:
     hold_hip: Vec3 | None = None  # hold the HIP here from the next tick on (experimenter's tap); None: tracker
     events: tuple[dict, ...] = ()  # things worth recording with their tick (key presses, taps)
     held: str | None = None  # the object the participant carries (recorded with the trajectory)
+    finished: Mapping[str, Any] | None = None  # the running trial ended this tick: its metrics (recorded)
 
 
 class Scenario(Protocol):
