@@ -65,10 +65,6 @@ class PortSpec:
             if self.serial is not None and not self.serial:
                 raise ValueError("PortSpec.serial must be non-empty (or None for any serial number)")
 
-    @property
-    def is_usb(self) -> bool:
-        return self.path is None
-
     def __str__(self) -> str:
         """Canonical text; `PortSpec.parse(str(spec)) == spec`."""
         if self.path is not None:
