@@ -11,9 +11,9 @@ Encodings (thesis Table 2.2: "!" direct, "(!)" encoded as vibration):
 - Tilt: direct → SET_TILT; (!) → continuous vibration whose intensity is the tilt magnitude
   (the direction is lost: a 1-DoF vibrator cannot point).
 - Texture: direct → pattern `texture` (on for duty·P, off for the rest: FerroVibe tilts for P/2,
-  flat for P/2, spec.md Scenario 2); (!) → continuous vibration at the texture's frequency 1/P.
+  flat for P/2, thesis §4.1.2); (!) → continuous vibration at the texture's frequency 1/P.
 - Stiffness: (!) → pulse train, t_on fixed, pulse rate linear in `relative` from 1 Hz (softest) to
-  10 Hz (stiffest), t_off = 1000/rate − t_on (spec.md Scenario 3; the defaults live in
+  10 Hz (stiffest), t_off = 1000/rate − t_on (thesis §4.1.3 and our defaults in
   `StiffnessEncoding`); direct → refused, protocol v1 has no normal-force command.
 - Temperature, Friction: direct only.
 - Stop: every layer off, whatever else the tick asks for.
@@ -37,8 +37,8 @@ _DIMENSION = {Tilt: "macro_roughness", Texture: "fine_roughness", Stiffness: "st
 
 @dataclass(frozen=True)
 class StiffnessEncoding:
-    """Stiffness as vibration (spec.md Scenario 3 and "PWM defaults"): bursts of t_on_ms whose rate
-    rises linearly from rate_hz[0] (softest) to rate_hz[1] (stiffest)."""
+    """Stiffness as vibration (thesis §4.1.3; docs/reference.md "Devices"): bursts of t_on_ms whose
+    rate rises linearly from rate_hz[0] (softest) to rate_hz[1] (stiffest)."""
     t_on_ms: float = 50.0
     rate_hz: tuple[float, float] = (1.0, 10.0)
     intensity_pct: float = 100.0

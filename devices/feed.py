@@ -6,8 +6,9 @@ record. The feed runs in the device host process (devices/host_process.py), neve
 event loop: with 64 viewers that loop is busy sending the same tick's frame to every viewer right
 when a cue changes (docs/performance.md "Tracker → device latency"). The thread sleeps in `recv`,
 runs at SCHED_FIFO below the loop when allowed (devices/realtime.py), and hands each cue set to
-the DeviceManager, whose writer threads put it on the ports; `submit` never touches a port, so
-a dead or slow device cannot hold the feed up.
+the DeviceManager with `write_now`: it writes a device's first frame itself only when the link
+budget allows and the port's output queue is empty, so the write cannot block, and leaves the
+rest to the device's writer thread; a dead or slow device cannot hold the feed up.
 """
 
 from __future__ import annotations

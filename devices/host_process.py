@@ -11,7 +11,7 @@ Started by the hub (server/hub/device_host.py) as
 `python -m devices.host_process --control-fd C --cues-fd Q`, with the pickled device configs on
 stdin. Control records (msgpack arrays on a SEQPACKET socket):
   hub → here: ["snapshot", request_id, writes], ["stop"]
-  here → hub: ["hello", {"pid", "feed_rt"}], ["report", {"refusals", "status"}],
+  here → hub: ["hello", {"pid"}], ["report", {"refusals", "status"}],
               ["profiles", {name: profile table}], ["snapshot", request_id, snapshot]
 A closed control socket (the hub died) is a stop. Stopping turns every actuator off first.
 """

@@ -1,10 +1,12 @@
 """DeviceManager: the configured devices of a rig, fed with the loop's cues.
 
-The hub hands it each new cue set (the loop publishes a state record in every tick whose cues
-changed). For every device it encodes the cues for that device's profile (devices.encoder) and
-passes the commands to its SerialDevice, which coalesces them onto the link. Refusals (cues a
+It lives in the device host process (devices/host_process.py), where the device feed
+(devices/feed.py) hands it each cue set the loop sends on the cue channel in every tick whose
+cues changed. For every device it encodes the cues for that device's profile (devices.encoder)
+and passes the commands to its SerialDevice, which coalesces them onto the link. Refusals (cues a
 profile cannot show) are kept as the rig's current refusal set, logged when they appear, and
-announced to listeners (the hub forwards them to the scenario and the console).
+announced to listeners (the device host reports them to the hub, which passes them on to the
+loop's scenario).
 
 Configuration: `DeviceConfig.parse("ferrovibe@/dev/ttyUSB0")` for the command line, or a TOML
 file with [[device]] tables (docs/devices.md), which may also describe a device of its own.

@@ -3,11 +3,12 @@
 A configured device names its port either by path (`/dev/ttyUSB0`, `/dev/rfcomm0`, a pty
 symlink, `COM3`) or by USB identity (`usb:303a:1001[:SERIAL]`), because ttyUSBn/ttyACMn
 numbers change with plug order; the identity is resolved to a path each time the host (re)opens
-the port (docs/device-protocol.md, "Faults").
+the port (docs/devices.md "Faults").
 
 The other half is latency: FTDI-style USB-serial bridges hold received bytes for up to their
 latency timer (16 ms by default, 1-255 ms) before sending them to the host, which delays every
-device reply by that much (reference notes §6). Linux exposes the timer in sysfs; we read it and
+device reply by that much (FTDI application note AN232B-04;
+docs/devices.md "USB-serial latency timer"). Linux exposes the timer in sysfs; we read it and
 say how to lower it. CP210x, CDC-ACM (ESP32 native USB), Bluetooth and ptys have no such timer.
 """
 
@@ -64,10 +65,6 @@ class PortSpec:
                     raise ValueError(f"PortSpec.{name} must be an int in [0, 0xffff], got {value!r}")
             if self.serial is not None and not self.serial:
                 raise ValueError("PortSpec.serial must be non-empty (or None for any serial number)")
-
-    @property
-    def is_usb(self) -> bool:
-        return self.path is None
 
     def __str__(self) -> str:
         """Canonical text; `PortSpec.parse(str(spec)) == spec`."""

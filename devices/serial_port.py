@@ -5,9 +5,11 @@ No domain logic lives here. The reader thread owns the connection: it resolves t
 path or USB VID/PID/serial number), opens it, feeds every byte it reads to the protocol, and on
 any read error (unplug, Bluetooth link lost) closes the port, reports "disconnected" and tries
 again every `reopen_interval_s`. The writer thread asks the protocol what to write and when to
-ask again (the link budget, heartbeats), and sleeps in between. `set_commands` only takes a lock
-for the time of a dict update and never touches the port, so its caller (the hub, fed by the
-1 kHz loop) can never wait on a serial port (docs/device-protocol.md §4–5).
+ask again (the link budget, heartbeats), and sleeps in between. `set_commands` takes a lock only
+for the time of a dict update, so its caller (the device feed in the device host process) never
+waits on a serial port: with `write_now` it writes one frame itself, and only when the port's
+output queue is empty (docs/device-protocol.md §4–5). The 1 kHz loop, in a process of its own,
+never reaches this code.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Scenario 1, contact angle (thesis §4.1.1 and §5.2, spec.md Algorithm 1).
+"""Scenario 1, contact angle (thesis §4.1.1 and §5.2, Algorithm 1).
 
 A hemisphere of radius 0.6 stands on a ground plane, seen by an orthographic camera 5 m away,
 so it looks like a half circle. While the HIP is in contact with it, the contact angle is

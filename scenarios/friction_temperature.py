@@ -1,4 +1,4 @@
-"""Scenario 5, friction and temperature (thesis §4.1.5, spec.md Scenario 5).
+"""Scenario 5, friction and temperature (thesis §4.1.5; docs/scenarios.md).
 
 A static plane with static and dynamic friction, rendered by the god-object's friction cone
 (the proxy sticks while the lateral pull stays inside μ_s, then slides lagging by μ_d), and the

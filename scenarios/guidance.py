@@ -1,4 +1,4 @@
-"""Tactile guidance laws of the positioning tasks (thesis §4.2.1-4.2.4, spec.md Scenarios 6-8).
+"""Tactile guidance laws of the positioning tasks (thesis §4.2.1-4.2.4; docs/scenarios.md).
 
 Pure functions of distances (and one small state machine for the time-variant patterns), shared
 by the positioning, peg-in-hole and hot-wire scenarios. A law answers with the PWM pause t_off
@@ -19,7 +19,7 @@ from server.core.cues import PulseTrain, Tilt, Vibration
 BOUNDARY = 2.0          # B: cue zone radius around the target
 TARGET_THRESHOLD = 0.05  # "at target": within this on every axis (default)
 HOLD_OFFSET = 0.1       # time-variant patterns: cue only within this depth after the first reach
-T_ON_MS = 50.0          # spec.md PWM default
+T_ON_MS = 50.0          # our pulse default (docs/reference.md "Devices")
 
 MODES = ("continuous-at-target", "none-at-target")
 PATTERNS = ("P1", "P2", "P3", "P4")

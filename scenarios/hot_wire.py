@@ -1,4 +1,4 @@
-"""Scenario 8, hot wire (thesis §4.2.4; spec.md Scenario 8).
+"""Scenario 8, hot wire (thesis §4.2.4; docs/scenarios.md).
 
 A green path (segments, a circle or a spiral) runs above the table from a start to a red target
 hole. The participant brings the HIP (sphere r 0.06) to the start, then moves its centre along

@@ -1,4 +1,4 @@
-"""Scenario 7, peg-in-hole (thesis §4.2.4; spec.md Scenario 7).
+"""Scenario 7, peg-in-hole (thesis §4.2.4; docs/scenarios.md).
 
 The positioning task's table, objects and holes (scenarios/positioning.py), seen through a
 perspective camera that the participant may orbit and zoom (all three dimensions visible).

@@ -1,4 +1,4 @@
-"""Scenario 6, object positioning (thesis §4.2, §5.5; spec.md Scenario 6).
+"""Scenario 6, object positioning (thesis §4.2, §5.5; docs/scenarios.md).
 
 A table (3 deep × 4 wide, four legs 5 high, drawn only) with two cubes (side 0.3) and a sphere
 (r 0.15), and a hole for each: square tubes (inner 0.3, outer 0.4, 0.5 high) and a round tube

@@ -1,4 +1,4 @@
-"""Scenario 4, shape detection (thesis §4.1.4, spec.md Algorithm 2).
+"""Scenario 4, shape detection (thesis §4.1.4, Algorithm 2).
 
 A cube (side 1, origin at its bottom centre), a sphere (radius 0.5) and a cone (base radius 0.5,
 height 1), seen by an orthographic camera 5 m away, so they look like a square, a circle and a

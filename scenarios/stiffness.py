@@ -1,4 +1,4 @@
-"""Scenario 3, stiffness (thesis §4.1.3 and §5.4, spec.md Scenario 3).
+"""Scenario 3, stiffness (thesis §4.1.3 and §5.4; docs/scenarios.md).
 
 Three static spheres of radius 0.4 on a plane: left grey = the softest reference (level 1),
 middle green = the test sphere, right red = the stiffest reference (level 10). Each is a

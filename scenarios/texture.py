@@ -1,4 +1,4 @@
-"""Scenario 2, texture (thesis §4.1.2 and §5.3, spec.md Scenario 2).
+"""Scenario 2, texture (thesis §4.1.2 and §5.3; docs/scenarios.md).
 
 One 3 × 3 plane. While the HIP touches it, the plane moves under the HIP at a fixed velocity
 (0.1 scene units/s by default) and the texture plays: a periodic signal of period P, on for

@@ -1,4 +1,4 @@
-"""The hot wire's path (thesis §4.2.4; spec.md Scenario 8): a polyline of segments, a circle or
+"""The hot wire's path (thesis §4.2.4): a polyline of segments, a circle or
 a spiral (both made of segments), and the one query the task needs: the nearest projection of a
 point on the path (distance and arc position).
 

@@ -71,8 +71,8 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
             log.info("tracker UDP port: %s (docs/protocol.md)", app.state.tracker_udp)
         supervisor.start()
         flusher = asyncio.get_running_loop().create_task(_flush_recorder(experiment))
-        # A full collection over FastAPI's start-up heap pauses the event loop for 10-20 ms
-        # (measured in tests/devices/test_serial_path.py when the devices lived here); freeze it.
+        # A full collection over FastAPI's start-up heap pauses this process, event loop and all,
+        # for 10-20 ms (measured when the device threads still lived here); freeze it.
         gc.collect()
         gc.freeze()
         yield

@@ -4,7 +4,8 @@ A pair of AF_UNIX SOCK_SEQPACKET sockets: message boundaries are kept, each reco
 msgpack array `[kind, ...]`, and both ends are non-blocking. The loop drains its inbox at the
 start of a tick and never waits: a full socket means the record is dropped and counted (state
 frames are latest-value anyway), never a blocked tick, and nothing spins on data written by a
-lower-priority process (shared/reference/loop-probe.md: that stalled the machine for 60 ms).
+lower-priority process (that stalled the machine for 30-65 ms, docs/reference.md "Design
+measurements").
 
 A doorbell (an 8-byte counter in a shared memfd) saves the loop a `recv` syscall on the ~99 % of
 ticks where the hub wrote nothing: the hub bumps the counter after each send, the loop reads it

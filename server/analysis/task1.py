@@ -1,4 +1,4 @@
-"""Task 1, contact angle discrimination (thesis §5.2.3; spec.md Analyses).
+"""Task 1, contact angle discrimination (thesis §5.2.3; docs/analysis.md).
 
 Per trial the absolute deviation |answer − angle| (degrees). Per angle: mean absolute deviation
 with a t-based 95 % CI over the participants; a one-way repeated-measures ANOVA of the deviation

@@ -1,4 +1,4 @@
-"""Task 2, texture discrimination (thesis §5.3.3; spec.md Analyses).
+"""Task 2, texture discrimination (thesis §5.3.3; docs/analysis.md).
 
 Sub-task A (pairs: params.second_period_us present, Likert rating 1..7 "second vs first"): mean
 rating per comparison with a t-based 95 % CI; a one-way repeated-measures ANOVA over the

@@ -1,4 +1,4 @@
-"""Task 3, stiffness magnitude estimation and production (thesis §5.4.3; spec.md Scenario 3).
+"""Task 3, stiffness magnitude estimation and production (thesis §5.4.3; docs/analysis.md).
 
 Estimation: params.level (the middle sphere) against the named level (answer_level). Production:
 params.level (the target) against the level the participant produced (metrics.produced_level).

@@ -1,4 +1,4 @@
-"""Task 4, object positioning (thesis §5.5.3 and §5.6; spec.md Analyses).
+"""Task 4, object positioning (thesis §5.5.3 and §5.6; docs/analysis.md).
 
 Main positioning trials, each with its device (the task's, else the session's), its cue (params.cue,
 else the scenario's cue: P1..P4, the two vibration modes, "3dof" = the FerroVibe's guidance, "none")

@@ -11,7 +11,7 @@ how the proxy is found:
   (server/bench/sdf_grid.py): interpolation error and a sphere-traced cast.
 * ``penalty``: no proxy memory at all; the nearest surface point of the HIP's current sample,
   like CHAI3D's analytic shapes (cShape*::computeLocalInteraction + cEffectSurface,
-  rendering-notes.md 1.5), with its pop-through and tunnelling (1.3).
+  docs/reference.md "Haptic rendering"), with its pop-through and tunnelling.
 """
 
 from __future__ import annotations

@@ -15,12 +15,13 @@ of stiffness K to get the spring force K (proxy - HIP), and holds that force unt
 used to advance the device exactly (no integration error that could add or remove energy and
 move the boundary). The hold is what makes a stiff sampled wall active: on average the force
 lags the position by T/2, which acts as a negative damping K T/2. Colgate & Schenkel (1997)
-state the passivity condition b > K T / 2 (rendering-notes.md 2.1), i.e. K < 2 b / T; the
+state the passivity condition b > K T / 2 (with no virtual damping), i.e. K < 2 b / T; the
 sweep measures where the coupled device actually starts to oscillate.
 
 The defaults (m = 0.05 kg, b = 1.0 N s/m, user force 1 N) are ASSUMPTIONS in the range of a
 desktop impedance device (CHAI3D's defaults list 4-30 N s/m of "max damping" and 400-5000 N/m
-of stiffness for such devices, rendering-notes.md 2.2); the device is a model, not a datasheet.
+of stiffness for such devices, docs/reference.md "Stability"); the device is a model, not a
+datasheet.
 """
 
 from __future__ import annotations

@@ -54,7 +54,7 @@ from server.core.haptics.primitives import Body, Box, Pose
 SCENE_ID = "contact-angle-v1"
 PLATE_SIDE = 0.2  # metres; the plate's extent in x and y
 SERVER_METHOD = "analytic"  # the family of the server's own method
-TRACKER_HZ = 120  # Leap Motion frame rate (rendering-notes.md 2.4)
+TRACKER_HZ = 120  # Leap Motion frame rate (docs/reference.md "Stability")
 LEAP_SIGMA_M = 0.0005  # Leap Motion static jitter sigma (Guna et al. 2014: < 0.5 mm)
 CHATTER_STABLE_PER_S = 0.5  # at most one spurious off/on pair every 4 s
 NOISE_SEED = 20240601

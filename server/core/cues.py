@@ -28,7 +28,7 @@ class _Ranged:
 
 @dataclass(frozen=True)
 class PulseTrain(_Ranged):
-    """Bursts of vibration: t_on ms on, t_off ms off (spec.md PWM; FingerTac LRAs at 235 Hz)."""
+    """Bursts of vibration: t_on ms on, t_off ms off (thesis §3.1: FingerTac LRAs at 235 Hz)."""
     kind: ClassVar[str] = "pulse_train"
     RANGES: ClassVar = {"t_on_ms": (0.0, 60_000.0), "t_off_ms": (0.0, 60_000.0), "intensity_pct": (0.0, 100.0),
                         "carrier_hz": (1.0, 2_000.0)}
@@ -49,7 +49,7 @@ class Vibration(_Ranged):
 
 @dataclass(frozen=True)
 class Texture(_Ranged):
-    """Fine roughness as a periodic signal: period in µs, duty cycle (spec.md Scenario 2)."""
+    """Fine roughness as a periodic signal: period in µs, duty cycle (thesis §4.1.2)."""
     kind: ClassVar[str] = "texture"
     RANGES: ClassVar = {"period_us": (100.0, 1_000_000.0), "duty": (0.0, 1.0), "intensity_pct": (0.0, 100.0)}
     period_us: float = 4000.0
@@ -70,7 +70,7 @@ class Tilt(_Ranged):
 class Stiffness(_Ranged):
     """How hard the touched object is (Table 2.2 "stiffness"). `k_n_per_m` is the spring constant;
     `relative` places it between the softest (0) and stiffest (1) object of the task, which is what
-    a device that encodes stiffness as vibration shows (spec.md Scenario 3: pulse rate)."""
+    a device that encodes stiffness as vibration shows (thesis §4.1.3: pulse rate)."""
     kind: ClassVar[str] = "stiffness"
     RANGES: ClassVar = {"k_n_per_m": (0.0, 1e6), "relative": (0.0, 1.0)}
     k_n_per_m: float = 100.0

@@ -11,7 +11,8 @@ the console and the hub need without running it:
 - TRIAL_PARAMS: what one trial sets (`set_trial`), e.g. the angle to present;
 - CONTROLS: the keys and experimenter commands it reacts to, who may send them, and the value a
   command carries (the hub checks role and value before anything reaches the loop);
-- SUBTASKS: the thesis's study parts with their conditions and answer scales (spec.md);
+- SUBTASKS: the thesis's study parts with their conditions and answer scales (docs/reference.md
+  "Study");
 - REQUIRES: the tactile dimensions (thesis Table 2.2) of which a device must show at least one.
 """
 
@@ -27,7 +28,7 @@ from server.core.haptics.primitives import Pose
 from server.core.haptics.vec import Vec3
 from server.core.scene import Scene
 
-PHASES = ("training", "trial", "main")  # spec.md: training → trial phase → main trials
+PHASES = ("training", "trial", "main")  # the thesis's study design (docs/reference.md "Study")
 PARAM_KINDS = ("number", "int", "choice", "bool", "text")
 ROLES_FOR_CONTROLS = ("participant", "operator")
 
@@ -134,8 +135,8 @@ def find_control(controls: tuple[Control, ...], key: str) -> Control | None:
 
 @dataclass(frozen=True)
 class SubTask:
-    """One part of a scenario's study (spec.md "Study"): main-trial conditions and the answer scale.
-    The experiment engine orders the conditions; this is the design, not the order."""
+    """One part of a scenario's study (docs/reference.md "Study"): main-trial conditions and the
+    answer scale. The experiment engine orders the conditions; this is the design, not the order."""
     name: str
     title: str
     conditions: tuple[Mapping[str, Any], ...]  # TRIAL_PARAMS of each main trial

@@ -295,7 +295,7 @@ class Scene:
     name: str
     objects: tuple[SceneObject, ...]
     camera: Camera = Camera()
-    hip_radius: float = 0.06    # drawn HIP sphere (spec.md "Frame and units")
+    hip_radius: float = 0.06    # drawn HIP sphere (thesis §4.2.4)
     proxy_radius: float = 0.06  # god-object contact radius; 0 = point proxy
     hip_color: str = "#ffd400"
     hud_text: str = ""

@@ -331,14 +331,6 @@ class Store:
             return {r["question"]: json.loads(r["value_json"]) for r in self.db.execute(
                 "SELECT question, value_json FROM responses WHERE trial_id = ? ORDER BY question", (trial_id,))}
 
-    def response_rows(self, session_id: str) -> list[dict]:
-        with self._lock:
-            rows = self.db.execute(
-                "SELECT r.trial_id, t.seq, r.question, r.value_json, r.entered_by, r.answered_utc FROM responses r "
-                "JOIN trials t ON t.id = r.trial_id WHERE t.session_id = ? ORDER BY t.seq, r.question",
-                (session_id,)).fetchall()
-        return [{**dict(r), "value": json.loads(r["value_json"])} for r in rows]
-
     # -- recorded streams (batched by the recorder) -------------------------------------------
     def add_events(self, rows: list[tuple]) -> None:
         """rows: (session_id, trial_id | None, attempt | None, tick | None, kind, body dict)."""

@@ -6,8 +6,8 @@
 - A state frame is encoded once per format, not per client.
 - Broadcasting wakes the senders in slices of `SLICE` clients and yields to the event loop in
   between, so tracker messages that arrive during a broadcast are read after at most one slice
-  instead of after all 64 sends (the probe measured tracker → device p99 4-6 ms at 32+ viewers
-  when tracker frames queued behind one broadcast burst).
+  instead of after all 64 sends (the design measurements, docs/reference.md, saw tracker → device
+  p99 4-6 ms at 32+ viewers when tracker frames queued behind one broadcast burst).
 - Every bad frame gets exactly one `error` reply and the connection stays open.
 """
 

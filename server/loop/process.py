@@ -1,6 +1,6 @@
 """The loop process: a thin adapter that runs LoopCore at 1 kHz on a real clock.
 
-Why a separate process at SCHED_FIFO (docs/architecture.md, shared/reference/loop-probe.md):
+Why a separate process at SCHED_FIFO (docs/architecture.md "Processes"):
 a 1 kHz thread beside the asyncio server shares the GIL with the broadcasts and misses
 deadlines (period p99 2-5 ms from 8 viewers on); a separate process at real-time priority held
 p99 1.03 ms with 64 viewers. Without CAP_SYS_NICE/root it falls back to normal priority with a

@@ -85,10 +85,6 @@ class Feel:
         c = self.channels[channel]
         return c.on and now_s - c.since_s >= longer_than_s
 
-    def silent_for(self, now_s: float, channel: int = 0) -> float:
-        c = self.channels[channel]
-        return 0.0 if c.on else now_s - c.since_s
-
     def tilt(self, channel: int = 0) -> tuple[float, int]:
         c = self.channels[channel]
         return c.direction_deg, c.magnitude

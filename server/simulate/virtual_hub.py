@@ -1,10 +1,12 @@
-"""The hub's role for a simulated study, in one process on the virtual clock.
+"""The hub's, the loop process's and the device host's roles for a simulated study, in one
+process on the virtual clock.
 
 It owns the real loop core (LoopCore + Simulation: the same per-tick code as `viestac serve`),
 applies the experiment engine's requests between ticks exactly as the loop applies mailbox
-records, hands every record to the listeners (the recorder), and sends each tick's cues to the
-virtual devices. Nothing sleeps and nothing reads a clock: `advance()` runs ticks as fast as the
-machine can, so a study takes as long as its computation, not as long as its trials.
+records, hands every record to the listeners (the recorder), and gives the virtual devices each
+changed cue set (as the loop's cue channel feeds the device host). Nothing sleeps and nothing
+reads a clock: `advance()` runs ticks as fast as the machine can, so a study takes as long as
+its computation, not as long as its trials.
 
 It offers what the engine needs of a hub (server/experiment/engine.HubPort): switch_scenario,
 set_trial, set_recording, scenario_state, last_state, listeners; plus set_hip and command for
@@ -84,7 +86,7 @@ class VirtualHub:
         for _ in range(ticks):
             tick = self.core.sim.tick
             result, record = self.core.step(tick * TICK_NS)
-            if result.output.cues != self._submitted:  # across scenario switches too, as the hub does
+            if result.output.cues != self._submitted:  # across scenario switches too (LoopCore.device_cues)
                 self._submitted = result.output.cues
                 for device in self.devices.values():
                     device.submit(result.output.cues)

@@ -101,7 +101,7 @@ class AngleEstimation:
 @dataclass(frozen=True)
 class TextureComparison:
     """"Second vs first" on a Likert scale (1 much smoother, 4 same, 7 much rougher; the
-    texture scenario's LIKERT and spec.md Scenario 2): a lower frequency is rougher.
+    texture scenario's LIKERT, thesis §5.3.2): a lower frequency is rougher.
 
     d = (log f1 + N(0, w)) − (log f2 + N(0, w))  (> 0: the second felt rougher);
     |d| < same_band → the midpoint ("same"); else midpoint ± min(half, max(1, round(gain·|d|))),

@@ -1,4 +1,4 @@
-"""Scenario 1 (spec.md Algorithm 1): angles and FerroVibe tilt directions."""
+"""Scenario 1 (thesis Algorithm 1): angles and FerroVibe tilt directions."""
 
 import math
 

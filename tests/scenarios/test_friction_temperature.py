@@ -1,4 +1,4 @@
-"""Scenario 5 (spec.md Scenario 5): friction by the proxy's friction cone, sphere temperatures,
+"""Scenario 5 (thesis §4.1.5): friction by the proxy's friction cone, sphere temperatures,
 and the refusal of a device that shows neither."""
 
 import pytest

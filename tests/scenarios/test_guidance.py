@@ -1,6 +1,6 @@
-"""Guidance laws of the positioning tasks (spec.md Scenarios 6-8): the t_off tables of both
-vibration modes and patterns P1-P4 at the spec's depths, the time-variant switch, the 3-DoF
-FerroVibe directions, peg-in-hole and hot-wire cues."""
+"""Guidance laws of the positioning tasks (thesis §4.2; docs/scenarios.md "Guidance laws"): the
+t_off tables of both vibration modes and patterns P1-P4 at the thesis's depths, the time-variant
+switch, the 3-DoF FerroVibe directions, peg-in-hole and hot-wire cues."""
 
 import pytest
 

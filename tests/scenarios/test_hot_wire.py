@@ -1,4 +1,4 @@
-"""Scenario 8 (spec.md Scenario 8): path geometry, the deviation → cue rules, a scripted run whose
+"""Scenario 8 (thesis §4.2.4): path geometry, the deviation → cue rules, a scripted run whose
 metrics equal those computed from the script, no short cuts, the moving-target variant."""
 
 import math

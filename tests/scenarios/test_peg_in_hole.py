@@ -1,4 +1,4 @@
-"""Scenario 7 (spec.md Scenario 7): perspective scene, the nearest hole chosen again every tick,
+"""Scenario 7 (thesis §4.2.4): perspective scene, the nearest hole chosen again every tick,
 intensity and pulse rate linear in the distance (and reversed), insertion into a hole that fits,
 the per-trial metrics against the scripted path."""
 

@@ -1,4 +1,4 @@
-"""Scenario 6 (spec.md Scenario 6): grasp, arrow, hold 2 s → GO, insertion, next object, the
+"""Scenario 6 (thesis §4.2): grasp, arrow, hold 2 s → GO, insertion, next object, the
 per-trial metrics against the scripted path, cue laws on the carried object, moving and scaled
 holes."""
 

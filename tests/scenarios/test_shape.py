@@ -1,4 +1,4 @@
-"""Scenario 4 (spec.md Algorithm 2): every branch, through the pure rule and through touch."""
+"""Scenario 4 (thesis Algorithm 2): every branch, through the pure rule and through touch."""
 
 import pytest
 

@@ -1,4 +1,4 @@
-"""Scenario 3 (spec.md Scenario 3): levels, spring constants, the pulse-train encoding of every
+"""Scenario 3 (thesis §4.1.3): levels, spring constants, the pulse-train encoding of every
 level, keys for estimation and production, recording with the left sphere hidden."""
 
 import pytest
@@ -11,7 +11,7 @@ from server.core.scenario import Trial
 from scenarios.stiffness import LEFT, MIDDLE, RIGHT, SPACING, StiffnessScenario, level_cue, level_k
 from server.loop.simulation import Simulation
 
-# spec.md: rate = L Hz (1 Hz at level 1 … 10 Hz at level 10), t_on 50 ms, t_off = 1000/rate − 50 ms
+# docs/devices.md: rate = L Hz (1 Hz at level 1 … 10 Hz at level 10), t_on 50 ms, t_off = 1000/rate − 50 ms
 T_OFF_MS = {1: 950.0, 2: 450.0, 3: 283.333, 4: 200.0, 5: 150.0, 6: 116.667, 7: 92.857, 8: 75.0, 9: 61.111, 10: 50.0}
 
 

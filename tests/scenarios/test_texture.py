@@ -1,4 +1,4 @@
-"""Scenario 2 (spec.md Scenario 2): five periods, a plane moving at a fixed velocity, pairs and
+"""Scenario 2 (thesis §4.1.2): five periods, a plane moving at a fixed velocity, pairs and
 identification with labels only in training."""
 
 import pytest

@@ -30,7 +30,7 @@ static vt_edge out;                         // channel 0's output, as last repor
 static float shown_magnitude = -1.0f;       // what the solenoids show now
 static uint16_t shown_direction;
 
-// The tilt as a 2-D vector (spec.md: 0° = front, 90° = right, 180° = back, 270° = left):
+// The tilt as a 2-D vector (thesis §4.1.1: 0° = front, 90° = right, 180° = back, 270° = left):
 // cos → front/back solenoid, sin → left/right solenoid, the sign picks the H-bridge direction.
 // One channel: the newest edge is its output state.
 static void keep_edge(const vt_edge *e)
@@ -49,7 +49,7 @@ static void drive(uint16_t direction_cdeg, float magnitude)
 }
 
 // Tilt magnitude (0..1) to show at `now`. Without a pattern: the static tilt. With one, its gate
-// switches the tilt (texture: tilt for P/2, flat for P/2, spec.md Scenario 2); pulse and
+// switches the tilt (texture: tilt for P/2, flat for P/2, thesis §4.1.2); pulse and
 // continuous also re-tilt at the carrier while the gate is on. The pattern's intensity scales
 // the tilt; a pattern with no tilt set vibrates toward the current direction at full tilt.
 static float magnitude_at(const vt_edge &s, uint64_t now)

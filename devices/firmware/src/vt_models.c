@@ -4,7 +4,7 @@
 
 #include "viestac_fw.h"
 
-/* FingerTac: two LRAs at their 235 Hz resonance; vibration only (spec.md "Device facts"). */
+/* FingerTac: two LRAs at their 235 Hz resonance; vibration only (thesis §3.1). */
 const vt_model vt_model_fingertac = {
     "fingertac", 1, 0, 0, 2, VT_CAP_PULSE | VT_CAP_CONTINUOUS | VT_CAP_TEXTURE, 235
 };

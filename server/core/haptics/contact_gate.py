@@ -5,7 +5,7 @@ Theory of operation
 A vibrotactile wearable has no force path back into the tracked hand, so what goes wrong at a
 surface is not instability but chattering: tracker noise makes the HIP straddle the surface and a
 raw "in contact" flag toggles at up to the tracker rate (~120 Hz for a Leap Motion), which the
-wearer feels as a blur of pulses (rendering-notes.md 2.4). The gate turns the raw flag into a
+wearer feels as a blur of pulses (docs/reference.md "Stability"). The gate turns the raw flag into a
 clean on/off signal with two mechanisms:
 
 * Hysteresis band: switch on when the god-object reports contact, switch off only once the HIP

@@ -4,15 +4,15 @@ Theory of operation
 -------------------
 The proxy is a massless point (or sphere of ``radius``) that follows the haptic interaction point
 (HIP) but never enters a body; the force is the spring F = k (proxy - HIP) (Zilles & Salisbury
-1995; Ruspini, Kolarov & Khatib 1997; spec.md "Haptic rendering"). Each tick:
+1995; Ruspini, Kolarov & Khatib 1997; thesis §3.3.1). Each tick:
 
 1. Carry: if a body moved into the proxy, push it out to the nearest outside point (like
-   CHAI3D's dynamic proxy, rendering-notes.md 1.4).
+   CHAI3D's dynamic proxy; docs/reference.md "Haptic rendering").
 2. Cast the segment proxy -> HIP against every body (``Body._cast``: exact and continuous, so a
    thin or fast-crossed object cannot be tunnelled, unlike the nearest-face penalty rule that
-   pops through, rendering-notes.md 1.3). No hit: the proxy goes to the HIP (free/released).
-3. Hit: stop ON the surface (no epsilon back-off, which would bias the force: CHAI3D keeps one,
-   1.4) and make the tangent plane there a constraint. Slide to the sub-goal argmin |t - HIP|
+   pops through, CHAI3D's CShapeBox). No hit: the proxy goes to the HIP (free/released).
+3. Hit: stop ON the surface (no epsilon back-off, which would bias the force: CHAI3D 3.3 keeps
+   one) and make the tangent plane there a constraint. Slide to the sub-goal argmin |t - HIP|
    s.t. n_i.(t - q_i) >= 0 (Zilles & Salisbury's Lagrangian step, solved in closed form by
    ``vec.project_halfspaces``). Every slide move is itself cast-checked and a new hit adds its
    plane, so a concave crease (box on the ground) gets both planes in the SAME tick and the
@@ -27,7 +27,7 @@ The proxy is a massless point (or sphere of ``radius``) that follows the haptic 
 Point proxies can sit on edges, the cone apex and creases, so casts starting there use every
 surface feature's normal, and faces glued to another body's face (a box standing on the ground)
 are ignored: otherwise the point slides into the zero-thickness gap between the two bodies, the
-analytic twin of a point god-object falling between adjacent polygons (rendering-notes.md 1.3).
+analytic twin of a point god-object falling between adjacent polygons (Ruspini et al. 1997).
 Friction (optional, one contact only): Ruspini's friction cone. Stick at the previous surface
 position while |f_t| <= mu_s |f_n|; slipping lags the frictionless point by mu_d * depth; back
 to sticking only inside the mu_d cone (hysteresis against stick/slip chatter, as CHAI3D does).

@@ -25,7 +25,7 @@ the normals of every face/edge/apex feature the point lies on, so sliding along 
 an edge is not a hit (a start slightly outside is finished by Newton, landing exactly on the
 surface). This is the segment test of the god-object / virtual proxy (Zilles & Salisbury 1995;
 Ruspini et al. 1997) on analytic surfaces. Pure floats, no numpy, no I/O: the 1 kHz loop calls
-this many times per tick (numpy 3-vectors cost ~5x, rendering-notes.md section 3.1).
+this many times per tick (numpy 3-vectors cost ~5x, docs/reference.md "Design measurements").
 """
 
 from __future__ import annotations

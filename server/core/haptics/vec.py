@@ -1,14 +1,14 @@
 """Tiny 3-vector helpers on plain tuples.
 
 Theory of operation: the 1 kHz haptic loop works on 3-D points and directions only. Small
-numpy arrays cost about 5x more per operation than plain Python floats (rendering-notes.md
-section 3.1: analytic sphere distance 0.6-0.9 us pure Python vs 3.3-5.5 us with numpy 3-vectors),
+numpy arrays cost about 5x more per operation than plain Python floats (docs/reference.md
+"Design measurements": sphere distance 0.6-0.9 us pure Python, 3.3-5.5 us with numpy 3-vectors),
 so every vector in the per-tick path is a ``tuple[float, float, float]`` and these helpers are
 plain functions. Hot loops in primitives.py / god_object.py inline the arithmetic instead of
 calling these (a Python call costs ~50-100 ns); the helpers are for clarity elsewhere.
 
-Frame (spec.md): scene frame x toward the viewer, y right, z up, right-handed; units are scene
-"metres".
+Frame (docs/reference.md "Frame and units"): scene frame x toward the viewer, y right, z up,
+right-handed; units are scene "metres".
 """
 
 from __future__ import annotations
@@ -77,13 +77,13 @@ TRIPLE_TOL = 1e-8  # |n1.(n2 x n3)| below this: triple skipped
 
 
 def project_halfspaces(h: Vec3, planes: list[HalfSpace]) -> Vec3 | None:
-    """argmin |t - h| s.t. n_i.t >= c_i, by enumerating the closed-form active-set candidates:
-    h itself, its projection onto one plane, onto the line of two, the point of three; the
+    """argmin |t - h| s.t. n_i.t >= c_i, by enumerating the closed-form active-set candidates: h
+    itself, its projection onto one plane, onto the line of two, the point of three; the
     feasible candidate nearest h wins. The true minimiser is the projection of h onto the affine
     hull of its active constraints (at most 3 independent ones in 3-D, Zilles & Salisbury 1995),
     so it is among the candidates. Closed form costs ~1 us where a numpy KKT solve costs ~25 us
-    (rendering-notes.md 1.1). Near-parallel pairs and degenerate triples are skipped; None if no
-    candidate is feasible."""
+    (docs/reference.md "Design measurements"). Near-parallel pairs and degenerate triples are
+    skipped; None if no candidate is feasible."""
     hx, hy, hz = h
     if len(planes) == 1:  # the common case
         nx, ny, nz, c = planes[0]
