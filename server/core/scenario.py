@@ -204,6 +204,44 @@ class ScenarioOutput:
     finished: Mapping[str, Any] | None = None  # the running trial ended this tick: its metrics (recorded)
 
 
+class Pending:
+    """What a scenario has to report in its next output, collected between two steps (inputs, trial
+    changes and the step itself add to it): events, a trial's end, and changes to its objects.
+
+    The one owner of these buffers: `flush` builds the step's ScenarioOutput with all of them and
+    starts over empty, so every change goes out exactly once and none is forgotten."""
+
+    def __init__(self) -> None:
+        self._clear()
+
+    def _clear(self) -> None:
+        self.events: list[dict] = []
+        self.finished: dict[str, Any] | None = None
+        self.poses: dict[str, Pose] = {}
+        self.visible: dict[str, bool] = {}
+        self.haptic: dict[str, bool] = {}
+        self.stiffness: dict[str, float] = {}
+        self.scales: dict[str, tuple[float, float, float]] = {}
+
+    def emit(self, name: str, **fields: Any) -> None:
+        """An event worth recording (the loop stamps it with its tick)."""
+        self.events.append({"name": name, **fields})
+
+    def finish(self, metrics: Mapping[str, Any]) -> None:
+        """The running trial ended: its metrics become `ScenarioOutput.finished` and, for clients and
+        exports that show events, a `trial_done` event with the same fields."""
+        self.finished = dict(metrics)
+        self.emit("trial_done", **metrics)
+
+    def flush(self, **fields: Any) -> ScenarioOutput:
+        """This step's output: `fields` (cues, hud, values, hold_hip, held) and everything pending."""
+        out = ScenarioOutput(events=tuple(self.events), finished=self.finished, poses=self.poses,
+                             visible=self.visible, haptic=self.haptic, stiffness=self.stiffness,
+                             scales=self.scales, **fields)
+        self._clear()
+        return out
+
+
 class Scenario(Protocol):
     id: str      # versioned id, e.g. "contact-angle-v1"
     title: str
