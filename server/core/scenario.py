@@ -17,7 +17,6 @@ the console and the hub need without running it:
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, ClassVar, Mapping, Protocol
@@ -25,6 +24,7 @@ from typing import Any, ClassVar, Mapping, Protocol
 from server.core.cues import Cue
 from server.core.haptics.primitives import Pose
 from server.core.haptics.vec import Vec3
+from server.core.numbers import is_finite_number
 from server.core.scene import Scene
 
 PHASES = ("training", "trial", "main")  # spec.md: training → trial phase → main trials
@@ -70,7 +70,7 @@ class Param:
             if value not in self.choices or isinstance(value, bool):
                 raise ParamError(f"{name} must be one of {', '.join(map(str, self.choices))}, got {value!r}")
             return self.choices[self.choices.index(value)]  # 3000 → 3000.0: the declared form
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if not is_finite_number(value):
             raise ParamError(f"{name} must be a finite number, got {value!r}")
         if self.kind == "int":
             if value != int(value):
