@@ -20,6 +20,7 @@ from collections.abc import Hashable, Iterator
 from dataclasses import dataclass
 from typing import Generic, TypeVar
 
+from server.core.numbers import is_finite_number
 from devices.messages import SET_MESSAGES, as_seen_by, overrides, touches
 
 K = TypeVar("K", bound=Hashable)
@@ -33,7 +34,7 @@ class LinkBudget:
     def __init__(self, share: float = 0.5, byte_time_s: float = BYTE_TIME_S):
         if not 0.0 < share <= 1.0:
             raise ValueError(f"share must be in (0, 1], got {share!r}")
-        if not (math.isfinite(byte_time_s) and byte_time_s > 0.0):
+        if not (is_finite_number(byte_time_s) and byte_time_s > 0.0):
             raise ValueError(f"byte_time_s must be > 0, got {byte_time_s!r}")
         self.share = share
         self.byte_time_s = byte_time_s

@@ -24,6 +24,8 @@ from dataclasses import dataclass, fields, replace
 from enum import IntEnum, IntFlag
 from typing import ClassVar
 
+from server.core.numbers import is_finite_number
+
 PROTOCOL_VERSION = 1
 ALL_CHANNELS = 0xFF
 MAX_ON_OFF_US = 60_000_000
@@ -82,7 +84,7 @@ class MessageError(ValueError):
 
 
 def _round_half_up(value: float, field: str) -> int:
-    if not (isinstance(value, (int, float)) and math.isfinite(value)):
+    if not is_finite_number(value):
         raise MessageError("bad_value", f"{field} must be a finite number, got {value!r}", field)
     return math.floor(value + 0.5)
 
@@ -189,7 +191,7 @@ class SetPattern(_Message):
     @classmethod
     def texture(cls, channel: int, period_us: float, duty: float, intensity_pct: float) -> SetPattern:
         """On for duty·P, off for the rest; no carrier (the switching is the vibration, §2)."""
-        if not (isinstance(duty, (int, float)) and 0.0 <= duty <= 1.0):
+        if not (is_finite_number(duty) and 0.0 <= duty <= 1.0):
             raise MessageError("bad_value", f"duty must be in [0, 1], got {duty!r}", "duty")
         period = _round_half_up(period_us, "period_us")
         on_us = _round_half_up(duty * period, "on_us")

@@ -20,7 +20,8 @@ import math
 from typing import Any
 
 from server.core.cues import Tilt, tilt_direction
-from server.core.scenario import (Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with)
+from server.core.scenario import (Control, Param, Pending, ScenarioOutput, SubTask, TickContext, Trial,
+                                  in_contact_with)
 from server.core.haptics.primitives import Hemisphere, Plane, Pose
 from server.core.scene import AngleScale, Camera, Material, Scene, SceneObject
 
@@ -104,7 +105,7 @@ class ContactAngle:
         self.trial_start_s: float | None = None
         self.tap: float | None = None       # angle held, if any
         self.scale_override: bool | None = None
-        self._pending: list[dict] = []
+        self.pending = Pending()
         self._scale_shown: bool | None = None
 
     def set_trial(self, trial: Trial | None) -> None:
@@ -115,7 +116,7 @@ class ContactAngle:
 
     def _set_tap(self, angle: float | None, why: str) -> None:
         if angle != self.tap:
-            self._pending.append({"name": "tap" if angle is not None else "release", "angle_deg": angle, "by": why})
+            self.pending.emit("tap" if angle is not None else "release", angle_deg=angle, by=why)
         self.tap = angle
 
     def on_input(self, key: str, action: str, value: Any = None) -> None:
@@ -144,10 +145,8 @@ class ContactAngle:
             values["tap_deg"] = self.tap
         hold = point_at_angle(self.tap, RADIUS + PROXY_RADIUS - TAP_DEPTH) if self.tap is not None else None
         shown = self.scale_override if self.scale_override is not None else self._training()
-        visible = {}
         if shown != self._scale_shown:
-            visible[SCALE_ID] = self._scale_shown = shown
-        events, self._pending = tuple(self._pending), []
+            self.pending.visible[SCALE_ID] = self._scale_shown = shown
 
         cues: tuple = ()
         hud = self._hud(None)
@@ -158,7 +157,7 @@ class ContactAngle:
             hud = self._hud(angle)
         if ctx.refusals:  # a device that cannot show tilt says so; the participant must not just feel nothing
             hud = "; ".join(ctx.refusals)
-        return ScenarioOutput(cues=cues, hud=hud, values=values, visible=visible, hold_hip=hold, events=events)
+        return self.pending.flush(cues=cues, hud=hud, values=values, hold_hip=hold)
 
     def _hud(self, angle: float | None) -> str:
         if self._training():

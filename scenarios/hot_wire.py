@@ -11,9 +11,9 @@ Moving-target variant (`target_speed` > 0): a red marker leaves the start when t
 travels along the path at that speed; the participant keeps the HIP with it, and the deviation
 is measured to the marker instead of to the whole path (pursuit tracking).
 
-Metrics (values and the `trial_done` event): completion time (start → target), time outside the
-threshold, mean and maximum deviation, the HIP's trajectory length, and for a moving target the
-mean distance to it.
+Metrics (values, and at the target `finished` with a `trial_done` event): completion time
+(start → target), time outside the threshold, mean and maximum deviation, the HIP's trajectory
+length, and for a moving target the mean distance to it.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from typing import Any
 
 import trimesh
 
-from server.core.scenario import Control, Param, ScenarioOutput, TickContext, Trial
+from server.core.scenario import Control, Param, Pending, ScenarioOutput, TickContext, Trial
 from scenarios.guidance import hot_wire_cue
 from scenarios.positioning import TABLE
 from scenarios.wire_path import PATH_KINDS, Path, make_path
@@ -97,7 +97,7 @@ class HotWire:
     def reset(self, seed: int) -> None:
         self.trial: Trial | None = None
         self.allowed = self.threshold
-        self._pending: list[dict] = []
+        self.pending = Pending()
         self._last_t: float | None = None
         self._restart()
 
@@ -122,14 +122,14 @@ class HotWire:
             return
         if key == "r" and (self.trial is None or self.phase != "done"):
             self._restart()
-            self._pending.append({"name": "restart"})
+            self.pending.emit("restart")
         elif key == "threshold":
             if float(value) >= self.max_distance:
-                self._pending.append({"name": "refused", "key": key,
-                                      "reason": f"threshold must stay below max_distance {self.max_distance}"})
+                self.pending.emit("refused", key=key,
+                                  reason=f"threshold must stay below max_distance {self.max_distance}")
                 return
             self.allowed = float(value)
-            self._pending.append({"name": "threshold", "threshold": self.allowed})
+            self.pending.emit("threshold", threshold=self.allowed)
 
     # -- tick -------------------------------------------------------------------------------
     def step(self, ctx: TickContext) -> ScenarioOutput:
@@ -137,20 +137,18 @@ class HotWire:
         self._last_t = ctx.t_s
         hip = ctx.hip
         on_path = self.path.project(hip)
-        poses: dict[str, Pose] = {}
-        visible: dict[str, bool] = {}
         cues: tuple = ()
         values: dict[str, Any] = {"deviation": round(on_path.distance, 6), "threshold": self.allowed}
         if self.phase == "start" and math.dist(hip, self.path.start) <= START_RADIUS:
             self.phase, self.t_start = "tracing", ctx.t_s
             self._last_hip = hip
-            self._pending.append({"name": "start"})
+            self.pending.emit("start")
             dt = 0.0  # the run's clock starts now
         if self.phase == "tracing":
             deviation = on_path.distance
             if self.target_speed:
                 pacer = self.path.point_at(self.target_speed * (ctx.t_s - self.t_start))
-                poses["pacer"] = Pose(pacer)
+                self.pending.poses["pacer"] = Pose(pacer)
                 lag = math.dist(hip, pacer)
                 self.lag_sum += lag
                 values["lag"] = round(lag, 6)
@@ -161,13 +159,10 @@ class HotWire:
                 cues = () if made is None else (made,)
         shown = self.phase == "tracing" and bool(self.target_speed)
         if shown != self._pacer_shown:
-            visible["pacer"] = self._pacer_shown = shown
+            self.pending.visible["pacer"] = self._pacer_shown = shown
         values["phase"] = self.phase
         values.update({k: v for k, v in self.metrics().items() if v is not None})
-        out = ScenarioOutput(cues=cues, hud=self._hud(ctx), values=values, poses=poses, visible=visible,
-                             events=tuple(self._pending))
-        self._pending = []
-        return out
+        return self.pending.flush(cues=cues, hud=self._hud(ctx), values=values)
 
     def _track(self, t: float, dt: float, hip, on_path, deviation: float) -> None:
         if deviation > self.allowed:
@@ -183,7 +178,7 @@ class HotWire:
         if (self.progress >= self.path.length - END_RADIUS and math.dist(hip, self.path.end) <= END_RADIUS
                 and pacer_done):
             self.phase, self.t_done = "done", t
-            self._pending.append({"name": "trial_done", **self.metrics()})
+            self.pending.finish(self.metrics())
 
     def metrics(self) -> dict:
         n = self.samples

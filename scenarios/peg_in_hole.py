@@ -13,8 +13,9 @@ in the hole with its top level with the rim: exactly where it is when the finger
 rim's centre. An object that fits inside a hole (a cube needs 1.5× scaled holes to fit a round
 one) drops in and stays; that completes the trial.
 
-Metrics (values and the `trial_done` event): completion time (pick → insertion), the object's
-trajectory length, the hole it went into and whether that was its own.
+Metrics (values, and at the insertion `finished` with a `trial_done` event): completion time
+(pick → insertion), the object's trajectory length, the hole it went into and whether that was
+its own.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from server.core.scenario import Control, Param, ScenarioOutput, TickContext, Trial, in_contact_with
+from server.core.scenario import Control, Param, Pending, ScenarioOutput, TickContext, Trial, in_contact_with
 from scenarios.guidance import BOUNDARY, TARGET_THRESHOLD, peg_cue
 from scenarios.positioning import ITEM_IDS, ITEMS, Item, carried_position, inserted, table_objects
 from server.core.haptics.primitives import Pose
@@ -72,14 +73,13 @@ class PegInHole:
     def reset(self, seed: int) -> None:
         self.trial: Trial | None = None
         self.scale = 1.0
-        self._pending: list[dict] = []
-        self._scales: dict[str, tuple[float, float, float]] = {}
+        self.pending = Pending()
         self._clear_table()
 
     def _clear_table(self) -> None:
         """Every object back at its start, touchable; nothing carried or placed."""
-        self._poses = {item.id: Pose((*item.start, item.half)) for item in ITEMS}
-        self._haptic = {item.id: True for item in ITEMS}
+        self.pending.poses = {item.id: Pose((*item.start, item.half)) for item in ITEMS}
+        self.pending.haptic = {item.id: True for item in ITEMS}
         self.placed: dict[str, str] = {}   # object id → the object id whose hole it is in
         self.carried: Item | None = None
         self.position = None
@@ -103,11 +103,11 @@ class PegInHole:
             return
         if key == "r" and self.trial is None:
             self._clear_table()
-            self._pending.append({"name": "clear"})
+            self.pending.emit("clear")
         elif key == "hole_scale":
             self.scale = float(value)
-            self._pending.append({"name": "hole_scale", "scale": self.scale})
-            self._scales.update({f"{item.id}_hole": (self.scale, self.scale, 1.0) for item in ITEMS})
+            self.pending.emit("hole_scale", scale=self.scale)
+            self.pending.scales.update({f"{item.id}_hole": (self.scale, self.scale, 1.0) for item in ITEMS})
 
     # -- tick -------------------------------------------------------------------------------
     def step(self, ctx: TickContext) -> ScenarioOutput:
@@ -122,7 +122,7 @@ class PegInHole:
             if self.position is not None:
                 self.path_length += math.dist(self.position, position)
             self.position = position
-            self._poses[item.id] = Pose(position)
+            self.pending.poses[item.id] = Pose(position)
             self._choose_nearest(item, position)
             hole = self._fitting_hole(item, position)
             if hole is not None:
@@ -130,11 +130,8 @@ class PegInHole:
             elif self.nearest is not None:
                 made = peg_cue(self.distance, self.boundary, self._reverse(), self.threshold, self.t_on_ms)
                 cues = () if made is None else (made,)
-        out = ScenarioOutput(cues=cues, hud=self._hud(ctx), values=self._values(), poses=self._poses,
-                             haptic=self._haptic, scales=self._scales, events=tuple(self._pending),
-                             held=None if self.carried is None else self.carried.id)
-        self._poses, self._haptic, self._scales, self._pending = {}, {}, {}, []
-        return out
+        return self.pending.flush(cues=cues, hud=self._hud(ctx), values=self._values(),
+                                  held=None if self.carried is None else self.carried.id)
 
     def _graspable(self) -> tuple[str, ...]:
         if self.trial is not None:
@@ -149,15 +146,15 @@ class PegInHole:
     def _grasp(self, t: float, item: Item) -> None:
         self.carried, self.t_pick, self.t_done = item, t, None
         self.position, self.path_length, self.nearest = None, 0.0, None
-        self._haptic[item.id] = False
-        self._pending.append({"name": "pick", "object": item.id})
+        self.pending.haptic[item.id] = False
+        self.pending.emit("pick", object=item.id)
 
     def _choose_nearest(self, item: Item, position) -> None:
         """The free hole with the least Euclidean distance, chosen again every tick."""
         holes = self._free_holes()
         best = min(holes, key=lambda h: math.dist(position, hole_centre(h, item)), default=None)
         if best is not self.nearest:
-            self._pending.append({"name": "nearest_hole", "hole": None if best is None else best.id})
+            self.pending.emit("nearest_hole", hole=None if best is None else best.id)
         self.nearest = best
         self.distance = None if best is None else math.dist(position, hole_centre(best, item))
 
@@ -168,10 +165,10 @@ class PegInHole:
     def _insert(self, t: float, item: Item, hole: Item) -> None:
         self.placed[item.id] = hole.id
         self.carried, self.t_done = None, t
-        self._poses[item.id] = Pose((*hole.hole_at, item.half))  # it drops to the bottom of the tube
+        self.pending.poses[item.id] = Pose((*hole.hole_at, item.half))  # it drops to the bottom of the tube
         self.last = {"object": item.id, "hole": hole.id, "own_hole": hole.id == item.id,
                      "completion_s": round(t - self.t_pick, 6), "path_length": round(self.path_length, 9)}
-        self._pending.append({"name": "trial_done", **self.last})
+        self.pending.finish(self.last)
         self.position = self.nearest = self.distance = None
 
     def _values(self) -> dict:

@@ -14,9 +14,9 @@ the FerroVibe's 3-DoF guidance). Holding the object at the target (every axis wi
 2 s shows "GO"; then lowering it into its hole completes the trial. Holes may move (0.01/s) and
 can be scaled by the experimenter.
 
-Metrics (values and a `trial_done` event): completion time (pick → insertion), time to first
-reach the target, the object's trajectory length from pick to insertion, the mean end-point
-error (3-D and depth) over the 2 s hold that led to GO.
+Metrics (values, and at the insertion `finished` with a `trial_done` event): completion time
+(pick → insertion), time to first reach the target, the object's trajectory length from pick to
+insertion, the mean end-point error (3-D and depth) over the 2 s hold that led to GO.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from typing import Any
 
 import trimesh
 
-from server.core.scenario import Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
+from server.core.scenario import Control, Param, Pending, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
 from scenarios.guidance import (BOUNDARY, MODES, PATTERNS, TARGET_THRESHOLD, PatternGuide, guidance_cues, mode_t_off,
                                 pulse_cue)
 from server.core.haptics.primitives import Box, Cone, Cylinder, Plane, Pose, Sphere
@@ -209,11 +209,7 @@ class Positioning:
         self.hole_offset = 0.0      # moving holes: displacement along y
         self.hole_dir = 1.0
         self._last_t: float | None = None
-        self._pending: list[dict] = []
-        self._poses: dict[str, Pose] = {}
-        self._visible: dict[str, bool] = {}
-        self._haptic: dict[str, bool] = {}
-        self._scales: dict[str, tuple[float, float, float]] = {}
+        self.pending = Pending()
         self._begin(self.index)
 
     def _begin(self, index: int) -> None:
@@ -227,9 +223,9 @@ class Positioning:
         self.path_length = 0.0      # of the object, pick → insertion (kept as a running sum: O(1) per tick)
         self.guide = PatternGuide(self._cue(), self.p2_form, self.boundary) if self._cue() in PATTERNS else None
         item = ITEMS[index]
-        self._poses[item.id] = Pose((*item.start, item.half))
-        self._haptic[item.id] = True
-        self._visible.update({"arrow_shaft": False, "arrow_head": False})
+        self.pending.poses[item.id] = Pose((*item.start, item.half))
+        self.pending.haptic[item.id] = True
+        self.pending.visible.update({"arrow_shaft": False, "arrow_head": False})
 
     def _cue(self) -> str:
         if self.trial is not None and self.trial.params["cue"] is not None:
@@ -240,8 +236,8 @@ class Positioning:
         """Every trial starts from a clean table: all objects back at their starts, touchable."""
         self.trial = trial
         for item in ITEMS:
-            self._poses[item.id] = Pose((*item.start, item.half))
-            self._haptic[item.id] = True
+            self.pending.poses[item.id] = Pose((*item.start, item.half))
+            self.pending.haptic[item.id] = True
         self._begin(ITEM_IDS.index(trial.params["object"]) if trial else 0)
 
     def on_input(self, key: str, action: str, value: Any = None) -> None:
@@ -251,9 +247,9 @@ class Positioning:
             self._begin((self.index + 1) % len(ITEMS))
         elif key == "hole_scale":
             self.scale = float(value)
-            self._pending.append({"name": "hole_scale", "scale": self.scale})
+            self.pending.emit("hole_scale", scale=self.scale)
             # the tubes widen (not taller); the rims the fingertip rests on keep their size
-            self._scales.update({f"{item.id}_hole": (self.scale, self.scale, 1.0) for item in ITEMS})
+            self.pending.scales.update({f"{item.id}_hole": (self.scale, self.scale, 1.0) for item in ITEMS})
 
     def hole_xy(self, item: Item) -> tuple[float, float]:
         return item.hole_at[0], item.hole_at[1] + self.hole_offset
@@ -278,31 +274,28 @@ class Positioning:
             if self.position is not None:
                 self.path_length += math.dist(self.position, position)
             self.position = position
-            self._poses[item.id] = Pose(self.position)
+            self.pending.poses[item.id] = Pose(self.position)
             at = all(abs(a - b) <= self.threshold for a, b in zip(self.position, target))
             self._track_target(ctx.t_s, self.position, target, at)
             if self.phase == "go" and inserted(item, self.position, self.hole_xy(item), self.scale):
                 self._insert(ctx.t_s, item)
             else:
                 cues = self._cues(self.position, target, at)
-        if self._visible.get("arrow_shaft") or self.phase in ("carry", "go"):
+        if self.pending.visible.get("arrow_shaft") or self.phase in ("carry", "go"):
             self._place_arrow(target)
-        out = ScenarioOutput(cues=cues, hud=self._hud(ctx), values=self._values(target), poses=self._poses,
-                             visible=self._visible, haptic=self._haptic, scales=self._scales,
-                             events=tuple(self._pending), held=item.id if self.phase in ("carry", "go") else None)
-        self._poses, self._visible, self._haptic, self._scales, self._pending = {}, {}, {}, {}, []
-        return out
+        return self.pending.flush(cues=cues, hud=self._hud(ctx), values=self._values(target),
+                                  held=item.id if self.phase in ("carry", "go") else None)
 
     def _grasp(self, ctx: TickContext, item: Item) -> None:
         self.phase, self.t_pick = "carry", ctx.t_s
-        self._haptic[item.id] = False
-        self._visible.update({"arrow_shaft": True, "arrow_head": True})
-        self._pending.append({"name": "pick", "object": item.id})
+        self.pending.haptic[item.id] = False
+        self.pending.visible.update({"arrow_shaft": True, "arrow_head": True})
+        self.pending.emit("pick", object=item.id)
 
     def _track_target(self, t: float, pos, target, at: bool) -> None:
         if at and self.t_first_target is None:
             self.t_first_target = t
-            self._pending.append({"name": "reached", "object": ITEMS[self.index].id})
+            self.pending.emit("reached", object=ITEMS[self.index].id)
         if self.phase != "carry":
             return
         if not at:
@@ -313,12 +306,12 @@ class Positioning:
         self.hold_errors.append((math.dist(pos, target), abs(pos[0] - target[0])))
         if t - self.hold_since >= self.hold_s:
             self.phase, self.t_go = "go", t
-            self._pending.append({"name": "go", "object": ITEMS[self.index].id})
+            self.pending.emit("go", object=ITEMS[self.index].id)
 
     def _insert(self, t: float, item: Item) -> None:
         self.phase, self.t_done = "inserted", t
-        self._visible.update({"arrow_shaft": False, "arrow_head": False})
-        self._pending.append({"name": "trial_done", "object": item.id, **self.metrics()})
+        self.pending.visible.update({"arrow_shaft": False, "arrow_head": False})
+        self.pending.finish({"object": item.id, **self.metrics()})
 
     def metrics(self) -> dict:
         done = self.t_done is not None
@@ -354,14 +347,14 @@ class Positioning:
             self.hole_offset = math.copysign(0.3, self.hole_offset)
         for item in ITEMS:
             x, y = self.hole_xy(item)
-            self._poses[f"{item.id}_hole"] = Pose((x, y, 0.0))
-            self._poses[f"{item.id}_rim"] = rim_pose(item, (x, y))
+            self.pending.poses[f"{item.id}_hole"] = Pose((x, y, 0.0))
+            self.pending.poses[f"{item.id}_rim"] = rim_pose(item, (x, y))
 
     def _place_arrow(self, target) -> None:
         x, y, z = target
         top = z + ITEMS[self.index].half + 0.04
-        self._poses["arrow_head"] = Pose((x, y, top + 0.12), DOWN)
-        self._poses["arrow_shaft"] = Pose((x, y, top + 0.12))
+        self.pending.poses["arrow_head"] = Pose((x, y, top + 0.12), DOWN)
+        self.pending.poses["arrow_shaft"] = Pose((x, y, top + 0.12))
 
     def _values(self, target) -> dict:
         values: dict[str, Any] = {"object": ITEMS[self.index].id, "phase": self.phase, "cue": self._cue()}

@@ -20,7 +20,7 @@ from __future__ import annotations
 from typing import Any
 
 from server.core.cues import Texture, Tilt, tilt_direction
-from server.core.scenario import Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
+from server.core.scenario import Param, Pending, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
 from scenarios.contact_angle import contact_angle_deg
 from scenarios.texture import PERIODS_US
 from server.core.haptics.primitives import Box, Cone, Plane, Pose, Sphere
@@ -108,21 +108,19 @@ class ShapeScenario:
     def reset(self, seed: int) -> None:
         self.trial: Trial | None = None
         self.origins = {name: (0.0, GALLERY_Y[name], 0.0) for name in SHAPES}
-        self._changes: dict[str, dict] = {"poses": {}, "visible": {}, "haptic": {}}
+        self.pending = Pending()
 
     def set_trial(self, trial: Trial | None) -> None:
         self.trial = trial
-        poses, visible, haptic = {}, {}, {}
         for name in SHAPES:
             active = trial is None or trial.params["shape"] == name
             y = 0.0 if trial is not None and active else GALLERY_Y[name]
             self.origins[name] = (0.0, y, 0.0)
-            poses[name] = origin_pose(name, y)
-            haptic[name] = active
-            visible[name] = active and not (trial is not None and trial.params["hidden"])
+            self.pending.poses[name] = origin_pose(name, y)
+            self.pending.haptic[name] = active
+            self.pending.visible[name] = active and not (trial is not None and trial.params["hidden"])
             if self.labels:
-                visible[f"{name}_label"] = trial is None
-        self._changes = {"poses": poses, "visible": visible, "haptic": haptic}
+                self.pending.visible[f"{name}_label"] = trial is None
 
     def on_input(self, key: str, action: str, value: Any = None) -> None:
         """No keys: the experimenter presents shapes as trials."""
@@ -142,9 +140,7 @@ class ShapeScenario:
                 else:
                     cues = (Tilt(direction, magnitude),)
                 values["tilt_deg"], values["magnitude_pct"] = direction, magnitude
-        changes, self._changes = self._changes, {"poses": {}, "visible": {}, "haptic": {}}
-        return ScenarioOutput(cues=cues, hud=self._hud(ctx), values=values, poses=changes["poses"],
-                              visible=changes["visible"], haptic=changes["haptic"])
+        return self.pending.flush(cues=cues, hud=self._hud(ctx), values=values)
 
     def _hud(self, ctx: TickContext) -> str:
         if ctx.refusals:

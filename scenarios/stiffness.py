@@ -20,7 +20,7 @@ import random
 from typing import Any
 
 from server.core.cues import Stiffness
-from server.core.scenario import Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
+from server.core.scenario import Control, Param, Pending, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
 from server.core.haptics.primitives import Plane, Pose, Sphere
 from server.core.scene import Camera, Label, Material, Scene, SceneObject
 
@@ -102,10 +102,7 @@ class StiffnessScenario:
         self.recording_since: float | None = None
         self.recorded_s: float | None = None
         self._t = 0.0
-        self._pending: list[dict] = []
-        self._changed_k: dict[str, float] = {}
-        self._changed_visible: dict[str, bool] = {}
-        self._changed_haptic: dict[str, bool] = {}
+        self.pending = Pending()
 
     def set_trial(self, trial: Trial | None) -> None:
         self.trial = trial
@@ -121,7 +118,7 @@ class StiffnessScenario:
     def _set_level(self, sphere: str, level: int) -> None:
         if self.levels[sphere] != level:
             self.levels[sphere] = level
-            self._changed_k[sphere] = level_k(level)
+            self.pending.stiffness[sphere] = level_k(level)
 
     def _set_recording(self, on: bool, why: str) -> None:
         if on == self.recording:
@@ -134,15 +131,15 @@ class StiffnessScenario:
             self.recorded_s = self._t - self.recording_since
             self.recording_since = None
         # §5.4.1: while recording only the spheres to be matched are shown (and touchable)
-        self._changed_haptic[LEFT] = self._changed_visible[LEFT] = not on
+        self.pending.haptic[LEFT] = self.pending.visible[LEFT] = not on
         if self.labels:
-            self._changed_visible["left_label"] = not on
-        self._pending.append({"name": "recording", "on": on, "by": why, "right_level": self.levels[RIGHT],
-                              "middle_level": self.levels[MIDDLE]})
+            self.pending.visible["left_label"] = not on
+        self.pending.emit("recording", on=on, by=why, right_level=self.levels[RIGHT],
+                          middle_level=self.levels[MIDDLE])
         if not on and why == "key" and self.trial is not None and self.trial.params["mode"] == "production":
             # the production trial's result: the trial record keeps it as its metrics
-            self._pending.append({"name": "trial_done", "produced_level": self.levels[RIGHT],
-                                  "target_level": self.levels[MIDDLE], "match_time_s": round(self.recorded_s, 6)})
+            self.pending.finish({"produced_level": self.levels[RIGHT], "target_level": self.levels[MIDDLE],
+                                 "match_time_s": round(self.recorded_s, 6)})
 
     def _production_keys(self) -> bool:
         return self.trial is None or self.trial.params["mode"] == "production"
@@ -160,8 +157,7 @@ class StiffnessScenario:
             return
         else:
             return
-        self._pending.append({"name": "key", "key": key, "right_level": self.levels[RIGHT],
-                              "recording": self.recording})
+        self.pending.emit("key", key=key, right_level=self.levels[RIGHT], recording=self.recording)
 
     def step(self, ctx: TickContext) -> ScenarioOutput:
         self._t = ctx.t_s
@@ -176,11 +172,7 @@ class StiffnessScenario:
         elif self.recorded_s is not None:
             values["match_time_s"] = round(self.recorded_s, 3)
             values["produced_level"] = self.levels[RIGHT]
-        out = ScenarioOutput(cues=cues, hud=self._hud(ctx), values=values, stiffness=self._changed_k,
-                             visible=self._changed_visible, haptic=self._changed_haptic,
-                             events=tuple(self._pending))
-        self._changed_k, self._changed_visible, self._changed_haptic, self._pending = {}, {}, {}, []
-        return out
+        return self.pending.flush(cues=cues, hud=self._hud(ctx), values=values)
 
     def _hud(self, ctx: TickContext) -> str:
         if ctx.refusals:

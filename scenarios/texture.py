@@ -23,7 +23,7 @@ from __future__ import annotations
 from typing import Any
 
 from server.core.cues import Texture
-from server.core.scenario import Control, Param, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
+from server.core.scenario import Control, Param, Pending, ScenarioOutput, SubTask, TickContext, Trial, in_contact_with
 from server.core.haptics.primitives import Plane, Pose
 from server.core.scene import Camera, Material, Scene, SceneObject, Skin
 
@@ -105,7 +105,7 @@ class TextureScenario:
         self.last_t: float | None = None
         self.second = False  # pairs: playing the second texture
         self.chosen: float | None = None  # training choice of the experimenter
-        self._pending: list[dict] = []
+        self.pending = Pending()
 
     def set_trial(self, trial: Trial | None) -> None:
         self.trial = trial
@@ -117,7 +117,7 @@ class TextureScenario:
             return
         if key == "next" and self._is_pair() and not self.second:
             self.second = True
-            self._pending.append({"name": "second", "period_us": self.trial.params["second_period_us"]})
+            self.pending.emit("second", period_us=self.trial.params["second_period_us"])
         elif key == "texture":
             self._choose(float(value))
         elif key in ("1", "2", "3", "4", "5"):
@@ -126,7 +126,7 @@ class TextureScenario:
     def _choose(self, period_us: float) -> None:
         if self.trial is None or self.trial.phase == "training":
             self.chosen = period_us
-            self._pending.append({"name": "texture", "period_us": period_us})
+            self.pending.emit("texture", period_us=period_us)
 
     def _is_pair(self) -> bool:
         return self.trial is not None and self.trial.params["second_period_us"] is not None
@@ -149,20 +149,18 @@ class TextureScenario:
         period = self.current_period_us()
         values: dict[str, Any] = {"period_us": period, "frequency_hz": round(frequency_hz(period), 2),
                                   "plane_offset": round(self.offset, 6)}
-        events, self._pending = tuple(self._pending), []
         touching = in_contact_with(ctx, (PLANE_ID,)) is not None
-        poses = {}
         cues: tuple = ()
         if touching:
             self.offset += self.velocity * dt
             if abs(self.offset) >= WRAP:  # jump back a whole unit: the skin tiles evenly, the HIP stays on
                 self.offset -= WRAP if self.offset > 0 else -WRAP
-            poses[PLANE_ID] = Pose((0.0, self.offset, 0.0))
+            self.pending.poses[PLANE_ID] = Pose((0.0, self.offset, 0.0))
             cues = (Texture(period, 0.5, self.intensity_pct),)
         hud = self._hud(period)
         if ctx.refusals:
             hud = "; ".join(ctx.refusals)
-        return ScenarioOutput(cues=cues, hud=hud, values=values, poses=poses, events=events)
+        return self.pending.flush(cues=cues, hud=hud, values=values)
 
     def _hud(self, period: float) -> str:
         if self._is_pair():

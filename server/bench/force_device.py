@@ -27,10 +27,11 @@ datasheet.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from math import exp, expm1, isfinite, log
+from math import exp, expm1, log
 
 from server.core.haptics.god_object import GodObject
 from server.core.haptics.primitives import Body, Plane
+from server.core.numbers import is_finite_number
 
 WALL_SIZE = (1.0, 1.0)  # metres: far wider than any motion of the 1-DoF device
 GROWTH_FLOOR = 0.01  # below 1 % of the static penetration F/K an oscillation counts as gone
@@ -39,7 +40,7 @@ START_VELOCITY_M_S = -0.05  # ...moving toward it
 
 
 def _positive(value: float, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not isfinite(value) or value <= 0:
+    if not is_finite_number(value) or value <= 0:
         raise ValueError(f"{what} must be a finite number > 0, got {value!r}")
     return float(value)
 

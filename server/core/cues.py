@@ -9,9 +9,10 @@ construction (a bad cue is a bug in a scenario); None means "not given" for opti
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, fields
 from typing import ClassVar
+
+from server.core.numbers import is_finite_number
 
 
 class _Ranged:
@@ -22,7 +23,7 @@ class _Ranged:
             value = getattr(self, name)
             if value is None:
                 continue
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and low <= value <= high):
+            if not (is_finite_number(value) and low <= value <= high):
                 raise ValueError(f"{type(self).__name__}.{name} must be in [{low}, {high}], got {value!r}")
 
 

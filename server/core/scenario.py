@@ -18,7 +18,6 @@ the console and the hub need without running it:
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, ClassVar, Mapping, Protocol
@@ -26,6 +25,7 @@ from typing import Any, ClassVar, Mapping, Protocol
 from server.core.cues import Cue
 from server.core.haptics.primitives import Pose
 from server.core.haptics.vec import Vec3
+from server.core.numbers import is_finite_number
 from server.core.scene import Scene
 
 PHASES = ("training", "trial", "main")  # the thesis's study design (docs/reference.md "Study")
@@ -71,7 +71,7 @@ class Param:
             if value not in self.choices or isinstance(value, bool):
                 raise ParamError(f"{name} must be one of {', '.join(map(str, self.choices))}, got {value!r}")
             return self.choices[self.choices.index(value)]  # 3000 → 3000.0: the declared form
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if not is_finite_number(value):
             raise ParamError(f"{name} must be a finite number, got {value!r}")
         if self.kind == "int":
             if value != int(value):
@@ -203,6 +203,44 @@ class ScenarioOutput:
     events: tuple[dict, ...] = ()  # things worth recording with their tick (key presses, taps)
     held: str | None = None  # the object the participant carries (recorded with the trajectory)
     finished: Mapping[str, Any] | None = None  # the running trial ended this tick: its metrics (recorded)
+
+
+class Pending:
+    """What a scenario has to report in its next output, collected between two steps (inputs, trial
+    changes and the step itself add to it): events, a trial's end, and changes to its objects.
+
+    The one owner of these buffers: `flush` builds the step's ScenarioOutput with all of them and
+    starts over empty, so every change goes out exactly once and none is forgotten."""
+
+    def __init__(self) -> None:
+        self._clear()
+
+    def _clear(self) -> None:
+        self.events: list[dict] = []
+        self.finished: dict[str, Any] | None = None
+        self.poses: dict[str, Pose] = {}
+        self.visible: dict[str, bool] = {}
+        self.haptic: dict[str, bool] = {}
+        self.stiffness: dict[str, float] = {}
+        self.scales: dict[str, tuple[float, float, float]] = {}
+
+    def emit(self, name: str, **fields: Any) -> None:
+        """An event worth recording (the loop stamps it with its tick)."""
+        self.events.append({"name": name, **fields})
+
+    def finish(self, metrics: Mapping[str, Any]) -> None:
+        """The running trial ended: its metrics become `ScenarioOutput.finished` and, for clients and
+        exports that show events, a `trial_done` event with the same fields."""
+        self.finished = dict(metrics)
+        self.emit("trial_done", **metrics)
+
+    def flush(self, **fields: Any) -> ScenarioOutput:
+        """This step's output: `fields` (cues, hud, values, hold_hip, held) and everything pending."""
+        out = ScenarioOutput(events=tuple(self.events), finished=self.finished, poses=self.poses,
+                             visible=self.visible, haptic=self.haptic, stiffness=self.stiffness,
+                             scales=self.scales, **fields)
+        self._clear()
+        return out
 
 
 class Scenario(Protocol):

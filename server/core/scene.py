@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
 from server.core.haptics.primitives import Body, Pose, shape_from_dict
+from server.core.numbers import is_finite_number
 
 _COLOR = re.compile(r"^#[0-9a-fA-F]{6}$")
 _ID = re.compile(r"^[A-Za-z0-9_.:-]{1,64}$")
@@ -30,14 +30,14 @@ class SceneError(ValueError):
 def _vec(d: dict, key: str, where: str, size: int = 3, default=None) -> tuple[float, ...]:
     value = d.get(key, default)
     if (not isinstance(value, (list, tuple)) or len(value) != size
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)):
+            or not all(is_finite_number(v) for v in value)):
         raise SceneError(f"{where}.{key} must be an array of {size} finite numbers")
     return tuple(float(v) for v in value)
 
 
 def _num(d: dict, key: str, where: str, default=None, minimum: float | None = None) -> float:
     value = d.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not is_finite_number(value):
         raise SceneError(f"{where}.{key} must be a finite number")
     if minimum is not None and value < minimum:
         raise SceneError(f"{where}.{key} must be >= {minimum}")
@@ -112,7 +112,7 @@ class Skin:
         if not _SKIN_URL.match(self.image) or ".." in self.image:
             raise SceneError(f"skin image {self.image!r} must be a path on this server like /skins/cork.svg "
                              "(png, jpg, svg or webp)")
-        if not all(math.isfinite(t) and t > 0 for t in self.tile):
+        if not all(is_finite_number(t) and t > 0 for t in self.tile):
             raise SceneError("skin tile must be two numbers > 0")
 
     @classmethod

@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator
 
 from server import __version__
+from server.core.numbers import is_number
 from server.experiment.store import SAMPLE_COLUMNS, SCHEMA_VERSION
 
 DB_NAME = "viestac.sqlite"
@@ -127,7 +128,7 @@ def _duration(trial: dict, tick_hz: float) -> tuple[float | None, str]:
 
 def session_tick_hz(config: dict) -> float:
     hz = config.get("tick_hz") if isinstance(config, dict) else None
-    return float(hz) if isinstance(hz, (int, float)) and not isinstance(hz, bool) and hz > 0 else DEFAULT_TICK_HZ
+    return float(hz) if is_number(hz) and hz > 0 else DEFAULT_TICK_HZ
 
 
 def _safe(text: Any) -> str:

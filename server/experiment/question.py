@@ -8,11 +8,11 @@ how a console typed it.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Mapping
 
+from server.core.numbers import is_finite_number
 from server.core.scenario import Param
 
 QUESTION_KINDS = ("likert", "number", "choice", "text")
@@ -35,14 +35,12 @@ def format_bound(x: float) -> str:
 
 def as_number(value: Any) -> float | int | None:
     """A finite number from a number or a numeric string (a console may send text), else None."""
-    if isinstance(value, bool):
-        return None
     if isinstance(value, str):
         try:
             value = float(value.strip())
         except ValueError:
             return None
-    if isinstance(value, (int, float)) and math.isfinite(value):
+    if is_finite_number(value):
         return value
     return None
 

@@ -6,7 +6,8 @@ import pytest
 
 from devices.capability import check
 from devices.profiles import FERROVIBE, FINGERTAC
-from server.core.scenario import PHASES, Param, ParamError, Trial, check_params, describe
+from server.core.haptics.primitives import Pose
+from server.core.scenario import PHASES, Param, ParamError, Pending, Trial, check_params, describe
 from scenarios.registry import SCENARIOS, create
 
 TACTILE_PROPERTY = ("contact-angle-v1", "texture-v1", "stiffness-v1", "shape-v1", "friction-temperature-v1")
@@ -25,6 +26,28 @@ def test_param_kinds_convert_and_refuse_with_the_name():
         Param("b", "bool", "").check(1)
     with pytest.raises(ParamError, match="one of"):
         Param("c", "choice", "", choices=("a", "b")).check(True)
+
+
+def test_pending_goes_out_once_in_the_next_output_and_a_trial_end_is_both_finished_and_an_event():
+    pending = Pending()
+    pending.emit("tap", angle_deg=30.0, by="experimenter")
+    pending.poses["cube"] = Pose((1.0, 2.0, 3.0))
+    pending.visible["arrow"] = False
+    pending.haptic["cube"] = False
+    pending.stiffness["sphere"] = 40.0
+    pending.scales["hole"] = (1.5, 1.5, 1.0)
+    pending.finish({"completion_s": 1.25, "object": "cube"})
+    out = pending.flush(hud="Done", values={"phase": "done"}, held="cube")
+    assert out.events == ({"name": "tap", "angle_deg": 30.0, "by": "experimenter"},
+                          {"name": "trial_done", "completion_s": 1.25, "object": "cube"})
+    assert out.finished == {"completion_s": 1.25, "object": "cube"}
+    assert (out.poses, out.visible, out.haptic) == ({"cube": Pose((1.0, 2.0, 3.0))}, {"arrow": False}, {"cube": False})
+    assert (out.stiffness, out.scales) == ({"sphere": 40.0}, {"hole": (1.5, 1.5, 1.0)})
+    assert (out.hud, out.values, out.held) == ("Done", {"phase": "done"}, "cube")
+    again = pending.flush(hud="")
+    assert again.events == () and again.finished is None
+    assert not (again.poses or again.visible or again.haptic or again.stiffness or again.scales)
+    assert out.poses == {"cube": Pose((1.0, 2.0, 3.0))}, "a flushed output keeps what it carried"
 
 
 def test_check_params_fills_defaults_and_names_unknown_and_missing():

@@ -12,7 +12,7 @@ from scenarios.hot_wire import END_RADIUS, HotWire
 from scenarios.registry import create
 from scenarios.wire_path import Path, make_path, parse_points
 from server.loop.simulation import Simulation
-from tests.scenarios.driving import drive as run
+from tests.scenarios.driving import drive as run, finished, metrics_of
 
 
 def make(**params):
@@ -128,6 +128,7 @@ def test_scripted_run_metrics_equal_those_of_the_script():
     assert 0.29 <= done["time_outside_s"] <= 0.301, "the 300 shifted ticks, give or take a corner"
     assert done["deviation_max"] == pytest.approx(max(deviations), abs=1e-9)
     assert done["deviation_mean"] == pytest.approx(sum(deviations) / len(deviations), abs=1e-9)
+    assert finished(results) == [(done["tick"], metrics_of(done))], "the run's end is the step's `finished` too"
     assert done["completion_s"] == pytest.approx((done["tick"] - start_tick) / 1000, abs=1e-9)
     assert done["progress"] >= (path.length - END_RADIUS) / path.length
     assert results[-1].output.values["time_outside_s"] == done["time_outside_s"], "exposed in state"

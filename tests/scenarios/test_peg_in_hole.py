@@ -12,7 +12,7 @@ from scenarios.peg_in_hole import PegInHole, hole_centre
 from scenarios.positioning import ITEMS
 from scenarios.registry import create
 from server.loop.simulation import Simulation
-from tests.scenarios.driving import drive as run, line
+from tests.scenarios.driving import drive as run, finished, line, metrics_of
 
 CUBE_A, SPHERE, CUBE_B = ITEMS
 HANG = 0.15 + 0.06  # the carried object hangs this far below the proxy
@@ -103,6 +103,7 @@ def test_insertion_into_its_own_hole_with_metrics_of_the_path():
     assert done["completion_s"] == pytest.approx((done["tick"] - pick_tick) / 1000, abs=1e-9)
     carried = [(r.proxy[0], r.proxy[1], max(0.15, r.proxy[2] - HANG)) for r in results[pick_tick:done["tick"] + 1]]
     assert done["path_length"] == pytest.approx(sum(math.dist(a, b) for a, b in zip(carried, carried[1:])), abs=1e-6)
+    assert finished(results) == [(done["tick"], metrics_of(done))], "the insertion is the step's `finished` too"
     assert sim.moved["cube_a"].pos == (*CUBE_A.hole_at, 0.15), "it drops to the bottom and stays"
     assert "cube_a" in sim.untouchable
     after = run(sim, [above])[-1]

@@ -10,7 +10,7 @@ from server.core.cues import PulseTrain, Tilt, Vibration
 from server.core.scenario import ParamError, Trial
 from scenarios.positioning import ITEMS, Positioning, inserted, tube_mesh
 from server.loop.simulation import Simulation
-from tests.scenarios.driving import drive as run_path, line
+from tests.scenarios.driving import drive as run_path, finished, line, metrics_of
 
 HANG = 0.15 + 0.06  # the carried object hangs this far below the proxy
 
@@ -79,6 +79,7 @@ def test_hold_two_seconds_then_go_then_insert_with_metrics_of_the_path():
     assert done["time_to_target_s"] == pytest.approx((ticks["reached"] - ticks["pick"]) / 1000, abs=1e-9)
     assert done["completion_s"] == pytest.approx((done["tick"] - ticks["pick"]) / 1000, abs=1e-9)
     assert done["hold_error_mean"] < 0.05 and done["hold_depth_error_mean"] < 0.05
+    assert finished(results) == [(done["tick"], metrics_of(done))], "the insertion is the step's `finished` too"
 
 
 def test_leaving_the_target_restarts_the_hold_and_entering_the_hole_before_go_does_not_count():

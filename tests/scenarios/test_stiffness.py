@@ -10,6 +10,7 @@ from devices.profiles import FERROVIBE, FINGERTAC
 from server.core.scenario import Trial
 from scenarios.stiffness import LEFT, MIDDLE, RIGHT, SPACING, StiffnessScenario, level_cue, level_k
 from server.loop.simulation import Simulation
+from tests.scenarios.driving import finished, metrics_of
 
 # docs/devices.md: rate = L Hz (1 Hz at level 1 … 10 Hz at level 10), t_on 50 ms, t_off = 1000/rate − 50 ms
 T_OFF_MS = {1: 950.0, 2: 450.0, 3: 283.333, 4: 200.0, 5: 150.0, 6: 116.667, 7: 92.857, 8: 75.0, 9: 61.111, 10: 50.0}
@@ -106,16 +107,17 @@ def test_study_design():
 def test_a_production_trial_reports_its_result_when_recording_stops():
     sim = Simulation(StiffnessScenario())
     sim.set_trial(Trial.parse(StiffnessScenario.TRIAL_PARAMS, "main", {"mode": "production", "level": 4}))
-    sim.step()
+    results = [sim.step()]
     start = sim.scenario.levels[RIGHT]
     sim.input("r", "press")
     for _ in range(500):
-        sim.step()
+        results.append(sim.step())
     sim.input("ArrowDown", "down")
-    sim.step()
+    results.append(sim.step())
     sim.input("r", "press")
-    sim.step()
+    results.append(sim.step())
     done = [e for e in sim.events if e["name"] == "trial_done"]
     assert len(done) == 1
     assert done[0]["produced_level"] == start - 1 and done[0]["target_level"] == 4
     assert done[0]["match_time_s"] == pytest.approx(0.501, abs=1e-9)  # pressed after tick 0, again after tick 501
+    assert finished(results) == [(done[0]["tick"], metrics_of(done[0]))], "the result is the step's `finished` too"

@@ -22,15 +22,14 @@ clock, so it is deterministic and testable.
 
 from __future__ import annotations
 
-from math import isfinite
+from ..numbers import is_finite_number
 
 
 class ContactGate:
     def __init__(self, band: float = 0.002, min_on_s: float = 0.030,
                  min_off_s: float = 0.030) -> None:
         for name, v in (("band", band), ("min_on_s", min_on_s), ("min_off_s", min_off_s)):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not isfinite(v) \
-                    or v < 0:
+            if not is_finite_number(v) or v < 0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
         self.band = float(band)
         self.min_on_s = float(min_on_s)

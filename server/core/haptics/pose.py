@@ -7,19 +7,19 @@ once at construction; the identity rotation is the fast path almost every scene 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from math import hypot, isfinite
+from math import hypot
 from typing import Any
 
+from ..numbers import is_finite_number, is_number
 from .vec import Vec3
 
 
 def _number(value: Any, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if not is_number(value):
         raise ValueError(f"{what} must be a number, got {value!r}")
-    v = float(value)
-    if not isfinite(v):
+    if not is_finite_number(value):
         raise ValueError(f"{what} must be finite, got {value!r}")
-    return v
+    return float(value)
 
 
 def _dimension(value: Any, what: str) -> float:
