@@ -20,6 +20,7 @@ from server.experiment.engine import Experiment
 from server.experiment.store import Store, utc_now
 from server.hub.device_host import DeviceHost
 from server.hub.hub import Hub
+from server.hub.owner import HubForWorkers
 from server.hub.supervisor import LoopSupervisor
 from server.loop import tracker_udp
 
@@ -38,6 +39,7 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     early and print it); otherwise it is bound at start-up from settings.tracker_address()."""
     hub = Hub(server_name=f"viestac/{__version__}", tick_hz=settings.tick_hz, state_hz=settings.state_hz)
     supervisor = LoopSupervisor(settings.loop_config(), hub.on_loop_record)
+    supervisor.owner = hub.owner  # one thread owns both: the event loop's (server/hub/owner.py)
     hub.send_to_loop = supervisor.send
     # A restarted loop comes back with what ran, not with the start-up scenario.
     hub.on_scenario = lambda state: setattr(supervisor, "config", replace(
@@ -45,7 +47,8 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
         trial=state["trial"]))
 
     store = Store(settings.data_dir / "viestac.sqlite", utc_now)
-    experiment = Experiment(store, hub, studies_dir=settings.studies_dir, software_version=__version__,
+    # REST runs the engine on worker threads (SQLite off the event loop); its hub calls run on the owner.
+    experiment = Experiment(store, HubForWorkers(hub, hub.owner), studies_dir=settings.studies_dir, software_version=__version__,
                             config=settings.recorded(), record_every=settings.record_every,
                             force_scenarios=settings.force)
 
@@ -54,10 +57,12 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
+        hub.owner.bind()
         configs = list(settings.devices) + (await asyncio.to_thread(rig.start) if rig else [])
         hub.device_profiles = {c.name: c.profile for c in configs}  # until the devices identify themselves
         devices = DeviceHost(configs, on_report=hub.on_device_report,
                              on_profiles=lambda profiles: setattr(hub, "device_profiles", profiles))
+        devices.owner = hub.owner
         devices.start()  # the serial devices and the cue feed run in a process of their own
         supervisor.cue_sock = devices.loop_end  # the loop sends changed cues straight to it
         app.state.device_host = devices

@@ -3,6 +3,10 @@ experimenter's console does). Thin: validate, call the engine, map its errors to
 
 Changes to a session need the control token its creation (or `POST .../control`) returned, in
 the `X-Control-Token` header; each names the trial it is about, so a stale console gets 409.
+
+The handlers are plain `def`: FastAPI runs them on worker threads, so the engine's SQLite work
+never blocks the event loop. The engine reaches the hub only through the app's `HubForWorkers`,
+which runs each hub call on the event loop's thread (server/hub/owner.py).
 """
 
 from __future__ import annotations

@@ -1,4 +1,8 @@
-"""REST routes: thin views over the hub and the loop supervisor (OpenAPI at /docs)."""
+"""REST routes: thin views over the hub and the loop supervisor (OpenAPI at /docs).
+
+Every handler is `async def`: it runs on the event loop's thread, which owns the hub, the
+supervisor and the device host (server/hub/owner.py); a plain `def` would run on a worker thread.
+Nothing here blocks: each handler reads the hub or sends one record to the loop."""
 
 from __future__ import annotations
 
@@ -21,11 +25,11 @@ router = APIRouter()
 _STARTED = time.monotonic()
 
 
-def get_hub(request: Request) -> Hub:
+async def get_hub(request: Request) -> Hub:
     return request.app.state.hub
 
 
-def get_supervisor(request: Request) -> LoopSupervisor:
+async def get_supervisor(request: Request) -> LoopSupervisor:
     return request.app.state.supervisor
 
 
@@ -34,7 +38,7 @@ SupervisorDep = Annotated[LoopSupervisor, Depends(get_supervisor)]
 
 
 @router.get("/health", summary="Server and 1 kHz loop status, with loop timing over the last 10 s")
-def health(request: Request, hub: HubDep, supervisor: SupervisorDep) -> dict:
+async def health(request: Request, hub: HubDep, supervisor: SupervisorDep) -> dict:
     alive = supervisor.alive
     return {"status": "ok" if alive and hub.states_received else "starting" if alive else "degraded",
             "version": __version__, "uptime_s": round(time.monotonic() - _STARTED, 3),
@@ -42,14 +46,14 @@ def health(request: Request, hub: HubDep, supervisor: SupervisorDep) -> dict:
                      "restarts": supervisor.restarts, "scenario": hub.loop_info.get("scenario"),
                      "tick_hz": hub.tick_hz, "state_hz": hub.state_hz,
                      "dropped_to_loop": supervisor.dropped_to_loop},
-            "telemetry": hub.telemetry_summary(), "clients": len(hub.sessions), "scene": hub.scene_hash,
+            "telemetry": hub.telemetry_summary(), "clients": len(hub.connections), "scene": hub.scene_hash,
             "tracker_udp": getattr(request.app.state, "tracker_udp", None),
             "warnings": [r["text"] for r in hub.log_records if r["level"] == "warning"][-5:]}
 
 
 @router.get("/scenarios", summary="Scenarios this server can run, with their parameters, controls, study "
                                   "parts and required tactile dimensions, and whether the configured devices can run them")
-def scenarios(hub: HubDep) -> list[dict]:
+async def scenarios(hub: HubDep) -> list[dict]:
     return [{**describe(spec.factory), "capability": hub.capability(spec.factory).to_dict()}
             for spec in SCENARIOS.values()]
 
@@ -80,7 +84,7 @@ def _busy_or_bad(exc: Exception) -> HTTPException:
 
 
 @router.get("/scenario", summary="The running scenario: id, parameters, trial, declaration, capability check")
-def scenario(hub: HubDep) -> dict:
+async def scenario(hub: HubDep) -> dict:
     info = hub.scenario_info()
     if not info:
         raise HTTPException(503, "the loop has not announced its scenario yet")
@@ -89,7 +93,7 @@ def scenario(hub: HubDep) -> dict:
 
 @router.post("/scenario", summary="Switch the running scenario (the new scene goes to every client); 409 when no "
                                   "configured device can show it, unless force")
-def switch_scenario(body: ScenarioRequest, hub: HubDep) -> dict:
+async def switch_scenario(body: ScenarioRequest, hub: HubDep) -> dict:
     try:
         return hub.switch_scenario(body.name, body.params, body.seed, body.force)
     except UnknownScenario as exc:
@@ -101,7 +105,7 @@ def switch_scenario(body: ScenarioRequest, hub: HubDep) -> dict:
 
 
 @router.post("/trial", summary="Start a trial of the running scenario (phase and trial parameters)")
-def start_trial(body: TrialRequest, hub: HubDep) -> dict:
+async def start_trial(body: TrialRequest, hub: HubDep) -> dict:
     try:
         return {"trial": hub.set_trial(body.phase, body.params, body.index)}
     except (ParamError, BusyError) as exc:
@@ -109,7 +113,7 @@ def start_trial(body: TrialRequest, hub: HubDep) -> dict:
 
 
 @router.delete("/trial", summary="End the running trial (back to free exploration)")
-def end_trial(hub: HubDep) -> dict:
+async def end_trial(hub: HubDep) -> dict:
     try:
         return {"trial": hub.set_trial(None)}
     except BusyError as exc:
@@ -117,7 +121,7 @@ def end_trial(hub: HubDep) -> dict:
 
 
 @router.post("/command", summary="Send a key or experimenter command to the running scenario, as an operator")
-def command(body: CommandRequest, hub: HubDep) -> dict:
+async def command(body: CommandRequest, hub: HubDep) -> dict:
     try:
         hub.command(body.key, body.action, body.value, role="operator")
     except (ParamError, BusyError) as exc:
@@ -126,21 +130,21 @@ def command(body: CommandRequest, hub: HubDep) -> dict:
 
 
 @router.get("/scene", summary="The current static scene (docs/protocol.md scene format)")
-def scene(hub: HubDep) -> dict:
+async def scene(hub: HubDep) -> dict:
     if hub.scene is None:
         raise HTTPException(503, "the loop has not published a scene yet")
     return {"hash": hub.scene_hash, "scene": hub.scene}
 
 
 @router.get("/state", summary="The latest state frame")
-def state(hub: HubDep) -> dict:
+async def state(hub: HubDep) -> dict:
     if hub.last_state is None:
         raise HTTPException(503, "no state yet")
     return hub.last_state
 
 
 @router.get("/clients", summary="Connected WebSocket clients with their counters")
-def clients(hub: HubDep) -> list[dict]:
+async def clients(hub: HubDep) -> list[dict]:
     return hub.clients()
 
 
@@ -158,18 +162,18 @@ async def devices(request: Request, writes: int = Query(0, ge=0, le=1024, descri
 
 
 @router.get("/telemetry", summary="Loop timing since the last reset (exact to 1 µs)")
-def telemetry(hub: HubDep) -> dict:
+async def telemetry(hub: HubDep) -> dict:
     return hub.telemetry.cumulative()
 
 
 @router.get("/trackers", summary="Recent tracker samples with when the hub received and the loop applied them")
-def trackers(hub: HubDep, limit: int = 1000) -> dict:
+async def trackers(hub: HubDep, limit: int = 1000) -> dict:
     rows = list(hub.tracker_applied)[-max(1, min(limit, 4096)):]
     return {"columns": ["client_id", "seq", "t_ms", "hub_recv_ns", "loop_applied_ns"], "rows": rows,
             "clock": "hub_recv_ns and loop_applied_ns are CLOCK_MONOTONIC of the server machine"}
 
 
 @router.post("/telemetry/reset", summary="Start a new cumulative timing window")
-def telemetry_reset(hub: HubDep) -> dict:
+async def telemetry_reset(hub: HubDep) -> dict:
     hub.telemetry.reset_cumulative()
     return {"ok": True}

@@ -3,7 +3,8 @@
 Shared by the loop supervisor and the device host. Adapter only, on the asyncio loop: records
 from the child are handed to `_on_record` (add_reader, no thread); records to it are sent
 without blocking. A dead child is logged and started again with backoff (0.5 s, doubling up to
-10 s), so a crash cannot take the server down silently.
+10 s), so a crash cannot take the server down silently. Only the event loop's thread uses it
+(server/hub/owner.py): a restart replaces the socket (and the loop's doorbell) under any caller.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import socket
 import subprocess
 
 from server import ipc
+from server.hub.owner import Owner
 
 log = logging.getLogger("viestac.hub")
 
@@ -27,6 +29,7 @@ class ChildProcess:
         self._sock: socket.socket | None = None
         self._watch: asyncio.Task | None = None
         self._closing = False
+        self.owner = Owner(f"the {self.what}")  # bound by start() unless the app shares the hub's
 
     # ---- what a kind of child says --------------------------------------------------------
     def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
@@ -45,6 +48,8 @@ class ChildProcess:
         return self.proc is not None and self.proc.poll() is None
 
     def start(self) -> None:
+        if self.owner.thread is None:
+            self.owner.bind()
         ours, theirs = ipc.channel_pair()
         self.proc = self._spawn(theirs)
         theirs.close()  # the child holds it now
@@ -55,6 +60,7 @@ class ChildProcess:
 
     def _send(self, record: list) -> bool:
         """One record without blocking; False if it could not go (full, or no child)."""
+        self.owner.check()
         if self._sock is None:
             return False
         try:

@@ -1,14 +1,16 @@
 """The WebSocket hub: clients in, state frames out, never in the loop's way.
 
-- Each client has a latest-wins slot for state frames and a small ordered queue for control
-  messages (welcome, scene, errors). A slow client only drops its own frames: its sender task
-  waits on its own socket, nobody else's (websockets' broadcast guide; issue #1071 upstream).
+The asyncio shell around the clients' protocol sessions (server/hub/session.py, I/O-free: hello,
+roles, errors, what each client is sent and in which order) and the fan-out of the loop's records:
+- Each client has a sender task that takes what its session has queued: control messages in
+  order, then the latest state frame (latest-wins). A slow client only drops its own frames: its
+  sender waits on its own socket, nobody else's (websockets' broadcast guide; issue #1071 upstream).
 - A state frame is encoded once per format, not per client.
 - Broadcasting wakes the senders in slices of `SLICE` clients and yields to the event loop in
   between, so tracker messages that arrive during a broadcast are read after at most one slice
   instead of after all 64 sends (the design measurements, docs/reference.md, saw tracker → device
   p99 4-6 ms at 32+ viewers when tracker frames queued behind one broadcast burst).
-- Every bad frame gets exactly one `error` reply and the connection stays open.
+- One thread owns the hub, the event loop's (server/hub/owner.py).
 """
 
 from __future__ import annotations
@@ -18,46 +20,30 @@ import logging
 import time
 from collections import deque
 from itertools import count
-from typing import Any
 
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from devices.capability import CapabilityReport, check
 from scenarios import registry
 from server.core.scenario import ParamError, Trial, describe, find_control
+from server.hub.owner import Owner
+from server.hub.session import OPEN, Access, Close, Command, ServerInfo, Session, ToLoop
 from server.hub.telemetry import LoopTelemetry
 from server.wire import codec, messages
-from server.wire.codec import WireError
 
 log = logging.getLogger("viestac.hub")
 
 SLICE = 8
-HELLO_TIMEOUT_S = 1.0
-_CLOSE = object()  # control-queue sentinel: close the connection after what precedes it
+FLUSH_BEFORE_CLOSE_S = 2.0
 
 
-class ClientSession:
-    def __init__(self, client_id: int, ws: WebSocket, fmt: str):
-        self.id = client_id
+class Connection:
+    """One client's socket, its protocol session and its sender's wake-up."""
+
+    def __init__(self, ws: WebSocket, session: Session):
         self.ws = ws
-        self.fmt = fmt
-        self.role = "observer"
-        self.client_name = ""
-        self.welcomed = False
-        self.latest: bytes | str | None = None  # latest-wins state slot
-        self.control: deque = deque(maxlen=64)  # ordered control messages
+        self.session = session
         self.wake = asyncio.Event()
-        self.close_code: int | None = None
-        self.frames_sent = 0
-        self.frames_dropped = 0
-        self.tracker_count = 0
-        self.last_tracker: dict | None = None
-        self.errors = 0
-
-    def info(self) -> dict:
-        return {"client_id": self.id, "role": self.role, "client": self.client_name, "format": self.fmt,
-                "frames_sent": self.frames_sent, "frames_dropped": self.frames_dropped,
-                "tracker_count": self.tracker_count, "last_tracker": self.last_tracker, "errors": self.errors}
 
 
 class ScenarioRefused(Exception):
@@ -73,7 +59,9 @@ class Hub:
         self.server_name = server_name
         self.tick_hz = tick_hz
         self.state_hz = state_hz
-        self.sessions: dict[int, ClientSession] = {}
+        self.owner = Owner("the hub")  # the app shares one with the supervisor and the device host
+        self.access: Access = OPEN  # what each role may do (the seam for access control)
+        self.connections: dict[int, Connection] = {}
         self._ids = count(1)
         self.scene: dict | None = None
         self.scene_hash = ""
@@ -89,6 +77,7 @@ class Hub:
         self.tracker_applied: deque[list] = deque(maxlen=4096)  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.log_records: deque[dict] = deque(maxlen=200)
         self._frames: dict[str, bytes | str] = {}
+        self._frames_scene = ""  # the scene the current state frames name
         self._frame_seq = 0
         self._broadcaster: asyncio.Task | None = None
         self.send_to_loop = lambda record: False  # wired by the app to the loop supervisor
@@ -100,6 +89,7 @@ class Hub:
 
     # ---- records from the loop process -------------------------------------------------
     def on_loop_record(self, record: list) -> None:
+        self.owner.check()
         kind = record[0]
         if kind == "state":
             self._on_state(record[1])
@@ -125,6 +115,7 @@ class Hub:
 
     def set_recording(self, every_n_ticks: int) -> None:
         """Ask the loop for trajectory rows every Nth tick (0: none); kept across loop restarts."""
+        self.owner.check()
         self.record_every = every_n_ticks
         self.send_to_loop(["record", every_n_ticks])
 
@@ -132,10 +123,9 @@ class Hub:
         self.scene, self.scene_hash = scene, scene_hash
         message = messages.scene_message(scene, scene_hash)
         self._scene_frames = {fmt: codec.encode(message, fmt) for fmt in codec.FORMATS}
-        for s in self.sessions.values():
-            if s.welcomed:
-                s.control.append(self._scene_frames[s.fmt])
-                s.wake.set()
+        for c in self.connections.values():
+            c.session.set_scene(scene_hash, self._scene_frames)
+            c.wake.set()
 
     def telemetry_summary(self) -> dict:
         now = time.monotonic()
@@ -148,6 +138,7 @@ class Hub:
     def on_device_report(self, report: dict) -> None:
         """The rig's report (device host process): refusals no device shows, and each device's
         status. The loop learns it (TickContext.refusals), listeners record it."""
+        self.owner.check()
         if report != self._device_report:
             self._device_report = report
             self.send_to_loop(["devices", report])
@@ -168,8 +159,9 @@ class Hub:
             telemetry=self.telemetry_summary(), visible=rec.get("visible"), events=rec.get("events"),
             scales=rec.get("scales"))
         self.last_state = message
-        formats = {s.fmt for s in self.sessions.values() if s.welcomed}
+        formats = {c.session.fmt for c in self.connections.values() if c.session.welcomed}
         self._frames = {fmt: codec.encode(message, fmt) for fmt in formats}
+        self._frames_scene = message["scene"]  # the scene the frame names, known without decoding it
         self._frame_seq += 1
         if self._frames and (self._broadcaster is None or self._broadcaster.done()):
             self._broadcaster = asyncio.get_running_loop().create_task(self._broadcast())
@@ -178,118 +170,85 @@ class Hub:
         delivered = 0
         while delivered != self._frame_seq:
             delivered = self._frame_seq
-            for i, s in enumerate(list(self.sessions.values())):
-                frame = self._frames.get(s.fmt)
-                if not s.welcomed or frame is None:
+            for i, c in enumerate(list(self.connections.values())):
+                frame = self._frames.get(c.session.fmt)
+                if not c.session.welcomed or frame is None:
                     continue
-                if s.latest is not None:
-                    s.frames_dropped += 1
-                s.latest = frame
-                s.wake.set()
+                c.session.offer_state(frame, self._frames_scene)
+                c.wake.set()
                 if (i + 1) % SLICE == 0:
                     await asyncio.sleep(0)  # let tracker reads in between slices
 
     # ---- one WebSocket connection -----------------------------------------------------
     async def serve(self, ws: WebSocket) -> None:
+        self.owner.check()
         offered = ws.scope.get("subprotocols") or []
         chosen = next((p for p in offered if p in codec.SUBPROTOCOLS), None)
         await ws.accept(subprotocol=chosen)
-        s = ClientSession(next(self._ids), ws, codec.SUBPROTOCOLS.get(chosen, "msgpack"))
-        self.sessions[s.id] = s
-        sender = asyncio.create_task(self._sender(s))
+        server = ServerInfo(self.server_name, self.tick_hz, self.state_hz)
+        session = Session(next(self._ids), codec.SUBPROTOCOLS.get(chosen, "msgpack"), server, time.monotonic_ns(),
+                          access=self.access)
+        if self._scene_frames:
+            session.set_scene(self.scene_hash, self._scene_frames)
+        c = Connection(ws, session)
+        self.connections[session.id] = c
+        sender = asyncio.create_task(self._sender(c))
         try:
-            try:
-                first = await asyncio.wait_for(ws.receive(), HELLO_TIMEOUT_S)
-            except asyncio.TimeoutError:
-                first = None
-            if first is not None and first["type"] == "websocket.disconnect":
-                return
-            if first is not None:
-                self._on_frame(s, first, first_frame=True)
-            if not s.welcomed and s.close_code is None:
-                self._welcome(s)
-            while s.close_code is None:
-                message = await ws.receive()
+            while not session.closing:
+                wait = session.hello_wait_s(time.monotonic_ns())
+                try:
+                    message = await (ws.receive() if wait is None else asyncio.wait_for(ws.receive(), wait))
+                except asyncio.TimeoutError:
+                    session.hello_deadline_passed(time.monotonic_ns())
+                    c.wake.set()
+                    continue
                 if message["type"] == "websocket.disconnect":
                     return
-                self._on_frame(s, message)
+                data = message.get("bytes")
+                if data is None:
+                    data = message.get("text")
+                self._forward(c, session.receive(data, time.monotonic_ns()))
+                c.wake.set()
             # We are closing (e.g. unsupported version): let the sender flush the error first.
-            await asyncio.wait_for(asyncio.shield(sender), 2.0)
+            await asyncio.wait_for(asyncio.shield(sender), FLUSH_BEFORE_CLOSE_S)
         except (WebSocketDisconnect, RuntimeError, asyncio.TimeoutError):
             pass
         finally:
-            self.sessions.pop(s.id, None)
+            self.connections.pop(session.id, None)
             sender.cancel()
+            self._forward(c, session.disconnected())
 
-    async def _sender(self, s: ClientSession) -> None:
+    async def _sender(self, c: Connection) -> None:
         try:
             while True:
-                await s.wake.wait()
-                s.wake.clear()
-                while s.control:
-                    item = s.control.popleft()
-                    if item is _CLOSE:
-                        await s.ws.close(code=s.close_code or 1000)
+                await c.wake.wait()
+                c.wake.clear()
+                while (item := c.session.next_frame()) is not None:
+                    if isinstance(item, Close):
+                        await c.ws.close(code=item.code)
                         return
-                    await self._send(s, item)
-                frame, s.latest = s.latest, None
-                if frame is not None:
-                    await self._send(s, frame)
-                    s.frames_sent += 1
+                    if isinstance(item, bytes):
+                        await c.ws.send_bytes(item)
+                    else:
+                        await c.ws.send_text(item)
         except (WebSocketDisconnect, RuntimeError, OSError):
             return
 
-    @staticmethod
-    async def _send(s: ClientSession, data: bytes | str) -> None:
-        if isinstance(data, bytes):
-            await s.ws.send_bytes(data)
-        else:
-            await s.ws.send_text(data)
-
-    def _welcome(self, s: ClientSession) -> None:
-        s.welcomed = True
-        s.control.append(codec.encode(messages.welcome(s.id, s.role, self.server_name, self.tick_hz,
-                                                       self.state_hz, s.fmt), s.fmt))
-        if self._scene_frames:
-            s.control.append(self._scene_frames[s.fmt])
-        s.wake.set()
-
-    def _error(self, s: ClientSession, code: str, text: str) -> None:
-        s.errors += 1
-        s.control.append(codec.encode(messages.error(code, text), s.fmt))
-        s.wake.set()
-
-    def _on_frame(self, s: ClientSession, frame: dict[str, Any], first_frame: bool = False) -> None:
-        data = frame.get("bytes")
-        if data is None:
-            data = frame.get("text")
-        try:
-            if data is None:
-                raise WireError("bad_encoding", "empty frame")
-            message = messages.parse_client_message(codec.decode(data, s.fmt))
-        except WireError as exc:
-            self._error(s, exc.code, exc.message)
-            return
-        if isinstance(message, messages.Hello):
-            self._on_hello(s, message, first_frame)
-        elif s.role == "observer":
-            self._error(s, "forbidden", f"an observer may not send '{frame_type(message)}' messages")
-        elif isinstance(message, messages.Tracker):
-            s.tracker_count += 1
-            s.last_tracker = {"seq": message.seq, "t": message.t_ms, "pos": list(message.pos)}
-            record = ["tracker", s.id, message.seq, message.t_ms, list(message.pos),
-                      list(message.quat) if message.quat else None, time.monotonic_ns()]
-            if not self.send_to_loop(record):
-                self._error(s, "busy", "the loop's input mailbox is full; tracker sample dropped")
-        elif isinstance(message, messages.Input):
+    def _forward(self, c: Connection, events: list[ToLoop | Command]) -> None:
+        """What a client's session asks of the loop; refusals go back to the client as errors."""
+        for event in events:
+            if isinstance(event, ToLoop):
+                if not self.send_to_loop(event.record) and event.busy:
+                    c.session.reply_error("busy", event.busy)
+                continue
             try:
-                self.command(message.key, message.action, message.value, role=s.role, client_id=s.id)
+                self.command(event.key, event.action, event.value, role=event.role, client_id=event.client_id)
             except PermissionError as exc:
-                self._error(s, "forbidden", str(exc))
+                c.session.reply_error("forbidden", str(exc))
             except ParamError as exc:
-                self._error(s, "bad_message", str(exc))
+                c.session.reply_error("bad_message", str(exc))
             except BusyError as exc:
-                self._error(s, "busy", str(exc))
+                c.session.reply_error("busy", str(exc))
 
     # ---- scenario control (WebSocket input and REST share these) -----------------------
     def command(self, key: str, action: str, value=None, *, role: str = "operator", client_id: int = 0) -> None:
@@ -350,27 +309,9 @@ class Hub:
         return {**self.scenario_state, "scene": self.scene_hash, "info": describe(self.scenario_cls),
                 "capability": self.capability().to_dict()}
 
-    def _on_hello(self, s: ClientSession, hello: messages.Hello, first_frame: bool) -> None:
-        if hello.version != messages.PROTOCOL_VERSION:
-            self._error(s, "unsupported_version",
-                        f"protocol version {hello.version} is not supported; this server speaks v{messages.PROTOCOL_VERSION}")
-            s.close_code = 1002
-            s.control.append(_CLOSE)
-            s.wake.set()
-            return
-        if s.welcomed:
-            self._error(s, "bad_message", "hello must be the first message of a connection")
-            return
-        s.role, s.client_name = hello.role, hello.client
-        self._welcome(s)
-
     def clients(self) -> list[dict]:
-        return [s.info() for s in self.sessions.values()]
+        return [c.session.info() for c in self.connections.values()]
 
 
 class BusyError(RuntimeError):
     """The loop's mailbox is full; the request was dropped."""
-
-
-def frame_type(message) -> str:
-    return {messages.Tracker: "tracker", messages.Input: "input"}.get(type(message), "?")

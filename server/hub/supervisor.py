@@ -2,10 +2,11 @@
 
 Adapter only (server/hub/child.py: add_reader, no thread; restart with backoff), so a crash in a
 scenario cannot take the server down silently. Records to the loop are sent without blocking and
-followed by a ring of the mailbox doorbell. Every loop process also gets the loop end of the cue
-channel (to the device host process, server/hub/device_host.py), so device commands never pass
-this event loop, and the tracker UDP socket (server/loop/tracker_udp.py); both are made once and
-kept across loop restarts.
+followed by a ring of the mailbox doorbell, from the event loop's thread only (server/hub/owner.py:
+the ring is an unlocked read-modify-write, and a restart replaces the doorbell). Every loop
+process also gets the loop end of the cue channel (to the device host process,
+server/hub/device_host.py), so device commands never pass this event loop, and the tracker UDP
+socket (server/loop/tracker_udp.py); both are made once and kept across loop restarts.
 """
 
 from __future__ import annotations

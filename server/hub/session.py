@@ -1,0 +1,259 @@
+"""One /ws client's protocol session, I/O-free (the shape of websockets' sans-I/O protocol core).
+
+The hub's shell (server/hub/hub.py) owns the socket and the clock; this object owns every
+protocol decision about one client:
+- the hello grace period: the first frame ends it, or the deadline (`hello_deadline_passed`);
+  a client without a valid hello by then is welcomed as an observer, and a hello after that is
+  refused (docs/protocol.md "hello");
+- the version check (`unsupported_version`, then close 1002) and which messages a role may send
+  (`forbidden`), through `Access`, the seam where access control will plug in;
+- decoding and validation (server/wire), with exactly one `error` per bad frame;
+- what the client is sent: an ordered control queue (welcome, scene, errors, close) and a
+  latest-wins slot for state frames, taken by the shell's sender with `next_frame()`;
+- the ordering rule: every state after `scene` H names H until the next `scene`. A state frame
+  whose scene is not the last scene handed out is dropped when it is taken (the slot may hold a
+  frame of the previous scene when the new scene goes first: control is sent before the slot);
+- per-client counters.
+
+What a client asks of the loop comes out of `receive` as events (`ToLoop`, `Command`); the hub
+forwards them and reports a refusal back with `reply_error`.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from server.wire import codec, messages
+from server.wire.codec import WireError
+
+HELLO_TIMEOUT_NS = 1_000_000_000
+MAX_PENDING_ERRORS = 64  # a client that floods bad frames and does not read gets no more replies queued
+SENDS = ("tracker", "input")  # client messages that act on the loop (hello is always allowed)
+
+
+@dataclass(frozen=True)
+class ServerInfo:
+    """What a welcome says about the server."""
+    name: str
+    tick_hz: int
+    state_hz: float
+
+
+@dataclass(frozen=True)
+class ToLoop:
+    """A record for the loop's mailbox. `busy`: the error text for the client if the record
+    cannot go (full mailbox); None when there is nobody to tell."""
+    record: list
+    busy: str | None = None
+
+
+@dataclass(frozen=True)
+class Command:
+    """A key or command for the running scenario, checked by the hub against its CONTROLS."""
+    key: str
+    action: str
+    value: Any
+    role: str
+    client_id: int
+
+
+@dataclass(frozen=True)
+class Close:
+    """Close the connection with this code (after everything queued before it)."""
+    code: int
+
+
+class Access:
+    """Who may do what. Today the role asked for is the role given, and an observer may send
+    nothing but hello; an access-control policy (a later issue) replaces this object."""
+
+    def role_for(self, hello: messages.Hello) -> str:
+        return hello.role
+
+    def authorize(self, role: str, kind: str) -> str | None:
+        """None when `role` may send messages of type `kind`, else the reason it may not."""
+        if role == "observer" and kind in SENDS:
+            return f"an observer may not send '{kind}' messages"
+        return None
+
+
+OPEN = Access()
+
+
+class Session:
+    def __init__(self, client_id: int, fmt: str, server: ServerInfo, opened_ns: int, *, access: Access = OPEN,
+                 hello_timeout_ns: int = HELLO_TIMEOUT_NS):
+        self.id = client_id
+        self.fmt = fmt
+        self.server = server
+        self.access = access
+        self.role = "observer"
+        self.client_name = ""
+        self.welcomed = False
+        self.close_code: int | None = None
+        self.hello_deadline_ns = opened_ns + hello_timeout_ns
+        # control items: (kind, frame, scene hash or None) with kind welcome | scene | error, or a
+        # Close; the slot: (frame, scene hash)
+        self._control: deque = deque()
+        self._slot: tuple[bytes | str, str] | None = None
+        self._pending_errors = 0
+        self._scene: tuple[str, bytes | str] | None = None  # the current scene in this client's format
+        self._sent_scene: str | None = None  # the last scene handed to the sender
+        self._closed = False  # Close was handed out: nothing more goes
+        # counters (GET /api/clients)
+        self.frames_sent = 0
+        self.frames_dropped = 0
+        self.tracker_count = 0
+        self.last_tracker: dict | None = None
+        self.errors = 0
+
+    @property
+    def closing(self) -> bool:
+        return self.close_code is not None
+
+    def info(self) -> dict:
+        return {"client_id": self.id, "role": self.role, "client": self.client_name, "format": self.fmt,
+                "frames_sent": self.frames_sent, "frames_dropped": self.frames_dropped,
+                "tracker_count": self.tracker_count, "last_tracker": self.last_tracker, "errors": self.errors}
+
+    # ---- time --------------------------------------------------------------------------------
+    def hello_wait_s(self, now_ns: int) -> float | None:
+        """Seconds the shell may wait for the first frame before calling `hello_deadline_passed`;
+        None once the grace period is over."""
+        if self.welcomed or self.closing:
+            return None
+        return max(0.0, (self.hello_deadline_ns - now_ns) / 1e9)
+
+    def hello_deadline_passed(self, now_ns: int) -> None:
+        """No hello in time: the client is an observer of protocol v1 (welcomed now)."""
+        if not self.welcomed and not self.closing and now_ns >= self.hello_deadline_ns:
+            self._welcome()
+
+    # ---- frames from the client --------------------------------------------------------------
+    def receive(self, data: bytes | str | None, now_ns: int) -> list[ToLoop | Command]:
+        """One frame from the client (None: a frame with no payload). Returns what the hub is to
+        forward; replies (welcome, errors, close) are queued for the sender."""
+        if self.closing:
+            return []
+        self.hello_deadline_passed(now_ns)  # a frame after the deadline comes after the welcome
+        events: list[ToLoop | Command] = []
+        try:
+            if data is None:
+                raise WireError("bad_encoding", "empty frame")
+            body = codec.decode(data, self.fmt)
+            message = messages.parse_client_message(body)
+        except WireError as exc:
+            self.reply_error(exc.code, exc.message)
+        else:
+            events = self._handle(body["type"], message, now_ns)
+        if not self.welcomed and not self.closing:  # the first frame ends the grace period, hello or not
+            self._welcome()
+        return events
+
+    def _handle(self, kind: str, message, now_ns: int) -> list[ToLoop | Command]:
+        if isinstance(message, messages.Hello):
+            self._hello(message)
+            return []
+        refusal = self.access.authorize(self.role, kind)
+        if refusal is not None:
+            self.reply_error("forbidden", refusal)
+            return []
+        if isinstance(message, messages.Tracker):
+            self.tracker_count += 1
+            self.last_tracker = {"seq": message.seq, "t": message.t_ms, "pos": list(message.pos)}
+            record = ["tracker", self.id, message.seq, message.t_ms, list(message.pos),
+                      list(message.quat) if message.quat else None, now_ns]
+            return [ToLoop(record, busy="the loop's input mailbox is full; tracker sample dropped")]
+        if isinstance(message, messages.Input):
+            return [Command(message.key, message.action, message.value, self.role, self.id)]
+        return []
+
+    def _hello(self, hello: messages.Hello) -> None:
+        if hello.version != messages.PROTOCOL_VERSION:
+            self.reply_error("unsupported_version", f"protocol version {hello.version} is not supported; "
+                                                    f"this server speaks v{messages.PROTOCOL_VERSION}")
+            self.close_code = 1002
+            self._control.append(Close(1002))
+            return
+        if self.welcomed:
+            self.reply_error("bad_message", "hello must be the first message of a connection")
+            return
+        self.role, self.client_name = self.access.role_for(hello), hello.client
+        self._welcome()
+
+    def disconnected(self) -> list[ToLoop]:
+        """The connection is gone: a client whose tracker samples reached the loop leaves the HIP
+        (the loop sends it home and clears its driver)."""
+        return [ToLoop(["tracker_gone", self.id])] if self.tracker_count else []
+
+    # ---- what the client is sent -------------------------------------------------------------
+    def reply_error(self, code: str, text: str) -> None:
+        """One `error` frame for the client (also for refusals the hub learns: busy, command rules)."""
+        self.errors += 1
+        if self.closing or self._pending_errors >= MAX_PENDING_ERRORS:
+            return
+        self._pending_errors += 1
+        self._control.append(("error", codec.encode(messages.error(code, text), self.fmt), None))
+
+    def _welcome(self) -> None:
+        self.welcomed = True
+        s = self.server
+        welcome = messages.welcome(self.id, self.role, s.name, s.tick_hz, s.state_hz, self.fmt)
+        self._control.append(("welcome", codec.encode(welcome, self.fmt), None))
+        if self._scene is not None:
+            self._control.append(("scene", self._scene[1], self._scene[0]))
+
+    def set_scene(self, scene_hash: str, frames: Mapping[str, bytes | str]) -> None:
+        """The current scene (`frames`: its scene message encoded per format). A welcomed client
+        is sent it; a scene still waiting in the queue is superseded (the client needs the latest)."""
+        self._scene = (scene_hash, frames[self.fmt])
+        if not self.welcomed or self.closing:
+            return
+        if any(_is_scene(item) for item in self._control):
+            self._control = deque(item for item in self._control if not _is_scene(item))
+        self._control.append(("scene", self._scene[1], scene_hash))
+
+    def offer_state(self, frame: bytes | str, scene_hash: str) -> None:
+        """The latest state frame (in this client's format) and the scene it names; it replaces a
+        frame not yet sent (counted as dropped). Clients not yet welcomed get none."""
+        if not self.welcomed or self.closing:
+            return
+        if self._slot is not None:
+            self.frames_dropped += 1
+        self._slot = (frame, scene_hash)
+
+    @property
+    def pending(self) -> bool:
+        """Something is waiting for the sender."""
+        return not self._closed and (bool(self._control) or self._slot is not None)
+
+    def next_frame(self) -> bytes | str | Close | None:
+        """What the sender sends next: control messages in order, then the latest state frame;
+        None when nothing is waiting. After a `Close`, nothing."""
+        if self._closed:
+            return None
+        while self._control:
+            item = self._control.popleft()
+            if isinstance(item, Close):
+                self._closed = True
+                return item
+            kind, frame, scene_hash = item
+            if kind == "error":
+                self._pending_errors -= 1
+            elif kind == "scene":
+                self._sent_scene = scene_hash
+            return frame
+        if self._slot is None:
+            return None
+        (frame, scene_hash), self._slot = self._slot, None
+        if scene_hash != self._sent_scene:  # of a scene this client was not (or no longer) sent
+            self.frames_dropped += 1
+            return None
+        self.frames_sent += 1
+        return frame
+
+
+def _is_scene(item) -> bool:
+    return isinstance(item, tuple) and item[0] == "scene"
