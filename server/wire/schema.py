@@ -126,8 +126,11 @@ class Field:
     default: Any = None    # a parser's value when an optional field is absent
 
     def to_json(self) -> dict:
-        return {"name": self.name, "type": self.type, "required": self.required, "since": self.since,
-                "meaning": self.meaning}
+        out = {"name": self.name, "type": self.type, "required": self.required, "since": self.since,
+               "meaning": self.meaning}
+        if self.default is not None:
+            out["default"] = self.default
+        return out
 
 
 @dataclass(frozen=True)

@@ -56,7 +56,8 @@ export const SCHEMA = {
      },
      "required": false,
      "since": 0,
-     "meaning": "free-form name/version, e.g. `\"viestac-web/0.1\"`"
+     "meaning": "free-form name/version, e.g. `\"viestac-web/0.1\"`",
+     "default": ""
     }
    ]
   },
