@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
+from server.core.canonical_json import canonical_json
 from server.core.haptics.primitives import Body, Pose, shape_from_dict
 from server.core.numbers import is_finite_number
 
@@ -306,8 +307,10 @@ class Scene:
         ids = [o.id for o in self.objects] + [o.id for o in self.overlays]
         if len(set(ids)) != len(ids):
             raise SceneError("object and overlay ids must be unique")
-        canonical = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
-        object.__setattr__(self, "_hash", hashlib.sha256(canonical.encode()).hexdigest()[:16])
+        # Over the wire form (canonical numbers, RFC 8785 text), so that a client can recompute it
+        # from the scene it received: docs/protocol.md, "Scene hash".
+        canonical = canonical_json(self.to_dict())
+        object.__setattr__(self, "_hash", hashlib.sha256(canonical.encode("utf-8")).hexdigest()[:16])
 
     @property
     def hash(self) -> str:

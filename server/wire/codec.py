@@ -3,9 +3,10 @@
 Theory of operation (docs/protocol.md, "Encoding"):
 - msgpack binary frames by default, JSON text frames when the client asked for the
   `viestac.v1.json` subprotocol;
-- numbers are canonical: an integral value below 2**53 is written as an integer, every other
-  number as float64. JavaScript encoders do that by themselves, so with this rule the Python and
-  JS codecs produce the same bytes for the same message (checked by tests/vectors/);
+- numbers are canonical (server/core/canonical_json.py owns the rule): an integral value below
+  2**53 is written as an integer, every other number as float64. JavaScript encoders do that by
+  themselves, so with this rule the Python and JS codecs produce the same bytes for the same
+  message (checked by tests/vectors/);
 - NaN and +-Infinity are never valid, in either direction;
 - every failure is a `WireError` carrying a protocol error code, never a bare exception, so the
   hub can answer with one `error` frame and keep the connection.
@@ -19,10 +20,11 @@ from typing import Any
 
 import msgpack
 
+from server.core.canonical_json import NonFiniteNumber, canonical_numbers
+
 FORMATS = ("msgpack", "json")
 SUBPROTOCOLS = {"viestac.v1.msgpack": "msgpack", "viestac.v1.json": "json"}
 MAX_FRAME_BYTES = 64 * 1024
-_MAX_SAFE_INT = 2**53
 
 
 class WireError(Exception):
@@ -36,17 +38,10 @@ class WireError(Exception):
 
 def canonical(value: Any) -> Any:
     """Return `value` with canonical numbers (see module docstring); raise on non-finite."""
-    if isinstance(value, float):
-        if not math.isfinite(value):
-            raise WireError("non_finite", "NaN and Infinity are not valid numbers")
-        if value.is_integer() and abs(value) < _MAX_SAFE_INT:
-            return int(value)
-        return value
-    if isinstance(value, dict):
-        return {k: canonical(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [canonical(v) for v in value]
-    return value
+    try:
+        return canonical_numbers(value)
+    except NonFiniteNumber as exc:
+        raise WireError("non_finite", str(exc)) from None
 
 
 def encode(message: dict, fmt: str = "msgpack") -> bytes | str:

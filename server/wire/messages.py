@@ -1,56 +1,23 @@
-"""Protocol v1 messages (docs/protocol.md): validated client messages, server message builders.
+"""Protocol v1.1 messages (docs/protocol.md): validated client messages, server message builders.
 
-Client messages are frozen dataclasses that validate themselves when parsed from a decoded map
-(h11 style): a wrong field is a `WireError("bad_message", ...)` naming the field. Server
-messages are built as maps whose key order is the documented field order, because the msgpack
-test vectors are byte-exact.
+Every message is declared once in schema.py. Client messages are frozen dataclasses parsed from
+a decoded map by the declaration's checker (check.py): a wrong field is
+`WireError("bad_message", ...)` naming the field. Server messages are built as maps in the
+declared field order, because the msgpack test vectors are byte-exact.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Mapping
 
+from server.wire.check import check_message
 from server.wire.codec import WireError
+from server.wire.schema import (CLIENT_MESSAGE_NAMES, HELLO, INPUT, INPUT_ACTIONS, PROTOCOL_MINOR, PROTOCOL_VERSION,
+                                ROLES, SCENE_FORMAT_VERSION, STATE, TRACKER)
 
-PROTOCOL_VERSION = 1
-ROLES = ("participant", "operator", "observer")
-INPUT_ACTIONS = ("down", "up", "press")
-_MAX_NAME = 64
-_MAX_KEY = 32
-
-
-def _number(body: dict, field: str) -> float:
-    value = body.get(field)
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise WireError("bad_message", f"'{field}' must be a number")
-    if not math.isfinite(value):
-        raise WireError("non_finite", f"'{field}' must be finite")
-    return float(value)
-
-
-def _vector(body: dict, field: str, size: int) -> tuple[float, ...]:
-    value = body.get(field)
-    if not isinstance(value, list) or len(value) != size:
-        raise WireError("bad_message", f"'{field}' must be an array of {size} numbers")
-    out = []
-    for item in value:
-        if isinstance(item, bool) or not isinstance(item, (int, float)):
-            raise WireError("bad_message", f"'{field}' must be an array of {size} numbers")
-        if not math.isfinite(item):
-            raise WireError("non_finite", f"'{field}' must contain finite numbers")
-        out.append(float(item))
-    return tuple(out)
-
-
-def _string(body: dict, field: str, max_len: int, choices: tuple[str, ...] = ()) -> str:
-    value = body.get(field)
-    if not isinstance(value, str) or not value or len(value) > max_len:
-        raise WireError("bad_message", f"'{field}' must be a string of 1..{max_len} characters")
-    if choices and value not in choices:
-        raise WireError("bad_message", f"'{field}' must be one of {', '.join(choices)}")
-    return value
+__all__ = ["PROTOCOL_VERSION", "PROTOCOL_MINOR", "ROLES", "INPUT_ACTIONS", "Hello", "Tracker", "Input",
+           "CLIENT_MESSAGES", "parse_client_message", "welcome", "scene_message", "state_message", "error"]
 
 
 @dataclass(frozen=True)
@@ -61,14 +28,8 @@ class Hello:
 
     @classmethod
     def parse(cls, body: dict) -> Hello:
-        version = body.get("v")
-        if isinstance(version, bool) or not isinstance(version, int):
-            raise WireError("bad_message", "'v' must be an integer protocol version")
-        role = _string(body, "role", 16, ROLES)
-        client = body.get("client", "")
-        if not isinstance(client, str) or len(client) > _MAX_NAME:
-            raise WireError("bad_message", f"'client' must be a string of at most {_MAX_NAME} characters")
-        return cls(version, role, client)
+        f = check_message(body, HELLO)
+        return cls(f["v"], f["role"], f["client"])
 
     def to_wire(self) -> dict:
         return {"type": "hello", "v": self.version, "role": self.role, "client": self.client}
@@ -79,21 +40,12 @@ class Tracker:
     seq: int
     t_ms: float
     pos: tuple[float, float, float]
-    quat: tuple[float, float, float, float] | None = None
+    quat: tuple[float, float, float, float] | None = None  # unit: the parser divides by the norm
 
     @classmethod
     def parse(cls, body: dict) -> Tracker:
-        seq = body.get("seq")
-        if isinstance(seq, bool) or not isinstance(seq, int) or seq < 0:
-            raise WireError("bad_message", "'seq' must be an integer >= 0")
-        t_ms = _number(body, "t")
-        pos = _vector(body, "pos", 3)
-        quat = None
-        if body.get("quat") is not None:
-            quat = _vector(body, "quat", 4)
-            if math.sqrt(sum(q * q for q in quat)) < 1e-9:
-                raise WireError("bad_message", "'quat' must be a non-zero quaternion [w, x, y, z]")
-        return cls(seq, t_ms, pos, quat)  # type: ignore[arg-type]
+        f = check_message(body, TRACKER)
+        return cls(f["seq"], f["t"], f["pos"], f["quat"])
 
     def to_wire(self) -> dict:
         msg: dict[str, Any] = {"type": "tracker", "seq": self.seq, "t": self.t_ms, "pos": list(self.pos)}
@@ -110,12 +62,8 @@ class Input:
 
     @classmethod
     def parse(cls, body: dict) -> Input:
-        value = body.get("value")
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            value = _number(body, "value")
-        elif value is not None and not isinstance(value, bool) and not (isinstance(value, str) and len(value) <= 200):
-            raise WireError("bad_message", "'value' must be a number, a boolean or a string of at most 200 characters")
-        return cls(_string(body, "key", _MAX_KEY), _string(body, "action", 8, INPUT_ACTIONS), value)
+        f = check_message(body, INPUT)
+        return cls(f["key"], f["action"], f["value"])
 
     def to_wire(self) -> dict:
         msg: dict[str, Any] = {"type": "input", "key": self.key, "action": self.action}
@@ -125,6 +73,7 @@ class Input:
 
 
 CLIENT_MESSAGES = {"hello": Hello, "tracker": Tracker, "input": Input}
+assert tuple(CLIENT_MESSAGES) == CLIENT_MESSAGE_NAMES
 
 
 def parse_client_message(body: dict) -> Hello | Tracker | Input:
@@ -137,22 +86,45 @@ def parse_client_message(body: dict) -> Hello | Tracker | Input:
 
 
 def welcome(client_id: int, role: str, server: str, tick_hz: int, state_hz: float, fmt: str) -> dict:
-    return {"type": "welcome", "v": PROTOCOL_VERSION, "client_id": client_id, "role": role,
-            "server": server, "tick_hz": tick_hz, "state_hz": state_hz, "format": fmt}
+    return {"type": "welcome", "v": PROTOCOL_VERSION, "minor": PROTOCOL_MINOR, "client_id": client_id,
+            "role": role, "server": server, "tick_hz": tick_hz, "state_hz": state_hz, "format": fmt}
 
 
 def scene_message(scene: dict, scene_hash: str) -> dict:
-    return {"type": "scene", "v": PROTOCOL_VERSION, "hash": scene_hash, "scene": scene}
+    return {"type": "scene", "v": SCENE_FORMAT_VERSION, "hash": scene_hash, "scene": scene}
 
 
-def state_message(*, frame: int, tick: int, t: float, scene: str, hip, proxy, force, contact: bool,
-                  contacts, objects, cues, hud: str, values: dict, telemetry: dict, visible: dict | None = None,
-                  events: list | None = None, scales: dict | None = None) -> dict:
-    return {"type": "state", "frame": frame, "tick": tick, "t": t, "scene": scene,
-            "hip": list(hip), "proxy": list(proxy), "force": list(force), "contact": contact,
-            "contacts": contacts, "objects": objects, "cues": cues, "hud": hud, "values": values,
-            "telemetry": telemetry, "visible": visible or {}, "events": events or [], "scales": scales or {}}
+# What an absent optional state field is on the wire: the loop's record carries them all, these
+# keep a record without one (an older loop) well-formed.
+_STATE_EMPTY: dict[str, Any] = {"visible": dict, "events": list, "scales": dict, "stiffness": dict,
+                                "haptic": dict, "driver": lambda: None}
+assert set(_STATE_EMPTY) == {f.name for f in STATE.fields if not f.required}
+_STATE_FIELDS = tuple(f.name for f in STATE.fields[1:])
+
+
+def state_message(record: Mapping[str, Any] | None = None, telemetry: dict | None = None, **v10: Any) -> dict:
+    """The wire `state` for a loop state record: the declared fields in their order, taken from
+    the record (loop-internal keys such as `samples` stay behind), plus `type` and `telemetry`.
+    KeyError naming the field when the record lacks a required one.
+
+    Until the hub passes its record (issue 17), the v1.0 keyword call (`frame=..., scene=...,
+    telemetry=..., visible=None, ...`) still works: its fields by name, None as absent."""
+    if v10:
+        record = {k: v for k, v in v10.items() if v is not None}
+    assert record is not None and telemetry is not None
+    msg: dict[str, Any] = {"type": "state"}
+    for name in _STATE_FIELDS:
+        if name == "telemetry":
+            msg[name] = telemetry
+        elif name in record:
+            msg[name] = record[name]
+        elif name in _STATE_EMPTY:
+            msg[name] = _STATE_EMPTY[name]()
+        else:
+            raise KeyError(f"the loop's state record has no {name!r}, a required state field")
+    return msg
 
 
 def error(code: str, message: str) -> dict:
     return {"type": "error", "code": code, "message": message}
+

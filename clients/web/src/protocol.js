@@ -1,22 +1,38 @@
-// ViESTac wire protocol v1: pure codec, message builders, validation and frame conversions.
+// ViESTac wire protocol v1.1: pure codec, message builders, validation and frame conversions.
 // No DOM, no WebSocket, no clock: everything here is a function of its arguments, so the same
 // module runs in the browser and under `node --test` against tests/vectors/ (docs/protocol.md).
+// Every message is declared once, on the server (server/wire/schema.py); schema.js is generated
+// from that declaration and this module checks messages against it.
 
 import { encode as msgpackEncode, decode as msgpackDecode } from '@msgpack/msgpack';
+import { SCHEMA as DECLARED } from './schema.js';
 
-export const PROTOCOL_VERSION = 1;
-export const SCENE_FORMAT_VERSION = 1;
+function deepFreeze(value) {
+  if (value !== null && typeof value === 'object') {
+    Object.values(value).forEach(deepFreeze);
+    Object.freeze(value);
+  }
+  return value;
+}
+
+/** The declaration: {protocol: {v, minor, scene_format}, messages: [{name, direction, fields}], error_codes}. */
+export const SCHEMA = deepFreeze(DECLARED);
+const DECLARATIONS = Object.fromEntries(SCHEMA.messages.map((m) => [m.name, m]));
+const declaredType = (message, field) => DECLARATIONS[message].fields.find((f) => f.name === field).type;
+
+export const PROTOCOL_VERSION = SCHEMA.protocol.v;
+export const PROTOCOL_MINOR = SCHEMA.protocol.minor;
+export const SCENE_FORMAT_VERSION = SCHEMA.protocol.scene_format;
 export const SUBPROTOCOLS = Object.freeze({ msgpack: 'viestac.v1.msgpack', json: 'viestac.v1.json' });
-export const FORMATS = Object.freeze(['msgpack', 'json']);
-export const ROLES = Object.freeze(['participant', 'operator', 'observer']);
-export const INPUT_ACTIONS = Object.freeze(['down', 'up', 'press']);
-export const MAX_CLIENT_NAME = 64;
-export const MAX_KEY_NAME = 32;
-export const MAX_INPUT_TEXT = 200; // longest string `input.value`
-export const ERROR_CODES = Object.freeze([
-  'bad_encoding', 'bad_message', 'non_finite', 'unknown_type',
-  'too_large', 'forbidden', 'unsupported_version', 'busy',
-]);
+export const FORMATS = declaredType('welcome', 'format').values;
+export const ROLES = declaredType('hello', 'role').values;
+export const INPUT_ACTIONS = declaredType('input', 'action').values;
+export const MAX_CLIENT_NAME = declaredType('hello', 'client').max_len;
+export const MAX_KEY_NAME = declaredType('input', 'key').max_len;
+// longest string `input.value`
+export const MAX_INPUT_TEXT = declaredType('input', 'value').types.find((t) => t.kind === 'string').max_len;
+export const ERROR_CODES = SCHEMA.error_codes;
+export const MESSAGE_TYPES = Object.freeze(Object.keys(DECLARATIONS));
 export const SHAPE_TYPES = Object.freeze(['sphere', 'box', 'cylinder', 'cone', 'plane', 'hemisphere', 'mesh']);
 export const MAX_MESH_VERTICES = 20000;
 export const MAX_MESH_FACES = 40000;
@@ -111,7 +127,7 @@ export function decode(data, format = 'msgpack') {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Builders (client → server). Field order is exactly the order of docs/protocol.md.
+// Builders (client → server). Field order is the declared order (docs/protocol.md).
 
 function vec(v, n, what) {
   if (v == null || typeof v[Symbol.iterator] !== 'function') {
@@ -125,126 +141,89 @@ function vec(v, n, what) {
   return out;
 }
 
+/** Throws ProtocolError('bad_message') unless `value` fits the declared type of `message.field`. */
+function checked(message, field, value) {
+  const type = declaredType(message, field);
+  if (!fits(value, type)) {
+    throw new ProtocolError('bad_message', `${field} must be ${plain(type.doc)}, got ${describe(value)}`);
+  }
+  return value;
+}
+
 /** `hello`: the first message of a participant/operator connection. */
 export function hello(role = 'participant', client = 'viestac-web/0.1') {
-  if (!ROLES.includes(role)) throw new ProtocolError('bad_message', `role must be one of ${ROLES.join(', ')}`);
-  if (typeof client !== 'string' || client.length > MAX_CLIENT_NAME) {
-    throw new ProtocolError('bad_message', `client must be a string of at most ${MAX_CLIENT_NAME} chars`);
-  }
-  return { type: 'hello', v: PROTOCOL_VERSION, role, client };
+  return {
+    type: 'hello', v: PROTOCOL_VERSION, role: checked('hello', 'role', role), client: checked('hello', 'client', client),
+  };
 }
 
-/** `tracker`: one HIP sample, scene frame. `quat` ([w,x,y,z]) is optional and omitted when null. */
+/**
+ * `tracker`: one HIP sample, scene frame. `quat` ([w,x,y,z], norm in [0.5, 2]; the server
+ * normalises it) is optional and omitted when null.
+ */
 export function tracker(seq, tMs, pos, quat = null) {
-  if (!Number.isSafeInteger(seq) || seq < 0) throw new ProtocolError('bad_message', 'seq must be an int >= 0');
+  checked('tracker', 'seq', seq);
   if (typeof tMs !== 'number' || !Number.isFinite(tMs)) throw new ProtocolError('non_finite', 't must be a finite number');
   const msg = { type: 'tracker', seq, t: tMs, pos: vec(pos, 3, 'pos') };
-  if (quat != null) msg.quat = vec(quat, 4, 'quat');
+  if (quat != null) msg.quat = checked('tracker', 'quat', vec(quat, 4, 'quat'));
   return msg;
 }
-
-const isInputValue = (x) => (typeof x === 'number' && Number.isFinite(x)) || typeof x === 'boolean'
-  || (typeof x === 'string' && x.length <= MAX_INPUT_TEXT);
 
 /**
  * `input`: a key (DOM KeyboardEvent.key) or command name going down/up or pressed. `value` (a
  * number, boolean or string: a command's argument) is sent only when given (not undefined/null).
  */
 export function input(key, action, value = undefined) {
-  if (typeof key !== 'string' || key.length === 0 || key.length > MAX_KEY_NAME) {
-    throw new ProtocolError('bad_message', `key must be a non-empty string of at most ${MAX_KEY_NAME} chars`);
-  }
-  if (!INPUT_ACTIONS.includes(action)) {
-    throw new ProtocolError('bad_message', `action must be one of ${INPUT_ACTIONS.join(', ')}`);
-  }
-  const msg = { type: 'input', key, action };
+  const msg = { type: 'input', key: checked('input', 'key', key), action: checked('input', 'action', action) };
   if (value == null) return msg;
   if (typeof value === 'number' && !Number.isFinite(value)) throw new ProtocolError('non_finite', `value is ${value}`);
-  if (!isInputValue(value)) {
-    throw new ProtocolError('bad_message', `value must be a number, a bool or a string of at most ${MAX_INPUT_TEXT} chars`);
-  }
-  msg.value = value;
+  msg.value = checked('input', 'value', value);
   return msg;
 }
 
 // ---------------------------------------------------------------------------------------------
-// Validation. A small schema language: each message type lists its fields with a checker;
-// fields not listed are ignored (minor protocol additions), `optional` fields may be absent.
+// Validation against the declaration. Fields not declared are ignored (minor protocol
+// additions); an optional field may be absent or null. The kinds are those of
+// server/wire/schema.py, checked as server/wire/check.py does, so both answer with the same codes.
 
 const isNum = (x) => typeof x === 'number' && Number.isFinite(x);
-const isInt = (x) => Number.isSafeInteger(x);
 const isStr = (x) => typeof x === 'string';
 const isBool = (x) => typeof x === 'boolean';
 const isMap = (x) => x !== null && typeof x === 'object' && !Array.isArray(x) && !(x instanceof Uint8Array);
 const isVec = (n) => (x) => Array.isArray(x) && x.length === n && x.every(isNum);
 const isVec3 = isVec(3);
 const isQuat = isVec(4);
-const oneOf = (values) => (x) => values.includes(x);
-const arrayOf = (check) => (x) => Array.isArray(x) && x.every(check);
+const plain = (doc) => doc.replaceAll('`', '').replaceAll('\\|', '|');
+const codePoints = (s) => [...s].length; // lengths are in Unicode code points, as in Python
 
-const check = (fn, expected, opts = {}) => ({ fn, expected, ...opts });
+function inBounds(x, t) {
+  if (t.min !== undefined && (t.min_exclusive ? x <= t.min : x < t.min)) return false;
+  return t.max === undefined || x <= t.max;
+}
 
-const contactEntry = (x) => Array.isArray(x) && x.length === 3 && isStr(x[0]) && isVec3(x[1]) && isNum(x[2]);
-const objectPose = (x) => Array.isArray(x) && x.length === 3 && isStr(x[0]) && isVec3(x[1]) && isQuat(x[2]);
-
-const SCHEMAS = {
-  // client → server
-  hello: {
-    v: check(isInt, 'an int'),
-    role: check(oneOf(ROLES), `one of ${ROLES.join('|')}`),
-    client: check((x) => isStr(x) && x.length <= MAX_CLIENT_NAME, `a string of at most ${MAX_CLIENT_NAME} chars`),
-  },
-  tracker: {
-    seq: check((x) => isInt(x) && x >= 0, 'an int >= 0'),
-    t: check(isNum, 'a number'),
-    pos: check(isVec3, '[x, y, z]'),
-    quat: check(isQuat, '[w, x, y, z]', { optional: true }),
-  },
-  input: {
-    key: check((x) => isStr(x) && x.length > 0 && x.length <= MAX_KEY_NAME, `a string of 1..${MAX_KEY_NAME} chars`),
-    action: check(oneOf(INPUT_ACTIONS), `one of ${INPUT_ACTIONS.join('|')}`),
-    value: check(isInputValue, `a number, a bool or a string of at most ${MAX_INPUT_TEXT} chars`, { optional: true }),
-  },
-  // server → client
-  welcome: {
-    v: check(isInt, 'an int'),
-    client_id: check(isInt, 'an int'),
-    role: check(isStr, 'a string'),
-    server: check(isStr, 'a string'),
-    tick_hz: check(isInt, 'an int'),
-    state_hz: check(isNum, 'a number'),
-    format: check(oneOf(FORMATS), `one of ${FORMATS.join('|')}`),
-  },
-  scene: {
-    v: check(isInt, 'an int'),
-    hash: check(isStr, 'a string'),
-    scene: check(isMap, 'a map'),
-  },
-  state: {
-    frame: check(isInt, 'an int'),
-    tick: check(isInt, 'an int'),
-    t: check(isNum, 'a number'),
-    scene: check(isStr, 'a string (scene hash)'),
-    hip: check(isVec3, '[x, y, z]'),
-    proxy: check(isVec3, '[x, y, z]'),
-    force: check(isVec3, '[x, y, z]'),
-    contact: check(isBool, 'a bool'),
-    contacts: check(arrayOf(contactEntry), 'an array of [object_id, [nx,ny,nz], depth]'),
-    objects: check(arrayOf(objectPose), 'an array of [object_id, [x,y,z], [w,x,y,z]]'),
-    cues: check(arrayOf(isMap), 'an array of maps'),
-    hud: check(isStr, 'a string'),
-    values: check(isMap, 'a map'),
-    telemetry: check(isMap, 'a map'),
-    visible: check((x) => isMap(x) && Object.values(x).every(isBool), 'a map of element id → bool', { optional: true }),
-    events: check(arrayOf(isMap), 'an array of maps', { optional: true }),
-  },
-  error: {
-    code: check(isStr, 'a string'),
-    message: check(isStr, 'a string'),
-  },
+const KINDS = {
+  int: (x, t) => Number.isSafeInteger(x) && inBounds(x, t),
+  number: (x, t) => isNum(x) && inBounds(x, t),
+  bool: (x) => isBool(x),
+  null: (x) => x === null,
+  any: () => true,
+  string: (x, t) => isStr(x) && codePoints(x) >= (t.min_len ?? 0) && codePoints(x) <= (t.max_len ?? Infinity),
+  enum: (x, t) => t.values.includes(x),
+  const: (x, t) => x === t.value,
+  vec: (x, t) => isVec(t.size)(x) && x.every((v) => inBounds(v, t)),
+  quat: (x, t) => isQuat(x) && Math.hypot(...x) >= t.norm[0] && Math.hypot(...x) <= t.norm[1],
+  array: (x, t) => Array.isArray(x) && x.every((item) => fits(item, t.items)),
+  tuple: (x, t) => Array.isArray(x) && x.length === t.items.length && x.every((item, i) => fits(item, t.items[i])),
+  map: (x, t) => isMap(x) && (t.values === undefined || Object.values(x).every((v) => fits(v, t.values))),
+  any_of: (x, t) => t.types.some((option) => fits(x, option)),
 };
 
-export const MESSAGE_TYPES = Object.freeze(Object.keys(SCHEMAS));
+/** Does `value` fit the declared type `type` (server/wire/schema.py)? */
+export function fits(value, type) {
+  const kind = KINDS[type.kind];
+  if (!kind) throw new Error(`schema.js declares an unknown kind ${JSON.stringify(type.kind)}`);
+  return kind(value, type);
+}
 
 /** Is there any NaN/Infinity inside? (msgpack can carry them; JSON cannot.) */
 function findNonFinite(value, path) {
@@ -264,7 +243,7 @@ function findNonFinite(value, path) {
 }
 
 /**
- * Check a decoded message against docs/protocol.md. Returns null when it is valid, otherwise a
+ * Check a decoded message against its declaration. Returns null when it is valid, otherwise a
  * ProtocolError (not thrown) whose message names the field and what was expected.
  * Unknown fields are ignored; an unknown `type` gives code 'unknown_type' (receivers may ignore
  * such messages: new message types are a minor protocol addition).
@@ -274,20 +253,37 @@ export function validate(msg) {
   if (!isStr(msg.type)) return new ProtocolError('bad_message', 'a message needs a string "type"');
   const bad = findNonFinite(msg, msg.type);
   if (bad) return new ProtocolError('non_finite', `${bad} is not a finite number`);
-  const schema = SCHEMAS[msg.type];
-  if (!schema) return new ProtocolError('unknown_type', `unknown message type ${JSON.stringify(msg.type)}`);
-  for (const [field, rule] of Object.entries(schema)) {
-    if (!(field in msg)) {
-      if (rule.optional) continue;
-      return new ProtocolError('bad_message', `${msg.type}.${field} is missing (expected ${rule.expected})`);
+  const declaration = DECLARATIONS[msg.type];
+  if (!declaration) return new ProtocolError('unknown_type', `unknown message type ${JSON.stringify(msg.type)}`);
+  for (const { name, type, required } of declaration.fields.slice(1)) {
+    const value = msg[name];
+    if (value === undefined || (value === null && !required)) {
+      if (!required) continue;
+      return new ProtocolError('bad_message', `${msg.type}.${name} is missing (expected ${plain(type.doc)})`);
     }
-    if (!rule.fn(msg[field])) {
-      return new ProtocolError('bad_message',
-        `${msg.type}.${field} must be ${rule.expected}, got ${describe(msg[field])}`);
+    if (!fits(value, type)) {
+      return new ProtocolError('bad_message', `${msg.type}.${name} must be ${plain(type.doc)}, got ${describe(value)}`);
     }
   }
   if (msg.type === 'scene') return validateScene(msg.scene, 'scene.scene');
   return null;
+}
+
+/**
+ * RFC 8785 canonical JSON of a decoded value (keys sorted by UTF-16 code units, no whitespace,
+ * JSON.stringify's numbers and strings). The scene hash is the first 16 hex digits of the
+ * SHA-256 of the UTF-8 bytes of canonicalJson(scene) (docs/protocol.md, "Scene hash").
+ */
+export function canonicalJson(value) {
+  if (Array.isArray(value)) return `[${value.map(canonicalJson).join(',')}]`;
+  if (isMap(value)) {
+    const keys = Object.keys(value).sort();
+    return `{${keys.map((k) => `${JSON.stringify(k)}:${canonicalJson(value[k])}`).join(',')}}`;
+  }
+  if (typeof value === 'number' && !Number.isFinite(value)) {
+    throw new ProtocolError('non_finite', `${value} has no JSON form`);
+  }
+  return JSON.stringify(value);
 }
 
 function describe(x) {

@@ -4,6 +4,7 @@ import { test, describe } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { fileURLToPath } from 'node:url';
+import { createHash } from 'node:crypto';
 import * as P from '../src/protocol.js';
 
 const VECTORS = new URL('../../../tests/vectors/', import.meta.url);
@@ -270,4 +271,124 @@ describe('shared invalid frames (tests/vectors/invalid.json): the client classif
       assert.equal(error.code, f.code, error.message);
     });
   }
+});
+
+// ---------------------------------------------------------------------------------------------
+// Protocol v1.1: the declaration (schema.js, generated from server/wire/schema.py), both
+// encodings of every vector, frames receivers accept or refuse, and the scene hash.
+
+const messageFile = loadVectors('messages.json');
+const invalidFile = loadVectors('invalid.json');
+
+describe('the declaration drives the checks (src/schema.js)', () => {
+  test('every message type is declared and has vectors of its direction', () => {
+    assert.deepStrictEqual([...P.MESSAGE_TYPES], ['hello', 'tracker', 'input', 'welcome', 'scene', 'state', 'error']);
+    for (const m of P.SCHEMA.messages) {
+      const vectors = messageFile.vectors.filter((v) => v.type === m.name);
+      assert.ok(vectors.length > 0, `no vector for ${m.name}`);
+      vectors.forEach((v) => assert.equal(v.direction, m.direction, v.name));
+      for (const f of m.fields) assert.ok(vectors.some((v) => f.name in v.message), `no vector has ${m.name}.${f.name}`);
+    }
+    assert.equal(P.PROTOCOL_MINOR, 1);
+  });
+  test('constants come from the declaration', () => {
+    assert.deepStrictEqual([...P.ROLES], ['participant', 'operator', 'observer']);
+    assert.equal(P.MAX_CLIENT_NAME, 64);
+    assert.equal(P.MAX_INPUT_TEXT, 200);
+    assert.ok(P.ERROR_CODES.includes('unsupported_version'));
+    assert.ok(Object.isFrozen(P.SCHEMA.messages[0].fields[0].type));
+  });
+  test('integer fields: integral values within 2^53, as the server', () => {
+    const t = { kind: 'int', min: 0, doc: 'int ≥ 0' };
+    assert.ok(P.fits(3, t) && P.fits(Number.MAX_SAFE_INTEGER, t));
+    assert.ok(!P.fits(2.5, t) && !P.fits(2 ** 53, t) && !P.fits(-1, t) && !P.fits(true, t) && !P.fits('3', t));
+  });
+  test('tracker quaternions: norm in [0.5, 2], else bad_message', () => {
+    assert.deepStrictEqual(P.tracker(1, 0, [0, 0, 0], [0, 0, 0, 2]).quat, [0, 0, 0, 2]);
+    assert.throws(() => P.tracker(1, 0, [0, 0, 0], [0, 0, 0, 0]), { code: 'bad_message' });
+    assert.throws(() => P.tracker(1, 0, [0, 0, 0], [0, 0, 3, 0]), { code: 'bad_message' });
+    assert.throws(() => P.hello('observer', '😀'.repeat(65)), { code: 'bad_message' });
+    assert.equal(P.hello('observer', '😀'.repeat(64)).client.length, 128); // 64 code points
+  });
+  test('v1.1 state fields are checked when present', () => {
+    const state = messageFile.vectors.find((v) => v.name === 'state-in-contact').message;
+    assert.equal(P.validate(state), null);
+    assert.match(P.validate({ ...state, driver: [7] }).message, /state\.driver/);
+    assert.match(P.validate({ ...state, stiffness: { dome: -1 } }).message, /state\.stiffness/);
+    assert.match(P.validate({ ...state, haptic: { dome: 1 } }).message, /state\.haptic/);
+    assert.match(P.validate({ ...state, scales: { dome: [1, 1] } }).message, /state\.scales/);
+    assert.equal(P.validate({ ...state, driver: null }), null);
+    assert.equal(P.validate({ ...state, driver: ['udp:127.0.0.1:9', 0] }), null);
+  });
+});
+
+describe('both encodings of every vector (tests/vectors/messages.json)', () => {
+  for (const v of messageFile.vectors) {
+    test(`${v.name}: the JSON text decodes to the message and the encoder writes it`, () => {
+      assert.deepStrictEqual(P.decode(v.json, 'json'), v.message);
+      assert.equal(P.encode(v.message, 'json'), v.json);
+    });
+  }
+});
+
+const close = (got, want) => {
+  if (typeof want === 'number') return typeof got === 'number' && Math.abs(got - want) <= 1e-12;
+  if (Array.isArray(want)) return Array.isArray(got) && got.length === want.length && want.every((w, i) => close(got[i], w));
+  return got === want;
+};
+
+describe('frames receivers accept although no canonical encoder writes them (messages.json "received")', () => {
+  for (const r of messageFile.received) {
+    test(`${r.name}: valid in both encodings, understood as expected`, () => {
+      for (const msg of [P.decode(unhex(r.msgpack_hex), 'msgpack'), P.decode(r.json, 'json')]) {
+        assert.equal(P.validate(msg), null);
+        const declared = P.SCHEMA.messages.find((m) => m.name === r.type);
+        for (const { name, type, default: absent } of declared.fields) {
+          if (!(name in r.expect)) continue;
+          let got = msg[name] ?? absent; // an absent or null optional field is its declared default
+          if (type.kind === 'quat') got = got.map((c) => c / Math.hypot(...got)); // what the server does
+          assert.ok(close(got, r.expect[name]) || JSON.stringify(got) === JSON.stringify(r.expect[name]),
+            `${r.name}.${name}: ${JSON.stringify(got)} vs ${JSON.stringify(r.expect[name])}`);
+        }
+      }
+    });
+  }
+});
+
+describe('refused frames (tests/vectors/invalid.json), both encodings and both directions', () => {
+  for (const f of [...invalidFile.frames, ...invalidFile.server_frames]) {
+    test(`${f.name} → ${f.code}`, () => {
+      const encodings = [['msgpack', unhex(f.msgpack_hex)]];
+      if (f.json !== null) encodings.push(['json', f.json]);
+      for (const [format, data] of encodings) {
+        const { error } = P.parse(data, format);
+        assert.ok(error, `${format}: expected an error`);
+        assert.equal(error.code, f.code, `${format}: ${error.message}`);
+      }
+    });
+  }
+});
+
+describe('scene hash (tests/vectors/scene_hash.json, docs/protocol.md "Scene hash")', () => {
+  const sceneHash = (scene) => createHash('sha256').update(P.canonicalJson(scene), 'utf8').digest('hex').slice(0, 16);
+  const file = loadVectors('scene_hash.json');
+  for (const c of file.cases) {
+    test(`${c.name}: canonical text and hash`, () => {
+      assert.equal(P.canonicalJson(c.value), c.canonical);
+      assert.equal(sceneHash(c.value), c.hash);
+    });
+  }
+  test('numbers are spelt as RFC 8785 says', () => {
+    for (const { bits, canonical } of file.numbers) {
+      const view = new DataView(new ArrayBuffer(8));
+      view.setBigUint64(0, BigInt(`0x${bits}`));
+      assert.equal(P.canonicalJson(view.getFloat64(0)), canonical, bits);
+    }
+  });
+  test('every scene message carries the hash of its scene, in both encodings', () => {
+    for (const v of messageFile.vectors.filter((x) => x.type === 'scene')) {
+      assert.equal(sceneHash(P.decode(unhex(v.msgpack_hex), 'msgpack').scene), v.message.hash, v.name);
+      assert.equal(sceneHash(P.decode(v.json, 'json').scene), v.message.hash, v.name);
+    }
+  });
 });

@@ -1,0 +1,303 @@
+"""Protocol v1.1: every message declared once, as data (docs/protocol.md).
+
+Everything else follows from this module: the Python parsers and builders (messages.py, through
+the checker in check.py), the message tables of docs/protocol.md and the browser client's schema
+(clients/web/src/schema.js), both written by `python -m server.wire.doc`, and the coverage of the
+shared vectors (tests/wire/test_schema.py). A field's type is a plain JSON-able map, so the same
+data drives the JavaScript checker (clients/web/src/protocol.js):
+
+- `{"kind": "int", "min", "max"}`: an integral number within +-(2**53 - 1); an integral float
+  (3.0) counts as the integer 3, a non-integral one is refused;
+- `{"kind": "number", "min", "max", "min_exclusive", "decimals"}`: any finite number; `decimals`
+  says to how many decimal places the server rounds it (documentation only);
+- `{"kind": "bool"}`, `{"kind": "null"}`, `{"kind": "any"}`;
+- `{"kind": "string", "min_len", "max_len"}`: lengths in Unicode code points;
+- `{"kind": "enum", "values"}`, `{"kind": "const", "value"}`;
+- `{"kind": "vec", "size", "min", "decimals"}`: an array of `size` numbers;
+- `{"kind": "quat", "norm", "decimals"}`: `[w, x, y, z]` whose norm lies in `norm`; a receiver
+  divides it by its norm;
+- `{"kind": "array", "items"}`, `{"kind": "tuple", "items": [...]}` (fixed length, one type per
+  position), `{"kind": "map", "values"}` (string keys; any values without `values`);
+- `{"kind": "any_of", "types": [...]}`: the first type that fits.
+
+Every type carries `doc`, the short text the docs tables and error messages show.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+PROTOCOL_VERSION = 1  # the major version: hello.v and welcome.v
+PROTOCOL_MINOR = 1    # additions since v1.0: welcome.minor
+SCENE_FORMAT_VERSION = 1
+ROLES = ("participant", "operator", "observer")
+INPUT_ACTIONS = ("down", "up", "press")
+FORMATS = ("msgpack", "json")
+MAX_SAFE_INT = 2**53 - 1
+QUAT_NORM = (0.5, 2.0)  # a tracker quaternion's norm must lie here; it is then normalised
+DIRECTIONS = ("client_to_server", "server_to_client")
+
+
+def _range(low: Any, high: Any, low_open: bool = False) -> str:
+    if low is not None and high is not None:
+        return f" in {'(' if low_open else '['}{low}, {high}]"
+    if low is not None:
+        return f" {'>' if low_open else '≥'} {low}"
+    if high is not None:
+        return f" ≤ {high}"
+    return ""
+
+
+def _drop_none(**kw: Any) -> dict:
+    return {k: v for k, v in kw.items() if v is not None}
+
+
+def integer(min: int | None = None, max: int | None = None, doc: str | None = None) -> dict:
+    return _drop_none(kind="int", min=min, max=max, doc=doc or "int" + _range(min, max))
+
+
+def number(min: float | None = None, max: float | None = None, *, min_exclusive: bool = False,
+           decimals: int | None = None, doc: str | None = None) -> dict:
+    return _drop_none(kind="number", min=min, max=max, min_exclusive=min_exclusive or None, decimals=decimals,
+                      doc=doc or "number" + _range(min, max, min_exclusive))
+
+
+def boolean() -> dict:
+    return {"kind": "bool", "doc": "bool"}
+
+
+def null() -> dict:
+    return {"kind": "null", "doc": "null"}
+
+
+def anything(doc: str = "any") -> dict:
+    return {"kind": "any", "doc": doc}
+
+
+def string(min_len: int = 0, max_len: int | None = None, doc: str | None = None) -> dict:
+    if doc is None:
+        doc = "string" + (f" of {min_len}..{max_len} characters" if min_len and max_len
+                          else f" ≤ {max_len} characters" if max_len else "")
+    return _drop_none(kind="string", min_len=min_len or None, max_len=max_len, doc=doc)
+
+
+def enum(values: tuple[str, ...]) -> dict:
+    return {"kind": "enum", "values": list(values), "doc": " \\| ".join(f'`"{v}"`' for v in values)}
+
+
+def const(value: str) -> dict:
+    return {"kind": "const", "value": value, "doc": f'`"{value}"`'}
+
+
+def vec(size: int, doc: str, *, min: float | None = None, min_exclusive: bool = False,
+        decimals: int | None = None) -> dict:
+    return _drop_none(kind="vec", size=size, min=min, min_exclusive=min_exclusive or None, decimals=decimals,
+                      doc=doc)
+
+
+def quat(doc: str = "`[w, x, y, z]`", decimals: int | None = None) -> dict:
+    return _drop_none(kind="quat", norm=list(QUAT_NORM), decimals=decimals, doc=doc)
+
+
+def array(items: dict, doc: str) -> dict:
+    return {"kind": "array", "items": items, "doc": doc}
+
+
+def fixed(items: list[dict], doc: str) -> dict:
+    return {"kind": "tuple", "items": items, "doc": doc}
+
+
+def mapping(values: dict | None = None, doc: str = "map") -> dict:
+    return _drop_none(kind="map", values=values, doc=doc)
+
+
+def any_of(*types: dict, doc: str) -> dict:
+    return {"kind": "any_of", "types": list(types), "doc": doc}
+
+
+@dataclass(frozen=True)
+class Field:
+    name: str
+    type: dict
+    meaning: str
+    required: bool = True  # False: a receiver accepts its absence (and null: "not given")
+    since: int = 0         # the minor version that added it
+    default: Any = None    # a parser's value when an optional field is absent
+
+    def to_json(self) -> dict:
+        out = {"name": self.name, "type": self.type, "required": self.required, "since": self.since,
+               "meaning": self.meaning}
+        if self.default is not None:
+            out["default"] = self.default
+        return out
+
+
+@dataclass(frozen=True)
+class Message:
+    name: str
+    direction: str  # "client_to_server" | "server_to_client"
+    title: str      # the heading's note, e.g. "reply to `hello`"
+    fields: tuple[Field, ...]
+
+    def __post_init__(self) -> None:
+        assert self.direction in DIRECTIONS, self.direction
+        assert self.fields[0].name == "type" and self.fields[0].type == const(self.name)
+
+    def field(self, name: str) -> Field:
+        return next(f for f in self.fields if f.name == name)
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "direction": self.direction, "fields": [f.to_json() for f in self.fields]}
+
+
+def _type(name: str) -> Field:
+    return Field("type", const(name), "")
+
+
+POS = "`[x, y, z]`"
+V3 = vec(3, POS)
+
+HELLO = Message("hello", "client_to_server", "first message; optional for observers that only watch", (
+    _type("hello"),
+    Field("v", integer(), "protocol major version (1)"),
+    Field("role", enum(ROLES), "what the client is. Authorisation comes later; today an observer may not send "
+          "`tracker` or `input` (`forbidden`)."),
+    Field("client", string(max_len=64), 'free-form name/version, e.g. `"viestac-web/0.1"`', required=False,
+          default=""),
+))
+
+TRACKER = Message("tracker", "client_to_server", "the HIP, any rate; the server keeps the latest per client", (
+    _type("tracker"),
+    Field("seq", integer(min=0), "sender's sample counter"),
+    Field("t", number(), "sender's timestamp in ms on its own clock (the web client sends epoch ms: "
+          "`performance.timeOrigin + performance.now()`); used for latency, never for ordering"),
+    Field("pos", V3, "HIP position, scene frame, scene units"),
+    Field("quat", quat(), "HIP orientation; its norm must lie in [0.5, 2] and the server divides it by its norm "
+          "(zero and other norms: `bad_message`)", required=False),
+))
+
+INPUT = Message("input", "client_to_server", "keys and commands", (
+    _type("input"),
+    Field("key", string(1, 32), 'a key name as in DOM `KeyboardEvent.key` (`"ArrowUp"`, `"r"`, `" "`) or a '
+          "command name"),
+    Field("action", enum(INPUT_ACTIONS), ""),
+    Field("value", any_of(number(), boolean(), string(max_len=200),
+                          doc="number \\| bool \\| string ≤ 200 characters"),
+          'a command\'s argument, e.g. `{"key": "tap_angle", "action": "press", "value": -30}`', required=False),
+))
+
+WELCOME = Message("welcome", "server_to_client", "reply to `hello`, or sent on connect to clients without one", (
+    _type("welcome"),
+    Field("v", integer(), "server's protocol major version (1)"),
+    Field("minor", integer(min=0), "server's protocol minor version (1 for this document; absent from v1.0 "
+          "servers)", required=False, since=1),
+    Field("client_id", integer(min=1), "this connection's id (`driver` in `state` names a /ws client by it)"),
+    Field("role", enum(ROLES), "the role the server assigned (may differ from the one asked for; clients follow "
+          "this one)"),
+    Field("server", string(), '`"viestac/<version>"`'),
+    Field("tick_hz", integer(min=1), "haptic loop rate (1000)"),
+    Field("state_hz", number(min=0, min_exclusive=True), "state publish rate (60 by default)"),
+    Field("format", enum(FORMATS), "the encoding of this connection"),
+))
+
+SCENE = Message("scene", "server_to_client", "static scene; on join and whenever it changes", (
+    _type("scene"),
+    Field("v", integer(min=1), "scene format version (1)"),
+    Field("hash", string(), "the scene's hash, 16 lowercase hex digits (\"Scene hash\" below); every state frame "
+          "names it"),
+    Field("scene", mapping(doc="map"), "the scene description (\"Scene format\" below)"),
+))
+
+_CONTACT = fixed([string(min_len=1, doc="object_id"), vec(3, "`[nx, ny, nz]`", decimals=6),
+                  number(min=0, decimals=9, doc="depth")], "`[object_id, [nx, ny, nz], depth]`")
+_POSE = fixed([string(min_len=1, doc="object_id"), vec(3, POS, decimals=9), quat(decimals=9)],
+              "`[object_id, [x, y, z], [w, x, y, z]]`")
+_DRIVER = fixed([any_of(integer(min=0), string(min_len=1), doc="client_id"), integer(min=0, doc="seq")],
+                "`[client_id, seq]`")
+
+STATE = Message("state", "server_to_client", "per published frame; 60 Hz by default, plus an immediate frame in any "
+                "tick whose device cues changed, so a tactile cue never leads the picture", (
+    _type("state"),
+    Field("frame", integer(min=0), "publish counter"),
+    Field("tick", integer(min=0), "loop tick of this state (sim time = tick / tick_hz)"),
+    Field("t", number(), "server monotonic time of the tick, seconds (CLOCK_MONOTONIC in ns / 1e9, not rounded)"),
+    Field("scene", string(), "hash of the scene the loop simulated in this tick; every state after a `scene` "
+          "message names that scene until the next `scene` message"),
+    Field("hip", vec(3, POS, decimals=9), "tracked HIP (or the HIP a scenario holds)"),
+    Field("proxy", vec(3, POS, decimals=9), "centre of the god-object proxy sphere of radius `hip.proxy_radius` "
+          "(never closer than that to a touchable object's surface); equals `hip` when free"),
+    Field("force", vec(3, POS, decimals=6), "k·(proxy − HIP), newtons (notional for trackers)"),
+    Field("contact", boolean(), "debounced contact (hysteresis)"),
+    Field("contacts", array(_CONTACT, "array of `[object_id, [nx, ny, nz], depth]`"),
+          "raw god-object contacts this tick: the scene's object id, the outward unit normal and the depth "
+          "(\"Contacts\" below)"),
+    Field("objects", array(_POSE, "array of `[object_id, [x, y, z], [w, x, y, z]]`"),
+          "poses of every object that moved since the scene was sent (the complete set; empty for static scenes)"),
+    Field("cues", array(mapping(doc="cue"), "array of cue maps"),
+          'active device-independent cues ("Cues" below), e.g. `{"kind": "tilt", "direction_deg": 90, '
+          '"magnitude_pct": 100}`'),
+    Field("hud", string(), "text the scenario shows now; when empty, clients show the scene's `hud.text`"),
+    Field("values", mapping(), 'scenario values worth showing or recording (e.g. `{"angle_deg": -12.5}`)'),
+    Field("telemetry", mapping(), "loop timing over the last 10 s: `period_p50_us, period_p99_us, period_max_us, "
+          "overruns` (periods > 1.5 ms), `tick_cost_p99_us, ticks` (total), `rt` (real-time priority held); "
+          "all 0 until the first ticks are in"),
+    Field("visible", mapping(boolean(), "map id → bool"), "visibility overrides of objects and overlays against "
+          "the scene (the complete current set; an id not in it has its scene `visible`), e.g. "
+          '`{"angle_scale": false}` in a main trial', required=False),
+    Field("events", array(mapping(doc="event"), "array of maps"), 'scenario events since the previous frame, each '
+          'once: `{"tick", "t", "name", …}`, e.g. `{"tick": 20010, "t": 20.01, "name": "key", "key": "ArrowUp", '
+          '"right_level": 7}`', required=False),
+    Field("scales", mapping(vec(3, "`[sx, sy, sz]`"), "map id → `[sx, sy, sz]`"), "objects drawn scaled along the "
+          "scene axes (the complete current set; an id not in it has its scene size), e.g. the positioning "
+          "task's widened holes; drawing only, never collision", required=False),
+    Field("stiffness", mapping(number(min=0), "map id → k"), "spring constants in N/m that differ from the scene's "
+          "`material.stiffness_n_per_m` (the complete current set; an id not in it has its scene stiffness)",
+          required=False, since=1),
+    Field("haptic", mapping(boolean(), "map id → bool"), "touchability overrides against the scene's `haptic` "
+          "(the complete current set; an id not in it has its scene `haptic`)", required=False, since=1),
+    Field("driver", any_of(null(), _DRIVER, doc="`[client_id, seq]` \\| null"), "the source whose tracker "
+          "samples drive the HIP and the `seq` of its last applied sample, or null when nobody drives it "
+          "(\"Tracker rule\" below); `client_id` is the welcome's int id of a /ws client, or "
+          '`"udp:HOST:PORT"` for a UDP tracker bridge', required=False, since=1),
+))
+
+ERROR = Message("error", "server_to_client", "", (
+    _type("error"),
+    Field("code", string(min_len=1), "one of the codes below (a client treats a code it does not know as a "
+          "generic error)"),
+    Field("message", string(), "a sentence for a person"),
+))
+
+MESSAGES: dict[str, Message] = {m.name: m for m in (HELLO, TRACKER, INPUT, WELCOME, SCENE, STATE, ERROR)}
+CLIENT_MESSAGE_NAMES = tuple(name for name, m in MESSAGES.items() if m.direction == "client_to_server")
+
+ERROR_CODES: dict[str, str] = {
+    "bad_encoding": "not msgpack / not JSON, or a JSON frame on a msgpack connection and vice versa",
+    "bad_message": "not a map, no `type`, or a field of the wrong type / shape / range",
+    "non_finite": "NaN or ±Infinity in a number",
+    "unknown_type": "a `type` the server does not know",
+    "too_large": "a frame over 64 KiB",
+    "forbidden": "the role may not send this message",
+    "unsupported_version": "`hello.v` is not 1 (the connection then closes)",
+    "busy": "the loop's input mailbox is full; the message was dropped",
+}
+
+# One line per cue kind for the docs (fields, units and ranges come from server/core/cues.py).
+CUE_MEANINGS: dict[str, str] = {
+    "pulse_train": "bursts of vibration: `t_on_ms` on, `t_off_ms` off, repeated",
+    "vibration": "continuous vibration",
+    "texture": "fine roughness as a periodic signal: one period of `period_us`, on for the fraction `duty`",
+    "tilt": "a tilt of the fingerpad contact: 0 = front of the fingerpad, 90 = right, 180 = back, 270 = left",
+    "stiffness": "how hard the touched object is: spring constant `k_n_per_m`, and `relative` between the "
+                 "softest (0) and the stiffest (1) object of the task",
+    "temperature": "surface temperature",
+    "friction": "friction coefficient of the touched surface",
+    "stop": "every actuator off now, whatever else the frame lists",
+}
+
+
+def schema_json() -> dict:
+    """The declaration as JSON-able data: what the browser client's checker reads."""
+    return {"protocol": {"v": PROTOCOL_VERSION, "minor": PROTOCOL_MINOR, "scene_format": SCENE_FORMAT_VERSION},
+            "messages": [m.to_json() for m in MESSAGES.values()], "error_codes": list(ERROR_CODES)}
