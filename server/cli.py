@@ -276,6 +276,14 @@ def _bench_latency(args: argparse.Namespace) -> int:
     return _print_bench(result, args.json)
 
 
+def _bench_roundtrip(args: argparse.Namespace) -> int:
+    from server.bench.roundtrip_bench import run_roundtrip_bench
+
+    result = run_roundtrip_bench(seconds=args.seconds, clients=args.clients, fmt=args.format, where=args.where,
+                                 rate_hz=args.rate, warmup_s=args.warmup)
+    return _print_bench(result, args.json)
+
+
 def _bench_accuracy(args: argparse.Namespace) -> int:
     from server.bench.accuracy import run_accuracy_bench
 
@@ -402,6 +410,20 @@ def build_parser() -> argparse.ArgumentParser:
                               "ws: a browser-style tracker on /ws, through the hub")
     latency.add_argument("--json", action="store_true", help="print one JSON object")
     latency.set_defaults(func=_bench_latency)
+    roundtrip = bench_sub.add_parser("roundtrip", help="a browser-style participant on /ws: tracker sample sent -> "
+                                                       "the first state frame showing it, with N viewers")
+    roundtrip.add_argument("--seconds", type=float, default=20.0,
+                           help="measured seconds per path (default 20: 1200 samples at 60 Hz)")
+    roundtrip.add_argument("--clients", type=int, default=0, help="viewer clients (default 0)")
+    roundtrip.add_argument("--format", choices=("msgpack", "json"), default="msgpack",
+                           help="the encoding of the participant and the viewers")
+    roundtrip.add_argument("--where", choices=("free", "contact", "both"), default="both",
+                           help="free: the HIP away from every object (frames on the 60 Hz cadence); contact: "
+                                "pressed into the dome, the tilt cue changes with every sample (a frame at once)")
+    roundtrip.add_argument("--rate", type=float, default=60.0, help="tracker samples per second (default 60)")
+    roundtrip.add_argument("--warmup", type=float, default=3.0)
+    roundtrip.add_argument("--json", action="store_true", help="print one JSON object")
+    roundtrip.set_defaults(func=_bench_roundtrip)
     for name, func, what in (("accuracy", _bench_accuracy, "cost against error of every contact method on fixed "
                                                            "trajectories over the thesis scenes"),
                              ("stability", _bench_stability, "where each method fails: speed x thickness, stiffness "
