@@ -3,7 +3,8 @@ state frame that shows it comes back (its `hip` equals the sent position), with 
 
 The real server (`viestac serve --port 0`, with its simulated rig), N viewers in the load
 generator's process (server/bench/load.py, in the same format), and the participant in this
-process, alone in its event loop as in a browser tab. The participant sends a `tracker` message
+process, alone in its event loop as in a browser tab. It joins after the viewers: the hub wakes
+the senders of a broadcast in the order the clients joined, so it is served last. It sends a `tracker` message
 at `rate_hz` along a path of distinct positions (server/bench/roundtrip.py): in free space the
 frames that show the samples come on the 60 Hz cadence; in contact every sample changes the tilt
 cue, and the loop publishes a frame in the tick that applies it. Both ends are stamped on
@@ -15,7 +16,6 @@ from __future__ import annotations
 
 import asyncio
 import gc
-import json
 import socket
 import subprocess
 import sys
@@ -101,37 +101,69 @@ def run_roundtrip_bench(seconds: float = 20.0, clients: int = 0, fmt: str = "msg
     if warmup_s < 0:
         raise ValueError(f"warmup_s must be >= 0, got {warmup_s}")
     plan = phase_plan(WHERES if where == "both" else (where,), seconds, warmup_s)
-    total_s = sum(lead + s for _, lead, s in plan) + 1.0
+    total_s = sum(lead + s for _, lead, s in plan)
     proc = load = reset = None
     gc.collect()
     gc.freeze()  # a full collection of the start-up heap here would delay a frame's stamp
     try:
         proc, base = start_server("contact-angle")
         ws_url = base.replace("http://", "ws://") + "/ws"
+        # The viewers run until they are stopped below; their frames are counted by the server.
         load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers", str(clients),
-                                 "--trackers", "0", "--format", fmt, "--warmup", str(warmup_s),
-                                 "--seconds", str(total_s - warmup_s)], stdout=subprocess.PIPE, text=True)
-        # The loop's telemetry from just before the first measured sample (the viewers have connected).
-        reset = threading.Timer(max(0.0, warmup_s - 0.5), get_json, (base + "/api/telemetry/reset", "POST"))
+                                 "--trackers", "0", "--format", fmt, "--warmup", "0",
+                                 "--seconds", str(total_s + 60)], stdout=subprocess.DEVNULL)
+        _wait_viewers(base, clients)
+        # The loop's telemetry and the viewers' counters from just before the first measured sample.
+        window: dict = {}
+        reset = threading.Timer(max(0.0, warmup_s - 0.5), _window_start, (base, window))
         reset.start()
         measured, frames, nodelay = asyncio.run(_participant(ws_url, fmt, plan, rate_hz, proc.pid))
         reset.join()
         telemetry = get_json(base + "/api/telemetry")
-        out, _ = load.communicate(timeout=60)
-        load_result = json.loads(out.strip().splitlines()[-1])
+        viewers = _viewer_counters(base, window)
     finally:
         if reset is not None:
             reset.cancel()
-        if load is not None and load.poll() is None:
-            load.kill()
+        if load is not None:
+            load.terminate()
+            load.wait(10)
         if proc is not None:
             stop_server(proc)
         gc.unfreeze()
     result: dict = {"format": fmt, "clients": clients, "rate_hz": rate_hz, "seconds": seconds, **nodelay}
     for (phase, _, _), sent in zip(plan, measured):
         result[phase] = summarize(sent, match_samples(sent, frames))
-    result.update({
-        "frames_received_per_client_hz": load_result["frames_received_per_client_hz"]["mean"],
-        "period_p99_us": telemetry["period_p99_us"], "overruns": telemetry["overruns"], "rt": telemetry["rt"],
-    })
+    result.update({**viewers, "period_p99_us": telemetry["period_p99_us"], "overruns": telemetry["overruns"],
+                   "rt": telemetry["rt"]})
     return result
+
+
+def _observers(base: str) -> dict[int, dict]:
+    return {c["client_id"]: c for c in get_json(base + "/api/clients") if c["role"] == "observer"}
+
+
+def _wait_viewers(base: str, clients: int, timeout_s: float = 60.0) -> None:
+    """Until every viewer is welcomed: the participant joins last, so each broadcast wakes its
+    sender after all the viewers' (the hub wakes them in the order they joined): the worst place."""
+    deadline = time.monotonic() + timeout_s
+    while len(_observers(base)) < clients:
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"only {len(_observers(base))} of {clients} viewers connected")
+        time.sleep(0.1)
+
+
+def _window_start(base: str, window: dict) -> None:
+    get_json(base + "/api/telemetry/reset", "POST")
+    window["t"] = time.monotonic()
+    window["observers"] = _observers(base)
+
+
+def _viewer_counters(base: str, window: dict) -> dict:
+    """State frames the server sent each viewer per second since the window started, and frames
+    it dropped for a viewer that had not taken the previous one yet (latest-wins)."""
+    before, now = window.get("observers", {}), _observers(base)
+    seconds = time.monotonic() - window["t"]
+    sent = [c["frames_sent"] - before[i]["frames_sent"] for i, c in now.items() if i in before]
+    dropped = sum(c["frames_dropped"] - before[i]["frames_dropped"] for i, c in now.items() if i in before)
+    return {"frames_sent_per_viewer_hz": round(sum(sent) / len(sent) / seconds, 2) if sent else None,
+            "viewer_frames_dropped": dropped}

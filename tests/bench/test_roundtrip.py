@@ -124,4 +124,4 @@ def test_a_short_live_run_reports_round_trips_in_free_space_and_in_contact(fmt):
         assert summary["shown"] >= summary["samples"] // 2, summary
         assert 0 < summary["p50_ms"] <= summary["p99_ms"] <= summary["max_ms"] < 1000
         assert math.isfinite(summary["max_ms"])
-    assert result["frames_received_per_client_hz"] > 0, "the viewers got frames in their format"
+    assert result["frames_sent_per_viewer_hz"] > 0 and result["viewer_frames_dropped"] >= 0
