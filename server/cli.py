@@ -57,12 +57,9 @@ def _serve(args: argparse.Namespace) -> int:
         print(f"viestac serve: {exc.strerror}", file=sys.stderr)
         return 2
     app = create_app(settings, tracker_sock=tracker_sock)
-    family = socket.AF_INET6 if ":" in settings.host else socket.AF_INET
-    sock = socket.socket(family, socket.SOCK_STREAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    sock.bind((settings.host, settings.port))  # bind first so --port 0 can print the real port
+    sock = listen_socket(settings.host, settings.port)  # bound first so --port 0 can print the real port
     port = sock.getsockname()[1]
-    shown_host = f"[{settings.host}]" if family == socket.AF_INET6 else settings.host
+    shown_host = f"[{settings.host}]" if sock.family == socket.AF_INET6 else settings.host
     print(f"ViESTac serving scenario {settings.scenario} on http://{shown_host}:{port}/  "
           f"(WebSocket ws://{shown_host}:{port}/ws, API docs http://{shown_host}:{port}/docs)", flush=True)
     if tracker_sock is not None:
@@ -71,6 +68,23 @@ def _serve(args: argparse.Namespace) -> int:
                             ws_per_message_deflate=False, log_level=args.log_level, access_log=False)
     uvicorn.Server(config).run(sockets=[sock])
     return 0
+
+
+def listen_socket(host: str, port: int) -> socket.socket:
+    """The server's TCP socket, bound, for uvicorn. Every connection accepted on it has
+    TCP_NODELAY: without it, Nagle's algorithm holds a state frame while the previous one is
+    unacknowledged, until the client's next message carries the ACK or its delayed-ACK timer
+    (40 ms on Linux) fires; tracker -> state took one tracker period, up to 48 ms
+    (docs/performance.md, "Tracker -> state round trip"). asyncio sets TCP_NODELAY on an accepted
+    connection only when the socket object says IPPROTO_TCP, and accept() copies the proto of the
+    listening socket object, 0 unless given here. Linux also copies the listener's TCP_NODELAY
+    into every accepted socket, so it holds under any event loop uvicorn picks."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    sock.bind((host, port))
+    return sock
 
 
 def _scenario_params(pairs: list[str]) -> dict:
@@ -276,6 +290,14 @@ def _bench_latency(args: argparse.Namespace) -> int:
     return _print_bench(result, args.json)
 
 
+def _bench_roundtrip(args: argparse.Namespace) -> int:
+    from server.bench.roundtrip_bench import run_roundtrip_bench
+
+    result = run_roundtrip_bench(seconds=args.seconds, clients=args.clients, fmt=args.format, where=args.where,
+                                 rate_hz=args.rate, warmup_s=args.warmup)
+    return _print_bench(result, args.json)
+
+
 def _bench_accuracy(args: argparse.Namespace) -> int:
     from server.bench.accuracy import run_accuracy_bench
 
@@ -402,6 +424,20 @@ def build_parser() -> argparse.ArgumentParser:
                               "ws: a browser-style tracker on /ws, through the hub")
     latency.add_argument("--json", action="store_true", help="print one JSON object")
     latency.set_defaults(func=_bench_latency)
+    roundtrip = bench_sub.add_parser("roundtrip", help="a browser-style participant on /ws: tracker sample sent -> "
+                                                       "the first state frame showing it, with N viewers")
+    roundtrip.add_argument("--seconds", type=float, default=20.0,
+                           help="measured seconds per path (default 20: 1200 samples at 60 Hz)")
+    roundtrip.add_argument("--clients", type=int, default=0, help="viewer clients (default 0)")
+    roundtrip.add_argument("--format", choices=("msgpack", "json"), default="msgpack",
+                           help="the encoding of the participant and the viewers")
+    roundtrip.add_argument("--where", choices=("free", "contact", "both"), default="both",
+                           help="free: the HIP away from every object (frames on the 60 Hz cadence); contact: "
+                                "pressed into the dome, the tilt cue changes with every sample (a frame at once)")
+    roundtrip.add_argument("--rate", type=float, default=60.0, help="tracker samples per second (default 60)")
+    roundtrip.add_argument("--warmup", type=float, default=3.0)
+    roundtrip.add_argument("--json", action="store_true", help="print one JSON object")
+    roundtrip.set_defaults(func=_bench_roundtrip)
     for name, func, what in (("accuracy", _bench_accuracy, "cost against error of every contact method on fixed "
                                                            "trajectories over the thesis scenes"),
                              ("stability", _bench_stability, "where each method fails: speed x thickness, stiffness "

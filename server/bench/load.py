@@ -9,6 +9,8 @@ gate and the tilt cues are all exercised. Prints one JSON object when done.
 the HIP either 3 mm inside the dome (tilt cue on) or well above it (cue off), switches every
 66-100 ms, and reports the CLOCK_MONOTONIC send time of every switching message; over /ws, or
 with `--latency-udp HOST:PORT` to the loop's tracker UDP port.
+
+`--format json` makes the viewers JSON clients (`viestac bench roundtrip --format json`).
 """
 
 from __future__ import annotations
@@ -25,17 +27,22 @@ import time
 import msgpack
 import websockets
 
+from server.wire import codec
 
-async def viewer(url: str, counts: list[int], index: int, window: tuple[float, float], stop: float) -> None:
-    async with websockets.connect(url, subprotocols=["viestac.v1.msgpack"], compression=None, max_size=1 << 20) as ws:
-        await ws.send(msgpack.packb({"type": "hello", "v": 1, "role": "observer", "client": "bench-viewer"}))
+
+async def viewer(url: str, counts: list[int], index: int, window: tuple[float, float], stop: float,
+                 fmt: str = "msgpack") -> None:
+    """An observer that decodes every frame, in msgpack or JSON (`viestac bench roundtrip --format`)."""
+    decode = msgpack.unpackb if fmt == "msgpack" else json.loads
+    async with websockets.connect(url, subprotocols=[f"viestac.v1.{fmt}"], compression=None, max_size=1 << 20) as ws:
+        await ws.send(codec.encode({"type": "hello", "v": 1, "role": "observer", "client": "bench-viewer"}, fmt))
         while time.monotonic() < stop:
             try:
                 data = await asyncio.wait_for(ws.recv(), timeout=max(0.05, stop - time.monotonic()))
             except asyncio.TimeoutError:
                 break
             now = time.monotonic()
-            if window[0] <= now < window[1] and msgpack.unpackb(data).get("type") == "state":
+            if window[0] <= now < window[1] and decode(data).get("type") == "state":
                 counts[index] += 1
 
 
@@ -119,13 +126,13 @@ async def latency_tracker(url: str, rate_hz: float, switches: list[list], stop: 
 
 
 async def main_async(url: str, viewers: int, trackers: int, warmup_s: float, seconds: float,
-                     latency: bool = False, latency_udp: tuple[str, int] | None = None) -> dict:
+                     latency: bool = False, latency_udp: tuple[str, int] | None = None, fmt: str = "msgpack") -> dict:
     start = time.monotonic()
     window = (start + warmup_s, start + warmup_s + seconds)
     stop = window[1] + 0.2
     counts = [0] * viewers
     sent = [0]
-    tasks = [viewer(url, counts, i, window, stop) for i in range(viewers)]
+    tasks = [viewer(url, counts, i, window, stop, fmt) for i in range(viewers)]
     tasks += [tracker(url, 120.0, i * 1.3, sent, stop) for i in range(trackers)]
     switches: list[list] = []
     if latency:
@@ -151,13 +158,14 @@ def main() -> None:
                         help="add the switching participant tracker of `viestac bench latency`")
     parser.add_argument("--latency-udp", metavar="HOST:PORT", default=None,
                         help="the latency tracker sends to this tracker UDP port instead of /ws")
+    parser.add_argument("--format", choices=codec.FORMATS, default="msgpack", help="the viewers' encoding")
     args = parser.parse_args()
     udp = None
     if args.latency_udp:
         host, _, port = args.latency_udp.rpartition(":")
         udp = (host, int(port))
     print(json.dumps(asyncio.run(main_async(args.url, args.viewers, args.trackers, args.warmup, args.seconds,
-                                            args.latency_tracker, udp))))
+                                            args.latency_tracker, udp, args.format))))
 
 
 if __name__ == "__main__":
