@@ -24,7 +24,7 @@ class MonotonicClock:
 
     def sleep_until(self, deadline_ns: int) -> None:
         # Plain sleep to an absolute deadline, no spinning: a real-time process that spins can
-        # starve the lower-priority process it waits for (shared/reference/loop-probe.md).
+        # starve the lower-priority process it waits for (docs/architecture.md, the loop's rules).
         remaining = deadline_ns - time.monotonic_ns()
         if remaining > 0:
             time.sleep(remaining / 1e9)

@@ -1,10 +1,10 @@
 """The hub's role for a simulated study, in one process on the virtual clock.
 
-It owns the real loop core (LoopCore + Simulation: the same per-tick code as `viestac serve`),
-checks the experiment engine's requests with the hub's own scenario control
+It drives the real loop core (LoopCore.tick: the same tick as `viestac serve`, fail-safe
+included), checks the experiment engine's requests with the hub's own scenario control
 (server/hub/control.py) and applies them between ticks exactly as the loop applies mailbox
-records, hands every record to the listeners (the recorder), and sends each tick's cues to the
-virtual devices.
+records, hands every record to the listeners (the recorder), and feeds the virtual devices from
+the tick's cue output as the device host's feed does (wire form decoded, only when it changed).
 Nothing sleeps and nothing reads a clock: `advance()` runs ticks as fast as the machine can, so a
 study takes as long as its computation, not as long as its trials.
 
@@ -18,6 +18,7 @@ from __future__ import annotations
 from typing import Callable
 
 from scenarios import registry
+from server.core.cues import cue_from_wire
 from server.hub.control import ScenarioControl
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
@@ -41,7 +42,7 @@ class VirtualHub:
         self.scenario_state: dict | None = None
         self.last_state: dict | None = None
         self.record_every = 0
-        self._submitted: tuple = ()  # the cues the devices were last given
+        self.last_error: str | None = None  # why the last failed tick failed (the listeners got it as a log record)
         self._emit_all(self.core.announce())
         self._settle_devices()
 
@@ -75,18 +76,21 @@ class VirtualHub:
     def advance(self, ticks: int = 1) -> None:
         """Run `ticks` loop ticks; the devices follow to the end of each tick."""
         for _ in range(ticks):
-            tick = self.core.sim.tick
-            result, record = self.core.step(tick * TICK_NS)
-            if result.output.cues != self._submitted:  # across scenario switches too, as the hub does
-                self._submitted = result.output.cues
+            out = self.core.tick((), self.core.sim.tick * TICK_NS)
+            if out.records:
+                self._emit_all(out.records)
+            if out.error is not None:
+                self.last_error = out.error
+            if out.cues is not None:  # what the feed hands the devices: the decoded cue record
+                cues = tuple(cue_from_wire(c) for c in out.cues)
                 for device in self.devices.values():
-                    device.submit(result.output.cues)
-            t_end = (tick + 1) / self.tick_hz
+                    device.submit(cues)
+            t_end = (out.tick + 1) / self.tick_hz
             for device in self.devices.values():
                 device.run_until(t_end)
-            if record is not None:
-                self.last_state = record
-                self._emit(["state", record])
+            if out.state is not None:
+                self.last_state = out.state
+                self._emit(["state", out.state])
 
     def advance_s(self, seconds: float) -> None:
         self.advance(max(1, round(seconds * self.tick_hz)))
