@@ -167,11 +167,24 @@ def test_the_driver_stays_across_a_scenario_switch():
 
 # -- what the state record carries ------------------------------------------------------------------
 
+def test_the_state_record_holds_the_wire_fields_in_their_order_then_the_loops_own():
+    core = LoopCore(Simulation(ContactAngle()))
+    state = core.tick([tracker(3, 0, DOME_TOP)], 0).state
+    assert list(state) == ["frame", "tick", "t", "scene", "hip", "proxy", "force", "contact", "contacts", "objects",
+                           "cues", "hud", "values", "visible", "events", "scales", "stiffness", "haptic", "driver",
+                           "samples", "trackers", "trajectory", "finished"]
+    assert (state["scene"], state["driver"], state["stiffness"], state["haptic"], state["finished"]) == \
+        (core.sim.scene.hash, [3, 0], {}, {}, [])
+
+
 def test_the_state_record_carries_stiffness_so_a_client_computes_the_force():
-    """The god-object's spring (server/core/haptics/god_object.py): force = k · (proxy − hip), with k
-    the stiffness of the touched body (the mean over the touched bodies when there are several),
-    zero in free space. With the record's `stiffness` (overrides of the scene's material stiffness)
-    a client computes exactly the force the loop reports, also in the tick a key changes k."""
+    """The god-object's spring (server/core/haptics/god_object.py, GodObject.step): in contact,
+    force = k · (proxy − hip) with k the stiffness_n_per_m of the touched body, or the mean over
+    the touched bodies when there are several (touched: the proxy lies on the body's surface
+    dilated by the proxy radius; of those, only the ones the HIP pushes into, if any); free
+    (nothing between proxy and HIP), force = 0. With the record's `stiffness` (overrides of the
+    scene's material stiffness) a client computes the force the loop reports, to the record's
+    rounding, also in the tick a key changes k (the record has the set that tick rendered with)."""
     core = LoopCore(Simulation(StiffnessScenario()), state_hz=1000)  # a record every tick
     scene_k = {o.id: o.material.stiffness_n_per_m for o in core.sim.scene.objects}
     top = [0.0, SPACING, 2 * SPHERE_RADIUS + DEFAULT_PROXY_RADIUS - 0.004]  # 4 mm into the right sphere
