@@ -215,6 +215,8 @@ class Hub:
         finally:
             self.sessions.pop(s.id, None)
             sender.cancel()
+            if s.tracker_count:  # if it drove the HIP, the HIP goes home now, not after DRIVER_QUIET_S
+                self.send_to_loop(["tracker_gone", s.id])
 
     async def _sender(self, s: ClientSession) -> None:
         try:
