@@ -84,10 +84,12 @@ class Simulation:
 
     @property
     def hip(self) -> Vec3:
+        """The HIP's tracked position (a held position, if any, overrides it in the step)."""
         return self.tools[0].tracked
 
     @property
     def untouchable(self) -> frozenset[str]:
+        """The bodies the scenario made untouchable."""
         return frozenset(self.haptic)
 
     def set_hip(self, position: Vec3) -> None:
