@@ -24,12 +24,13 @@ from server.core.scenario import (Control, Param, Pending, ScenarioOutput, SubTa
                                   in_contact_with)
 from server.core.haptics.primitives import Hemisphere, Plane, Pose
 from server.core.scene import AngleScale, Camera, Material, Scene, SceneObject
+from server.core.tool import DEFAULT_PROXY_RADIUS
 
 RADIUS = 0.6
 CENTRE = (0.0, 0.0, 0.0)
 DOME_ID = "hemisphere"
 SCALE_ID = "angle_scale"
-PROXY_RADIUS = 0.06        # the scene's god-object radius (Scene default)
+PROXY_RADIUS = DEFAULT_PROXY_RADIUS  # the scene's god-object radius (Scene default)
 TAP_DEPTH = 0.01           # how far a tap presses the HIP past the proxy: a firm, steady contact
 STUDY_ANGLES = (-90.0, -70.0, -50.0, -30.0, -10.0, 10.0, 30.0, 50.0, 70.0, 90.0)
 

@@ -30,7 +30,7 @@ from scenarios.wire_path import PATH_KINDS, Path, make_path
 from server.core.haptics.primitives import Plane, Pose, Sphere
 from server.core.scene import Camera, Material, Mesh, Scene, SceneObject
 
-HIP_RADIUS = 0.06
+from server.core.tool import DEFAULT_PROXY_RADIUS as HIP_RADIUS
 START_RADIUS = 0.1    # the HIP centre within this of the start begins a run (default)
 END_RADIUS = 0.1      # ... within this of the target ends it (default)
 CONTINUITY = 0.25     # progress along the path only counts in steps shorter than this (no short cuts)

@@ -29,7 +29,7 @@ from scenarios.positioning import ITEM_IDS, ITEMS, Item, carried_position, inser
 from server.core.haptics.primitives import Pose
 from server.core.scene import Camera, Scene
 
-PROXY_RADIUS = 0.06
+from server.core.tool import DEFAULT_PROXY_RADIUS as PROXY_RADIUS
 
 
 def hole_centre(item: Item, carried: Item) -> tuple[float, float, float]:

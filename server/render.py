@@ -4,7 +4,9 @@
 columns t,x,y,z (seconds, scene units; extra columns are ignored). The loop runs tick by tick
 from the first to the last sample; between samples the HIP holds the latest one (zero-order
 hold, the same rule as the live loop), so a re-render matches what the live server computed.
-One output row per tick: proxy, force, contacts and cues.
+The ticks are the live loop's (LoopCore.tick): each new sample goes in as a tracker record, and
+one output row per tick (proxy, force, contacts and cues) comes from the tick's output. A tick
+that fails stops the render with the scenario's error (offline there is nothing to keep safe).
 """
 
 from __future__ import annotations
@@ -17,8 +19,11 @@ from pathlib import Path
 from server.core.cues import cue_to_wire
 from scenarios import registry
 from scenarios.free import FreeExploration
+from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
 from server.core.scene import Scene
+
+SOURCE = "render"  # the tracker source of the trajectory's samples
 
 OUT_COLUMNS = ["t", "tick", "hip_x", "hip_y", "hip_z", "proxy_x", "proxy_y", "proxy_z",
                "force_x", "force_y", "force_z", "contact", "touching", "cues", "values"]
@@ -60,16 +65,27 @@ def render(sim: Simulation, samples, out_path: str | Path) -> int:
     """Run the samples through `sim`; write one row per tick; return the number of ticks."""
     t0, t_end = samples[0][0], samples[-1][0]
     n_ticks = int(math.floor((t_end - t0) * sim.tick_hz + 1e-9)) + 1
-    index = 0
+    core = LoopCore(sim)
+    tick_ns = 1_000_000_000 / sim.tick_hz
+    index, fed = 0, -1
     with open(out_path, "w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(OUT_COLUMNS)
         for _ in range(n_ticks):
-            t = t0 + sim.tick / sim.tick_hz
+            tick = core.sim.tick
+            t = t0 + tick / sim.tick_hz
             while index + 1 < len(samples) and samples[index + 1][0] <= t + 1e-12:
                 index += 1
-            sim.set_hip(samples[index][1:])
-            r = sim.step()
+            now_ns = round(tick * tick_ns)
+            records = ()
+            if index != fed:  # a new sample: the HIP holds it until the next one
+                fed = index
+                records = (["tracker", SOURCE, index, samples[index][0] * 1000.0, list(samples[index][1:]), None,
+                            now_ns],)
+            out = core.tick(records, now_ns)
+            r = out.result
+            if r is None:
+                raise RuntimeError(f"tick {out.tick} failed: {out.error}")
             writer.writerow([f"{t:.6f}", r.tick, *(f"{v:.9f}" for v in r.hip), *(f"{v:.9f}" for v in r.proxy),
                              *(f"{v:.6f}" for v in r.force), int(r.contact),
                              ";".join(sorted({c.body_id for c in r.contacts})),

@@ -91,3 +91,16 @@ def test_render_rejects_bad_scene(tmp_path):
     assert result.returncode == 2 and "torus" in result.stderr
     result = _viestac("render", "--scene", "contact-angel", "--trajectory", str(traj), "--out", str(tmp_path / "o.csv"))
     assert result.returncode == 2 and "did you mean" in result.stderr
+
+
+def test_render_stops_at_a_failing_tick_with_the_scenarios_error(tmp_path):
+    from server.render import render
+
+    class Broken(ContactAngle):
+        def step(self, ctx):
+            if ctx.tick == 3:
+                raise ValueError("scenario bug at tick 3")
+            return super().step(ctx)
+
+    with pytest.raises(RuntimeError, match="(?s)tick 3 failed.*scenario bug at tick 3"):
+        render(Simulation(Broken()), [(0.0, 0.0, 0.0, 1.0), (0.01, 0.0, 0.0, 0.9)], tmp_path / "out.csv")

@@ -21,7 +21,7 @@ from scenarios.registry import UnknownScenario
 from server.experiment.engine import Experiment, ExperimentError, Forbidden, NotFound
 from server.experiment.plan import plan_session
 from server.experiment.store import Conflict, StoreError
-from server.hub.hub import BusyError, ScenarioRefused
+from server.hub.control import BusyError, ScenarioRefused
 
 router = APIRouter(tags=["experiment"])
 

@@ -18,7 +18,8 @@ from server.core.scenario import ParamError, describe
 from scenarios.registry import SCENARIOS, UnknownScenario
 from server import __version__
 from server.hub.device_host import DeviceHostUnavailable
-from server.hub.hub import BusyError, Hub, ScenarioRefused
+from server.hub.control import BusyError, ScenarioRefused
+from server.hub.hub import Hub
 from server.hub.supervisor import LoopSupervisor
 
 router = APIRouter()

@@ -17,6 +17,7 @@ from typing import Any, ClassVar
 from server.core.canonical_json import canonical_json
 from server.core.haptics.primitives import Body, Pose, shape_from_dict
 from server.core.numbers import is_finite_number
+from server.core.tool import DEFAULT_PROXY_RADIUS
 
 _COLOR = re.compile(r"^#[0-9a-fA-F]{6}$")
 _ID = re.compile(r"^[A-Za-z0-9_.:-]{1,64}$")
@@ -297,7 +298,7 @@ class Scene:
     objects: tuple[SceneObject, ...]
     camera: Camera = Camera()
     hip_radius: float = 0.06    # drawn HIP sphere (thesis §4.2.4)
-    proxy_radius: float = 0.06  # god-object contact radius; 0 = point proxy
+    proxy_radius: float = DEFAULT_PROXY_RADIUS  # god-object contact radius; 0 = point proxy
     hip_color: str = "#ffd400"
     hud_text: str = ""
     overlays: tuple[Overlay, ...] = ()  # drawn aids (angle scale, labels); no collision
@@ -383,7 +384,7 @@ class Scene:
             raise SceneError("scene.overlays must be an array")
         overlays = tuple(overlay_from_dict(o, f"overlays[{i}]") for i, o in enumerate(raw_overlays))
         return cls(name, tuple(objects), Camera.from_dict(d.get("camera", {})),
-                   _num(hip, "radius", "hip", 0.06, 0.0), _num(hip, "proxy_radius", "hip", 0.06, 0.0),
+                   _num(hip, "radius", "hip", 0.06, 0.0), _num(hip, "proxy_radius", "hip", DEFAULT_PROXY_RADIUS, 0.0),
                    _color(hip, "color", "hip", "#ffd400"), hud.get("text", ""), overlays)
 
     @classmethod

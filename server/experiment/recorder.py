@@ -3,9 +3,10 @@
 It listens to every record the hub receives from the loop (hub.listeners) and, while a trial
 runs, keeps from each state record the trajectory rows (HIP, proxy, contact, carried object;
 every Nth tick as the loop was asked), the cue commands whenever they changed, and the events
-(the scenario's, every key and command, device status and refusals, tracker loss). Rows from
-ticks before the trial's first tick are dropped: the loop announces the tick at which the trial
-took effect.
+(the scenario's, every key and command, device status and refusals, tracker loss). The trial's
+metrics are what the scenario reported when the trial ended (the record's `finished` entries:
+ScenarioOutput.finished). Rows from ticks before the trial's first tick are dropped: the loop
+announces the tick at which the trial took effect.
 
 Nothing here blocks the event loop for long: rows wait in memory and `flush()` writes them in
 one transaction per table; the experiment flushes every 0.25 s in a worker thread and always
@@ -34,7 +35,7 @@ class Active:
     cues: list = field(default_factory=list)
     events: list = field(default_factory=list)
     last_cues: list | None = None
-    metrics: dict = field(default_factory=dict)  # from the scenario's trial_done event
+    metrics: dict = field(default_factory=dict)  # what the scenario reported when the trial ended
     last_tracker_tick: int | None = None
     tracker_lost: bool = False
 
@@ -94,8 +95,9 @@ class Recorder:
                 continue
             kind = "input" if event.get("name") == "input" else "scenario"
             a.events.append((a.session_id, a.trial_id, a.attempt, event.get("tick"), kind, event))
-            if event.get("name") == "trial_done":
-                a.metrics = {k: v for k, v in event.items() if k not in ("name", "tick", "t")}
+        for done in rec.get("finished") or ():
+            if done["tick"] >= first:
+                a.metrics = dict(done["metrics"])
         self._watch_tracker(a, tick, rec.get("trackers") or ())
 
     def _watch_tracker(self, a: Active, tick: int, trackers) -> None:

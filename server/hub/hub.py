@@ -23,9 +23,10 @@ from itertools import count
 
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
-from devices.capability import CapabilityReport, check
+from devices.capability import CapabilityReport
 from scenarios import registry
-from server.core.scenario import ParamError, Trial, describe, find_control
+from server.core.scenario import ParamError
+from server.hub.control import BusyError, ScenarioControl
 from server.hub.owner import Owner
 from server.hub.session import OPEN, Access, Close, Command, ServerInfo, Session, ToLoop
 from server.hub.telemetry import LoopTelemetry
@@ -46,16 +47,10 @@ class Connection:
         self.wake = asyncio.Event()
 
 
-class ScenarioRefused(Exception):
-    """A scenario switch that the capability check refuses (no device shows what it is about)."""
-
-    def __init__(self, report: CapabilityReport):
-        super().__init__(report.message)
-        self.report = report
-
-
 class Hub:
     def __init__(self, *, server_name: str, tick_hz: int, state_hz: float):
+        # scenario control (server/hub/control.py); send_to_loop and device_profiles are wired later
+        self.control = ScenarioControl(lambda record: self.send_to_loop(record), lambda: self.device_profiles)
         self.server_name = server_name
         self.tick_hz = tick_hz
         self.state_hz = state_hz
@@ -250,68 +245,36 @@ class Hub:
             except BusyError as exc:
                 c.session.reply_error("busy", str(exc))
 
-    # ---- scenario control (WebSocket input and REST share these) -----------------------
+    # ---- scenario control (WebSocket input and REST share these; server/hub/control.py) ----
+    @property
+    def scenario_cls(self):
+        return self.control.scenario_cls
+
+    @scenario_cls.setter
+    def scenario_cls(self, cls) -> None:
+        self.control.scenario_cls = cls
+
     def command(self, key: str, action: str, value=None, *, role: str = "operator", client_id: int = 0) -> None:
-        """A key or experimenter command for the running scenario, checked against its CONTROLS:
-        operator-only commands from other roles are forbidden, a command's value must fit its
-        spec. Keys the scenario does not declare pass through (keyboards send every key)."""
-        control = find_control(self.scenario_cls.CONTROLS, key) if self.scenario_cls else None
-        if control is None:
-            if value is not None:
-                raise ParamError(f"the running scenario has no command {key!r} that takes a value")
-        else:
-            if control.who == "operator" and role != "operator":
-                raise PermissionError(f"{key!r} is an experimenter command; a {role} may not send it")
-            if control.value is None and value is not None:
-                raise ParamError(f"{key!r} takes no value")
-            if control.value is not None and action != "up":
-                if value is None:
-                    raise ParamError(f"{key!r} needs a value: {control.value.doc}")
-                value = control.value.check(value, key)
-        record = ["input", client_id, key, action] + ([value] if value is not None else [])
-        if not self.send_to_loop(record):
-            raise BusyError("the loop's input mailbox is full; input dropped")
+        """A key or experimenter command for the running scenario (ScenarioControl.command)."""
+        self.control.command(key, action, value, role=role, client_id=client_id)
 
     def capability(self, scenario_cls=None) -> CapabilityReport:
-        cls = scenario_cls or self.scenario_cls
-        return check(cls.id, tuple(cls.REQUIRES), self.device_profiles)
+        return self.control.capability(scenario_cls)
 
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
         """Ask the loop to run another scenario (registry.UnknownScenario, ParamError,
-        ScenarioRefused on bad requests; nothing is sent then)."""
-        spec = registry.resolve(name)
-        checked = registry.check_scenario_params(spec, params or {})
-        registry.create(spec.id, **checked)  # constructing is cheap and finds what per-parameter checks cannot
-        report = self.capability(spec.factory)
-        if not report.ok and not force:
-            raise ScenarioRefused(report)
-        if not self.send_to_loop(["scenario", spec.id, checked, seed]):
-            raise BusyError("the loop's input mailbox is full; try again")
-        # the mailbox is ordered: a trial or command sent next is for the new scenario
-        self.scenario_cls = spec.factory
-        return {"id": spec.id, "params": checked, "seed": seed, "capability": report.to_dict()}
+        ScenarioRefused, BusyError on bad requests; nothing is sent then)."""
+        return self.control.switch_scenario(name, params, seed, force)
 
     def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None:
         """Start a trial of the running scenario (phase None ends it)."""
-        trial = None
-        if phase is not None:
-            if self.scenario_cls is None:
-                raise ParamError("no scenario is running yet")
-            trial = Trial.parse(self.scenario_cls.TRIAL_PARAMS, phase, params, index).to_dict()
-        if not self.send_to_loop(["trial", trial]):
-            raise BusyError("the loop's input mailbox is full; try again")
-        return trial
+        return self.control.set_trial(phase, params, index)
 
     def scenario_info(self) -> dict:
-        if self.scenario_cls is None or self.scenario_state is None:
-            return {}
         # the scene hash names the scene this scenario announced (the loop sends the scene first)
-        return {**self.scenario_state, "scene": self.scene_hash, "info": describe(self.scenario_cls),
-                "capability": self.capability().to_dict()}
+        return self.control.info(self.scenario_state, self.scene_hash)
 
     def clients(self) -> list[dict]:
         return [c.session.info() for c in self.connections.values()]
 
 
-class BusyError(RuntimeError):
-    """The loop's mailbox is full; the request was dropped."""

@@ -1,22 +1,32 @@
-"""LoopCore: what the 1 kHz loop does each tick, between the mailbox and the simulation.
+"""LoopCore: the whole tick of the 1 kHz loop, as data in and data out.
 
-Records in (tracker samples, keys and commands, trials, scenario switches, device reports) are
-applied between ticks; then one simulation step; then, if a publish is due, one state record goes
-out. Scenario events (key presses, taps) ride with the next state record, each stamped with its
-tick, so none is lost between publishes. A state record is due on
-the regular cadence (state_hz, 60 by default) AND in any tick whose cues changed, so the picture
-of that tick leaves with its device command and a tactile cue never leads the picture
-(haptic-before-visual is noticed from ~15 ms, Di Luca & Mahnan 2019). The device command itself
-leaves first, on a channel of its own (`device_cues`): the process adapter sends it straight to
-the device host process's feed thread, past the hub's event loop (serial I/O lives there, never
-here).
+`tick(records, now_ns)` is one tick: the records that arrived since the last one (tracker
+samples, keys and commands, trials, scenario switches, device reports) are applied, then one
+simulation step, then what has to go out comes back as a TickOutput: the device cues to hand
+over when they differ from what the devices were last given, the records for the hub (scene and
+scenario announcements, log lines, `fail_safe`) and the state record when one is due. The
+drivers only move data: the loop process (process.py: sockets, sleeping, priority), the
+simulated study's virtual hub (server/simulate/virtual_hub.py: virtual devices, virtual clock)
+and offline rendering (server/render.py). Tests drive this class directly on a virtual clock.
 
-Pure apart from the clock values it is handed: the process adapter (process.py) owns sockets,
-priority and sleeping; tests drive this class directly on a virtual clock.
+A state record is due on the regular cadence (state_hz, 60 by default) AND in any tick whose
+cues changed, so the picture of that tick leaves with its device command and a tactile cue never
+leads the picture (haptic-before-visual is noticed from ~15 ms, Di Luca & Mahnan 2019). The
+device command itself leaves first, on a channel of its own: the process sends it straight to the
+device host process's feed thread, past the hub's event loop. Scenario events and trial ends
+ride with the next state record, each stamped with its tick, so none is lost between publishes.
+
+A failing tick (an exception in a scenario) does not stop the loop: every actuator goes off
+through the cue output, a `fail_safe` record and the error go to the hub, the tick counter
+advances, and the next good tick sends its cues again whatever they are.
+
+Tracker samples go through the tracker rule of the tool they move (server/core/tool.py): one
+source drives the HIP; `["tracker_gone", client_id]` sends it home when its driver leaves.
 """
 
 from __future__ import annotations
 
+import traceback
 from array import array
 from typing import Any, Callable
 
@@ -25,11 +35,28 @@ from scenarios import registry
 from server.core.scenario import Trial
 from server.loop.simulation import Simulation, TickResult
 
-
+MAX_REPORTED_FAILURES = 10  # a failing scenario fails every tick: report the first ones, then every 1000th
+IGNORED_NOTICE_EVERY = 1000  # a source that is not the driver: one log line at its first ignored sample, then every Nth
 
 
 def _round(v, digits: int = 9) -> list[float]:
     return [round(v[0], digits), round(v[1], digits), round(v[2], digits)]
+
+
+class TickOutput:
+    """What one tick produced. One object per core, refilled every tick (the 1 kHz path allocates
+    nothing it can avoid): read it before the next tick. The state record and the record lists it
+    points to are new each time and may be kept."""
+
+    __slots__ = ("tick", "result", "cues", "records", "state", "error")
+
+    def __init__(self) -> None:
+        self.tick = -1
+        self.result: TickResult | None = None  # None: the step failed (fail-safe)
+        self.cues: list[dict] | None = None  # wire form; hand to the devices (before the state); None: unchanged
+        self.records: list[list] | tuple = ()  # for the hub, in order, before the state record
+        self.state: dict | None = None  # the state record, when one is due
+        self.error: str | None = None  # why the step failed (also in `records` as a log line)
 
 
 class LoopCore:
@@ -41,23 +68,74 @@ class LoopCore:
         self.make_sim = make_sim or (lambda scenario, seed: Simulation(scenario, tick_hz=sim.tick_hz, seed=seed))
         self.params: dict = {}
         self.seed = 0
-        self.outbox: list[list] = []  # records for the hub besides state (scene and scenario changes)
+        self.outbox: list[list] = []  # records for the hub besides state (scene and scenario changes, logs)
         self.state_hz = state_hz
         self._publish_slot = -1      # index of the last cadence slot published
         self.samples = array("q")    # (period_ns, cost_ns) pairs since the last state record
         self.tracker_applied: list[list] = []  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.frames = 0
+        self.failures = 0            # ticks that failed since start
         self.record_every = 0        # trajectory sampling: every Nth tick while an experiment records; 0 = off
         self.trajectory: list[list] = []  # rows since the last state record (server/core/records.py TRAJECTORY_COLUMNS)
         self._device_cues: tuple | None = None  # what the devices were last given; None: unknown (start)
+        self._out = TickOutput()
 
+    # -- the tick --------------------------------------------------------------------------------
+    def tick(self, records, now_ns: int) -> TickOutput:
+        """Apply `records` (a bad one is reported, never fatal), step once, and say what goes out."""
+        for record in records:
+            try:
+                self.apply(record, now_ns)
+            except Exception:  # noqa: BLE001 - a bad switch or trial must not kill the loop
+                self.outbox.append(["log", "error", f"record {record[0]} failed: {traceback.format_exc()}"])
+        out = self._out
+        sim = self.sim
+        tick = sim.tick
+        try:
+            result, state = self.step(now_ns)
+            out.cues = self.device_cues(result)
+            out.error = None
+        except Exception:  # noqa: BLE001 - a scenario bug must not kill the loop: fail safe, report
+            result = state = None
+            out.cues = self._fail_safe(tick)
+        out.tick, out.result, out.state = tick, result, state
+        if self.outbox:
+            out.records, self.outbox = self.outbox, []
+        else:
+            out.records = ()
+        return out
+
+    def _fail_safe(self, tick: int) -> list | None:
+        self.failures += 1
+        sim = self.sim
+        cues = self.fail_safe_cues()  # every device off; the next good tick sends its cues again
+        if sim.cues:
+            sim.cues = ()
+            self.outbox.append(["fail_safe"])
+        sim.tick = tick + 1
+        error = self._out.error = traceback.format_exc()
+        if self.failures <= MAX_REPORTED_FAILURES or self.failures % 1000 == 0:
+            self.outbox.append(["log", "error", f"tick failed ({self.failures}): {error}"])
+        return cues
+
+    # -- records in (between ticks) --------------------------------------------------------------
     def apply(self, record: list, now_ns: int) -> None:
-        """Apply one mailbox record (between ticks)."""
+        """Apply one record from the hub (between ticks)."""
         kind = record[0]
-        if kind == "tracker":
+        if kind == "tracker":  # ["tracker", client_id, seq, t_ms, pos, quat, recv_ns]; the tracker rule decides
             _, client_id, seq, t_ms, pos, _quat, recv_ns = record
-            self.sim.set_hip((float(pos[0]), float(pos[1]), float(pos[2])))
-            self.tracker_applied.append([client_id, seq, t_ms, recv_ns, now_ns])
+            sim = self.sim
+            tool = sim.tools[0]
+            if tool.offer(client_id, seq, (float(pos[0]), float(pos[1]), float(pos[2])), sim.tick / sim.tick_hz):
+                self.tracker_applied.append([client_id, seq, t_ms, recv_ns, now_ns])
+            else:
+                ignored = tool.ignored[client_id]
+                if ignored == 1 or ignored % IGNORED_NOTICE_EVERY == 0:
+                    self.outbox.append(["log", "warning", f"tracker samples from {client_id} ignored: {tool.driver} "
+                                                          f"drives the HIP ({ignored} ignored so far)"])
+        elif kind == "tracker_gone":  # ["tracker_gone", client_id]: a source left; if it drove, the HIP goes home
+            for tool in self.sim.tools:
+                tool.release(record[1])
         elif kind == "input":  # ["input", client_id, key, action, value?]; checked by the hub
             value = record[4] if len(record) > 4 else None
             self.sim.input(record[2], record[3], value)
@@ -81,11 +159,14 @@ class LoopCore:
 
     def load_scenario(self, name: str, params: dict, seed: int) -> None:
         """A new scenario and simulation (tick counter continues); announces the new scene."""
-        refusals = self.sim.refusals
+        old = self.sim
         sim = self.make_sim(registry.create(name, **params), seed)
-        sim.tick = self.sim.tick
-        sim.refusals = refusals
-        sim.events = self.sim.events  # unpublished events of the old scenario still go out
+        sim.tick = old.tick
+        sim.refusals = old.refusals
+        sim.events = old.events  # unpublished events and trial ends of the old scenario still go out
+        sim.finished = old.finished
+        for tool, previous in zip(sim.tools, old.tools):
+            tool.take_driver(previous)  # who drives the HIP does not change with the scene
         self.sim, self.params, self.seed = sim, dict(params), seed
         self.outbox.extend(self.announce())
 
@@ -99,8 +180,9 @@ class LoopCore:
         scene = self.sim.scene
         return [["scene", scene.to_dict(), scene.hash], self.scenario_record()]
 
+    # -- the parts of a tick -----------------------------------------------------------------------
     def step(self, now_ns: int) -> tuple[TickResult, dict | None]:
-        """One tick; returns the result and the state record to publish, if one is due."""
+        """One simulation step; returns the result and the state record to publish, if one is due."""
         result = self.sim.step()
         if self.record_every and result.tick % self.record_every == 0:
             self._record_trajectory(result)
@@ -145,24 +227,33 @@ class LoopCore:
         self.samples.append(cost_ns)
 
     def _state_record(self, r: TickResult, now_ns: int) -> dict[str, Any]:
+        """The state record: the wire's state fields (docs/protocol.md) in their order, without
+        `type` and `telemetry` (the hub adds them), then what only the hub and recorder use."""
         self.frames += 1
         out = r.output
+        sim = self.sim
+        tool = sim.tools[0]
         record = {
-            "frame": self.frames, "tick": r.tick, "t": now_ns / 1e9,
+            "frame": self.frames, "tick": r.tick, "t": now_ns / 1e9, "scene": sim.scene.hash,
             "hip": _round(r.hip), "proxy": _round(r.proxy), "force": _round(r.force, 6),
             "contact": r.contact,
             "contacts": [[c.body_id, _round(c.normal, 6), round(c.depth, 9)] for c in r.contacts],
-            "objects": [[oid, _round(p.pos), [round(q, 9) for q in p.quat]] for oid, p in self.sim.moved.items()],
-            "visible": dict(self.sim.visibility),
-            "scales": {oid: list(s) for oid, s in self.sim.scales.items()},
+            "objects": [[oid, _round(p.pos), [round(q, 9) for q in p.quat]] for oid, p in sim.moved.items()],
             "cues": [cue_to_wire(c) for c in out.cues], "hud": out.hud, "values": out.values,
-            "events": self.sim.events,
+            "visible": dict(sim.visibility),
+            "events": sim.events,
+            "scales": {oid: list(s) for oid, s in sim.scales.items()},
+            "stiffness": r.stiffness,  # never changed in place (Simulation): no copy needed
+            "haptic": r.haptic,
+            "driver": None if tool.driver is None else [tool.driver, tool.seq],
             "samples": self.samples.tobytes(),
             "trackers": self.tracker_applied,
             "trajectory": self.trajectory,
+            "finished": sim.finished,
         }
         self.samples = array("q")
         self.tracker_applied = []
         self.trajectory = []
-        self.sim.events = []
+        sim.events = []
+        sim.finished = []
         return record

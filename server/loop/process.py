@@ -1,13 +1,14 @@
 """The loop process: a thin adapter that runs LoopCore at 1 kHz on a real clock.
 
-Why a separate process at SCHED_FIFO (docs/architecture.md "Processes"):
+Why a separate process at SCHED_FIFO (docs/architecture.md "Processes, and why the loop has its own"):
 a 1 kHz thread beside the asyncio server shares the GIL with the broadcasts and misses
 deadlines (period p99 2-5 ms from 8 viewers on); a separate process at real-time priority held
 p99 1.03 ms with 64 viewers. Without CAP_SYS_NICE/root it falls back to normal priority with a
 clear warning, reported in telemetry as `rt: false`.
 
-It owns: the clock, the deadline scheduler and the simulation; no serial port, no socket to a
-client, no thread (the device drivers live in the device host process). It talks only through
+It owns the clock, the deadline scheduler and the sockets; the tick itself (records in, the
+simulation step, fail-safe, what goes out) is LoopCore.tick (core.py). No serial port, no socket
+to a client, no thread (the device drivers live in the device host process). It talks only through
 non-blocking sockets (ipc.py): the mailbox to the hub, and the cue channel that carries a tick's
 changed cues to the device host's feed thread before the tick's state record leaves. It also reads the
 tracker UDP port (tracker_udp.py, bound by the hub) at the start of every tick. It exits when the
@@ -24,7 +25,6 @@ import json
 import os
 import socket
 import sys
-import traceback
 from dataclasses import asdict, dataclass, field
 
 from scenarios import registry
@@ -110,54 +110,35 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
     gc.collect()
     gc.freeze()
     scheduler = DeadlineScheduler(clock, 1_000_000_000 // config.tick_hz)
-    failures = 0
     while True:
         start, period = scheduler.wait_next()
         try:
             records = ipc.drain(sock) if doorbell is None or doorbell.rung() else ()
         except ipc.PeerClosed:
             return
-        for record in records:
-            if record[0] == "stop":
-                return
-            try:
-                core.apply(record, start)
-            except Exception:  # noqa: BLE001 - a bad switch or trial must not kill the loop
-                ipc.send_record(sock, ["log", "error", f"record {record[0]} failed: {traceback.format_exc()}"])
+        if records and any(record[0] == "stop" for record in records):
+            return
         if tracker_port is not None:  # after the mailbox: a UDP sample read now is the newest
-            for record in tracker_port.drain(start):
-                core.apply(record, start)
+            samples = tracker_port.drain(start)
+            if samples:
+                records = [*records, *samples]
             if tracker_port.notices:
                 for text in tracker_port.notices:
                     ipc.send_record(sock, ["log", "warning", text])
                 tracker_port.notices.clear()
-        if core.outbox:
-            for record in core.outbox:
-                ipc.send_record(sock, record)
-            core.outbox.clear()
-        try:
-            result, state = core.step(start)
-            cues = core.device_cues(result)
-        except Exception:  # noqa: BLE001 - a scenario bug must not kill the loop: fail safe, report
-            failures += 1
-            cues = core.fail_safe_cues()  # every device off; the next good tick sends its cues again
-            if core.sim.cues:
-                core.sim.cues = ()
-                ipc.send_record(sock, ["fail_safe"])
-            core.sim.tick += 1
-            state = None
-            if failures <= 10 or failures % 1000 == 0:
-                ipc.send_record(sock, ["log", "error", f"tick failed ({failures}): {traceback.format_exc()}"])
-        if cues is not None and cue_sock is not None:  # first: the device command leaves before the frame
+        out = core.tick(records, start)
+        for record in out.records:
+            ipc.send_record(sock, record)
+        if out.cues is not None and cue_sock is not None:  # first: the device command leaves before the frame
             try:
-                if not ipc.send_record(cue_sock, ["cues", core.sim.tick - 1, clock.now_ns(), cues]):
+                if not ipc.send_record(cue_sock, ["cues", out.tick, clock.now_ns(), out.cues]):
                     core.resend_device_cues()  # the feed is behind: try again next tick (latest wins)
             except OSError as exc:  # the device host's end is gone for good: nobody drives the devices now
                 cue_sock = None
                 ipc.send_record(sock, ["log", "error", f"cue channel closed ({exc}); device cues stop"])
-        if state is not None:
-            state["resyncs"] = scheduler.resyncs
-            ipc.send_record(sock, ["state", state])
+        if out.state is not None:
+            out.state["resyncs"] = scheduler.resyncs
+            ipc.send_record(sock, ["state", out.state])
         core.record_sample(period, clock.now_ns() - start)
         if core.sim.tick % 1000 == 0 and os.getppid() != parent:
             return  # the hub died without closing the mailbox

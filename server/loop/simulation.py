@@ -4,7 +4,9 @@ Pipeline per tick: latest tracker sample (held between samples: zero-order hold;
 the scenario holds the HIP at, for the experimenter's "tap") → god-object proxy against the
 scene's analytic bodies → debounced contact (hysteresis gate, for vibration-only devices) →
 scenario step → device-independent cues, plus the scenario's changes to its objects (poses,
-visibility, touchability, stiffness), applied for the next tick. Time is the tick counter
+visibility, touchability, stiffness), applied for the next tick. The tracked point, its proxy and
+its gate are a Tool (server/core/tool.py); the simulation owns a tuple of tools, today one (the
+HIP), which the scenario sees in its TickContext. Time is the tick counter
 (t = tick / tick_hz), never a clock read, so the same inputs give the same outputs whether the
 loop runs in real time, on a virtual clock, or replays a recorded trajectory.
 """
@@ -17,10 +19,13 @@ from typing import Any
 from server.core.cues import Cue
 from server.core.scenario import Scenario, ScenarioOutput, TickContext, Trial
 from server.core.haptics.contact_gate import ContactGate
-from server.core.haptics.god_object import Contact, GodObject
+from server.core.haptics.god_object import Contact
 from server.core.haptics.primitives import Pose
 from server.core.haptics.vec import Vec3
 from server.core.scene import Scene
+from server.core.tool import Tool
+
+TRIAL_DONE = "trial_done"  # the event a trial's end is also shown as (clients and exports list events)
 
 
 @dataclass(frozen=True)
@@ -34,7 +39,8 @@ class TickResult:
     contact: bool            # debounced
     output: ScenarioOutput
     cues_changed: bool       # the active cue set differs from the previous tick's
-    scene_changed: bool      # an object moved, appeared, vanished or changed stiffness this tick
+    stiffness: dict[str, float]  # the stiffness overrides this tick's force was computed with
+    haptic: dict[str, bool]  # the touchability overrides this tick's contacts were found with
 
 
 def home_position(scene: Scene) -> Vec3:
@@ -52,28 +58,44 @@ class Simulation:
         self.scenario = scenario
         self.scene = scene if scene is not None else scenario.build_scene()
         self.tick_hz = tick_hz
-        self.gate = gate if gate is not None else ContactGate()
-        self.god = GodObject(self.scene.proxy_radius)
+        # The tracked points; the scenario sees the first (the HIP). More fingers: more tools.
+        self.tools: tuple[Tool, ...] = (Tool(home_position(self.scene), self.scene.proxy_radius, gate),)
         self._all_bodies = {b.id: b for b in self.scene.bodies()}
         self.bodies = list(self._all_bodies.values())  # the touchable ones, in scene order
         self.moved: dict[str, Pose] = {}  # objects whose pose differs from the scene's
         self.visibility: dict[str, bool] = {}  # objects/overlays shown or hidden against the scene
         self.scales: dict[str, tuple[float, float, float]] = {}  # objects drawn scaled (never touched scaled)
-        self.untouchable: set[str] = set()
+        # Stiffness and touchability against the scene's; replaced, never changed in place, so a
+        # tick's result keeps the set it was computed with.
+        self.stiffness: dict[str, float] = {}
+        self.haptic: dict[str, bool] = {}
         self.tick = 0
-        self.hip: Vec3 = home_position(self.scene)
-        self.held: Vec3 | None = None  # where the scenario holds the HIP, overriding the tracker
         self.cues: tuple[Cue, ...] = ()
         self.refusals: tuple[str, ...] = ()  # reported by the device host, through the hub
         self.events: list[dict] = []  # scenario events not yet published, stamped with their tick
+        self.finished: list[dict] = []  # trial ends not yet published: {"tick", "metrics"}
         self.trial: Trial | None = None
-        self._settled = None  # (hip, ProxyStep) of a verified fixed point; reused while nothing moves
-        self._last_step = None
         scenario.reset(seed)
 
+    @property
+    def tool(self) -> Tool:
+        """The HIP: the tool the scenario sees."""
+        return self.tools[0]
+
+    @property
+    def hip(self) -> Vec3:
+        """The HIP's tracked position (a held position, if any, overrides it in the step)."""
+        return self.tools[0].tracked
+
+    @property
+    def untouchable(self) -> frozenset[str]:
+        """The bodies the scenario made untouchable."""
+        return frozenset(self.haptic)
+
     def set_hip(self, position: Vec3) -> None:
-        """Latest tracker sample; applied at the next step (parameters change between ticks only)."""
-        self.hip = position
+        """Move the HIP directly (no tracker rule: offline rendering, a simulated participant);
+        applied at the next step (parameters change between ticks only)."""
+        self.tools[0].tracked = position
 
     def input(self, key: str, action: str, value: Any = None) -> None:
         self.scenario.on_input(key, action, value)
@@ -93,57 +115,71 @@ class Simulation:
     def step(self) -> TickResult:
         tick = self.tick
         t_s = tick / self.tick_hz
-        hip = self.held if self.held is not None else self.hip
-        settled = self._settled
-        if settled is not None and settled[0] == hip:
-            # The HIP is held between tracker samples (~8 ticks per 120 Hz sample) and nothing
-            # moved; the last step reproduced the one before it for this HIP, so it is a fixed
-            # point of the (deterministic) god-object: reuse it instead of recomputing.
-            proxy_step = settled[1]
-        else:
-            proxy_step = self.god.step(self.bodies, hip)
-            last = self._last_step
-            fixed = (last is not None and last[0] == hip and last[1].proxy == proxy_step.proxy
-                     and last[1].contacts == proxy_step.contacts)
-            self._settled = (hip, proxy_step) if fixed else None
-            self._last_step = (hip, proxy_step)
+        tool = self.tools[0]
+        hip = tool.hip
+        stiffness, haptic = self.stiffness, self.haptic  # what this tick renders with
+        proxy_step = tool.proxy_step(self.bodies, hip)
         contacts = proxy_step.contacts
-        contact = self.gate.update(t_s, bool(contacts), proxy_step.separation)
+        contact = tool.gate.update(t_s, bool(contacts), proxy_step.separation)
         touching = frozenset(c.body_id for c in contacts)
         nearest = self._nearest_body(hip) if contact else None
         ctx = TickContext(tick, t_s, hip, proxy_step.proxy, contact, touching, nearest, self.refusals,
-                          self.god.sticking)
+                          tool.god.sticking)
         output = self.scenario.step(ctx)
-        scene_changed = False
         if output.poses or output.haptic or output.stiffness or output.visible or output.scales:
-            scene_changed = self._apply_changes(output)
-        if output.hold_hip != self.held:
-            if output.hold_hip is not None:
-                # A tap lands from outside: put the proxy on the surface nearest the held point
-                # instead of dragging it there from wherever the tracker left it.
-                self.god.reset(output.hold_hip, self.bodies)
-            self._settled = self._last_step = None
-            self.held = output.hold_hip
-        if output.events:
-            self.events.extend({"tick": tick, "t": t_s, **event} for event in output.events)
+            self._apply_changes(output)
+        if output.hold_hip != tool.held:
+            tool.hold(output.hold_hip, self.bodies)
+        if output.events or output.finished is not None:
+            self._stamp(tick, t_s, output)
         cues_changed = output.cues != self.cues
         self.cues = output.cues
         self.tick = tick + 1
         return TickResult(tick, t_s, hip, proxy_step.proxy, proxy_step.force, contacts, contact,
-                          output, cues_changed, scene_changed)
+                          output, cues_changed, stiffness, haptic)
 
-    def _apply_changes(self, output: ScenarioOutput) -> bool:
+    def _stamp(self, tick: int, t_s: float, output: ScenarioOutput) -> None:
+        """Events with their tick; a trial's end as a `finished` entry and as a trial_done event."""
+        finished = output.finished
+        done_event = False
+        for event in output.events:
+            done_event = done_event or event.get("name") == TRIAL_DONE
+            self.events.append({"tick": tick, "t": t_s, **event})
+        if finished is None and done_event:
+            # Scenarios that still announce a trial's end only by the event (until they set
+            # ScenarioOutput.finished): its content is the metrics, as the recorder took them.
+            finished = next({k: v for k, v in e.items() if k not in ("name", "tick", "t")}
+                            for e in output.events if e.get("name") == TRIAL_DONE)
+        if finished is not None:
+            if not done_event:
+                self.events.append({"tick": tick, "t": t_s, "name": TRIAL_DONE, **finished})
+            self.finished.append({"tick": tick, "metrics": dict(finished)})
+
+    def _apply_changes(self, output: ScenarioOutput) -> None:
         for object_id, pose in output.poses.items():
             if object_id in self._all_bodies:
                 self._all_bodies[object_id] = replace(self._all_bodies[object_id], pose=pose)
             elif not self.scene.has_id(object_id):  # drawn-only objects move too, they just have no body
                 raise KeyError(f"scenario moves {object_id!r}, which is not in scene {self.scene.name!r}")
             self.moved[object_id] = pose
-        for object_id, k in output.stiffness.items():
-            self._all_bodies[object_id] = replace(self._body(object_id), stiffness_n_per_m=k)
-        for object_id, on in output.haptic.items():
-            self._body(object_id)
-            (self.untouchable.discard if on else self.untouchable.add)(object_id)
+        if output.stiffness:
+            stiffness = dict(self.stiffness)
+            for object_id, k in output.stiffness.items():
+                self._all_bodies[object_id] = replace(self._body(object_id), stiffness_n_per_m=k)
+                if k == self.scene.object(object_id).material.stiffness_n_per_m:
+                    stiffness.pop(object_id, None)
+                else:
+                    stiffness[object_id] = k
+            self.stiffness = stiffness
+        if output.haptic:
+            haptic = dict(self.haptic)
+            for object_id, on in output.haptic.items():
+                self._body(object_id)
+                if on:  # every body of the scene is touchable there (Scene.bodies)
+                    haptic.pop(object_id, None)
+                else:
+                    haptic[object_id] = False
+            self.haptic = haptic
         for object_id, factors in output.scales.items():
             if not self.scene.has_id(object_id):
                 raise KeyError(f"scenario scales {object_id!r}, which is not in scene {self.scene.name!r}")
@@ -155,9 +191,9 @@ class Simulation:
             if not self.scene.has_id(element_id):
                 raise KeyError(f"scenario shows/hides {element_id!r}, which is not in scene {self.scene.name!r}")
             self.visibility[element_id] = shown
-        self.bodies = [b for b in self._all_bodies.values() if b.id not in self.untouchable]
-        self._settled = self._last_step = None  # the fixed point may have moved with the bodies
-        return True
+        self.bodies = [b for b in self._all_bodies.values() if b.id not in self.haptic]
+        for tool in self.tools:
+            tool.forget_fixed_point()  # the fixed point may have moved with the bodies
 
     def _body(self, object_id: str):
         try:

@@ -1,12 +1,13 @@
 """The hub's, the loop process's and the device host's roles for a simulated study, in one
 process on the virtual clock.
 
-It owns the real loop core (LoopCore + Simulation: the same per-tick code as `viestac serve`),
-applies the experiment engine's requests between ticks exactly as the loop applies mailbox
-records, hands every record to the listeners (the recorder), and gives the virtual devices each
-changed cue set (as the loop's cue channel feeds the device host). Nothing sleeps and nothing
-reads a clock: `advance()` runs ticks as fast as the machine can, so a study takes as long as
-its computation, not as long as its trials.
+It drives the real loop core (LoopCore.tick: the same tick as `viestac serve`, fail-safe
+included), checks the experiment engine's requests with the hub's own scenario control
+(server/hub/control.py) and applies them between ticks exactly as the loop applies mailbox
+records, hands every record to the listeners (the recorder), and feeds the virtual devices from
+the tick's cue output as the device host's feed does (wire form decoded, only when it changed).
+Nothing sleeps and nothing reads a clock: `advance()` runs ticks as fast as the machine can, so a
+study takes as long as its computation, not as long as its trials.
 
 It offers what the engine needs of a hub (server/experiment/engine.HubPort): switch_scenario,
 set_trial, set_recording, scenario_state, last_state, listeners; plus set_hip and command for
@@ -17,10 +18,9 @@ from __future__ import annotations
 
 from typing import Callable
 
-from devices.capability import check
 from scenarios import registry
-from server.core.scenario import Trial
-from server.hub.hub import ScenarioRefused
+from server.core.cues import cue_from_wire
+from server.hub.control import ScenarioControl
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
 from server.simulate.virtual_device import VirtualDevice
@@ -37,41 +37,34 @@ class VirtualHub:
         sim = Simulation(registry.create(spec.id, **(params or {})), tick_hz=tick_hz, seed=seed)
         self.core = LoopCore(sim, state_hz=state_hz)
         self.core.params, self.core.seed = registry.check_scenario_params(spec, params or {}), seed
+        self.control = ScenarioControl(self._send, lambda: {n: d.profile for n, d in self.devices.items()})
+        self.control.scenario_cls = spec.factory
         self.listeners: list[Callable[[list], None]] = []
         self.scenario_state: dict | None = None
-        self.scenario_cls = spec.factory
         self.last_state: dict | None = None
         self.record_every = 0
-        self._submitted: tuple = ()  # the cues the devices were last given
+        self.last_error: str | None = None  # why the last failed tick failed (the listeners got it as a log record)
         self._emit_all(self.core.announce())
         self._settle_devices()
 
-    # -- what the engine asks ------------------------------------------------------------------
+    # -- what the engine asks (checked as the hub checks them) ------------------------------------
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
-        spec = registry.resolve(name)
-        checked = registry.check_scenario_params(spec, params or {})
-        report = check(spec.id, tuple(spec.factory.REQUIRES), {n: d.profile for n, d in self.devices.items()})
-        if not report.ok and not force:
-            raise ScenarioRefused(report)
-        self._apply(["scenario", spec.id, checked, seed])
-        self.scenario_cls = spec.factory
-        return {"id": spec.id, "params": checked, "seed": seed, "capability": report.to_dict()}
+        return self.control.switch_scenario(name, params, seed, force)
 
     def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None:
-        trial = None if phase is None else Trial.parse(self.scenario_cls.TRIAL_PARAMS, phase, params, index).to_dict()
-        self._apply(["trial", trial])
-        return trial
+        return self.control.set_trial(phase, params, index)
 
     def set_recording(self, every_n_ticks: int) -> None:
         self.record_every = every_n_ticks
-        self._apply(["record", every_n_ticks])
+        self._send(["record", every_n_ticks])
 
     # -- what the participant does ---------------------------------------------------------------
     def set_hip(self, position) -> None:
         self.core.sim.set_hip(tuple(float(v) for v in position))
 
     def command(self, key: str, action: str = "press", value=None) -> None:
-        self._apply(["input", 0, key, action] + ([value] if value is not None else []))
+        """A key or command, as the experimenter's console sends it (operator role)."""
+        self.control.command(key, action, value)
 
     @property
     def tick(self) -> int:
@@ -84,36 +77,41 @@ class VirtualHub:
     def advance(self, ticks: int = 1) -> None:
         """Run `ticks` loop ticks; the devices follow to the end of each tick."""
         for _ in range(ticks):
-            tick = self.core.sim.tick
-            result, record = self.core.step(tick * TICK_NS)
-            if result.output.cues != self._submitted:  # across scenario switches too (LoopCore.device_cues)
-                self._submitted = result.output.cues
+            out = self.core.tick((), self.core.sim.tick * TICK_NS)
+            if out.records:
+                self._emit_all(out.records)
+            if out.error is not None:
+                self.last_error = out.error
+            if out.cues is not None:  # what the feed hands the devices: the decoded cue record
+                cues = tuple(cue_from_wire(c) for c in out.cues)
                 for device in self.devices.values():
-                    device.submit(result.output.cues)
-            t_end = (tick + 1) / self.tick_hz
+                    device.submit(cues)
+            t_end = (out.tick + 1) / self.tick_hz
             for device in self.devices.values():
                 device.run_until(t_end)
-            if record is not None:
-                self.last_state = record
-                self._emit(["state", record])
+            if out.state is not None:
+                self.last_state = out.state
+                self._emit(["state", out.state])
 
     def advance_s(self, seconds: float) -> None:
         self.advance(max(1, round(seconds * self.tick_hz)))
 
     # -- plumbing ------------------------------------------------------------------------------
-    def _apply(self, record: list) -> None:
-        """A mailbox record, applied between ticks as the loop process does."""
+    def _send(self, record: list) -> bool:
+        """A record for the loop, applied between ticks as the loop process applies its mailbox."""
         self.core.apply(record, self.core.sim.tick * TICK_NS)
-        self._emit_all(self.core.outbox)
-        self.core.outbox.clear()
+        records, self.core.outbox = self.core.outbox, []
+        self._emit_all(records)
+        return True
 
-    def _emit_all(self, records: list[list]) -> None:
-        for record in list(records):
+    def _emit_all(self, records) -> None:
+        for record in records:
             self._emit(record)
 
     def _emit(self, record: list) -> None:
         if record[0] == "scenario":
             self.scenario_state = record[1]
+            self.control.announced(record[1])
         for listener in self.listeners:
             listener(record)
 

@@ -1,5 +1,6 @@
 """The recorder on hand-made loop records: it records from the tick the loop announces the
-trial, keeps cue changes only, takes the scenario's trial_done as metrics, notices tracker loss."""
+trial, keeps cue changes only, takes the metrics from the state record's `finished` entries (the
+trial's end as the scenario reported it), notices tracker loss."""
 
 import pytest
 
@@ -8,9 +9,9 @@ from server.experiment.store import Store
 from tests.experiment.test_store import clock, open_session
 
 
-def state(tick, cues=(), events=(), trajectory=(), trackers=((1, 0, 0.0, 0, 0),)):
+def state(tick, cues=(), events=(), trajectory=(), trackers=((1, 0, 0.0, 0, 0),), finished=()):
     return ["state", {"tick": tick, "cues": list(cues), "events": list(events), "trajectory": list(trajectory),
-                      "trackers": [list(t) for t in trackers]}]
+                      "trackers": [list(t) for t in trackers], "finished": list(finished)}]
 
 
 def row(tick):
@@ -36,7 +37,8 @@ def test_rows_count_from_the_tick_the_trial_took_effect(recording):
     recorder.on_record(["scenario", {"trial": {"phase": "main", "params": {}, "index": 0}, "tick": 10}])
     recorder.on_record(state(17, [vib], trajectory=[row(9), row(10), row(15)]))
     recorder.on_record(state(34, [vib], events=[{"tick": 30, "name": "tap"}]))  # same cues: no new row
-    recorder.on_record(state(51, [], events=[{"tick": 50, "name": "trial_done", "completion_s": 1.5, "t": 0.05}]))
+    recorder.on_record(state(51, [], events=[{"tick": 50, "name": "trial_done", "completion_s": 1.5, "t": 0.05}],
+                             finished=[{"tick": 50, "metrics": {"completion_s": 1.5}}]))
     done = recorder.end()
     assert done.first_tick == 10 and done.metrics == {"completion_s": 1.5}
     assert [s["tick"] for s in store.samples(trial.id)] == [10, 15]

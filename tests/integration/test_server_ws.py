@@ -135,17 +135,18 @@ def test_tracker_along_the_arc_moves_angle_and_tilt_commands(live_server):
                     seen[angle] = state
                     break
                 await asyncio.sleep(0.01)
+        # the devices while the HIP still touches the dome: when its driver leaves, the HIP goes home
+        devices = await asyncio.to_thread(live_server.get, "/api/devices")
         await client.close()
-        return seen
+        return seen, devices
 
-    seen = run(go())
+    seen, devices = run(go())
     assert set(seen) == set(angles), f"angles reached: {sorted(seen)}"
     for angle, state in seen.items():
         tilt = [c for c in state["cues"] if c["kind"] == "tilt"]
         assert tilt and abs(tilt[0]["direction_deg"] - (-angle) % 360) < 0.5
         assert state["contact"] is True
     # The simulated rig's FerroVibe emulator (through pyserial on a pty) tilted the magnet accordingly.
-    devices = live_server.get("/api/devices")
     timeline = Path(devices["simulated_rig"]["emulators"]["ferrovibe"]["timeline"])
     time.sleep(0.3)  # the emulator flushes its timeline every 0.2 s
     with timeline.open() as f:

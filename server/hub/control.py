@@ -1,0 +1,107 @@
+"""Scenario control: the checks and records of every request that changes what the loop runs.
+
+Keys and experimenter commands (role and value against the scenario's CONTROLS), scenario
+switches (parameters, construction, the capability check) and trials (TRIAL_PARAMS) are checked
+here before anything reaches the loop; what passes becomes one record for the loop, handed to the
+injected `send(record) -> bool`. The hub (WebSocket input and REST) and the simulated study's
+virtual hub both delegate to this one class, so a simulated study obeys the same rules as a live
+one. Sans-I/O: no web framework, no socket; `send` returning False (the loop's mailbox is full)
+raises BusyError and nothing changes here.
+
+Errors (REST and the hub map them to HTTP codes and `error` messages): ParamError (a bad value),
+PermissionError (a command the sender's role may not send), registry.UnknownScenario,
+ScenarioRefused (no configured device shows the scenario), BusyError.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable, Mapping
+
+from devices.capability import CapabilityReport, check
+from scenarios import registry
+from server.core.scenario import ParamError, Trial, describe, find_control
+
+
+class ScenarioRefused(Exception):
+    """A scenario switch that the capability check refuses (no device shows what it is about)."""
+
+    def __init__(self, report: CapabilityReport):
+        super().__init__(report.message)
+        self.report = report
+
+
+class BusyError(RuntimeError):
+    """The loop's mailbox is full; the request was dropped."""
+
+
+class ScenarioControl:
+    """`send`: hands one record to the loop (False: dropped). `profiles`: the device profiles by
+    name as they are now (for the capability check)."""
+
+    def __init__(self, send: Callable[[list], bool], profiles: Callable[[], Mapping[str, Any]]):
+        self.send = send
+        self.profiles = profiles
+        self.scenario_cls = None  # the scenario the loop runs (or was last told to run)
+
+    def announced(self, state: Mapping[str, Any]) -> None:
+        """The loop announced what it runs (its `scenario` record)."""
+        self.scenario_cls = registry.resolve(state["id"]).factory
+
+    def command(self, key: str, action: str, value=None, *, role: str = "operator", client_id: int | str = 0) -> None:
+        """A key or experimenter command for the running scenario, checked against its CONTROLS:
+        operator-only commands from other roles are forbidden, a command's value must fit its
+        spec. Keys the scenario does not declare pass through (keyboards send every key)."""
+        control = find_control(self.scenario_cls.CONTROLS, key) if self.scenario_cls else None
+        if control is None:
+            if value is not None:
+                raise ParamError(f"the running scenario has no command {key!r} that takes a value")
+        else:
+            if control.who == "operator" and role != "operator":
+                raise PermissionError(f"{key!r} is an experimenter command; a {role} may not send it")
+            if control.value is None and value is not None:
+                raise ParamError(f"{key!r} takes no value")
+            if control.value is not None and action != "up":
+                if value is None:
+                    raise ParamError(f"{key!r} needs a value: {control.value.doc}")
+                value = control.value.check(value, key)
+        record = ["input", client_id, key, action] + ([value] if value is not None else [])
+        if not self.send(record):
+            raise BusyError("the loop's input mailbox is full; input dropped")
+
+    def capability(self, scenario_cls=None) -> CapabilityReport:
+        cls = scenario_cls or self.scenario_cls
+        return check(cls.id, tuple(cls.REQUIRES), self.profiles())
+
+    def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
+        """Ask the loop to run another scenario (registry.UnknownScenario, ParamError,
+        ScenarioRefused, BusyError on bad requests; nothing is sent then)."""
+        spec = registry.resolve(name)
+        checked = registry.check_scenario_params(spec, params or {})
+        registry.create(spec.id, **checked)  # constructing is cheap and finds what per-parameter checks cannot
+        report = self.capability(spec.factory)
+        if not report.ok and not force:
+            raise ScenarioRefused(report)
+        if not self.send(["scenario", spec.id, checked, seed]):
+            raise BusyError("the loop's input mailbox is full; try again")
+        # the mailbox is ordered: a trial or command sent next is for the new scenario
+        self.scenario_cls = spec.factory
+        return {"id": spec.id, "params": checked, "seed": seed, "capability": report.to_dict()}
+
+    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None:
+        """Start a trial of the running scenario (phase None ends it)."""
+        trial = None
+        if phase is not None:
+            if self.scenario_cls is None:
+                raise ParamError("no scenario is running yet")
+            trial = Trial.parse(self.scenario_cls.TRIAL_PARAMS, phase, params, index).to_dict()
+        if not self.send(["trial", trial]):
+            raise BusyError("the loop's input mailbox is full; try again")
+        return trial
+
+    def info(self, state: Mapping[str, Any] | None, scene_hash: str) -> dict:
+        """The running scenario as REST shows it: what the loop announced, the scene it announced
+        with it, the declaration and the capability check."""
+        if self.scenario_cls is None or state is None:
+            return {}
+        return {**state, "scene": scene_hash, "info": describe(self.scenario_cls),
+                "capability": self.capability().to_dict()}
