@@ -147,12 +147,7 @@ class Hub:
         if rec["trackers"]:
             self.tracker_applied.extend(rec["trackers"])
         self.states_received += 1
-        message = messages.state_message(
-            frame=rec["frame"], tick=rec["tick"], t=rec["t"], scene=self.scene_hash, hip=rec["hip"],
-            proxy=rec["proxy"], force=rec["force"], contact=rec["contact"], contacts=rec["contacts"],
-            objects=rec["objects"], cues=rec["cues"], hud=rec["hud"], values=rec["values"],
-            telemetry=self.telemetry_summary(), visible=rec.get("visible"), events=rec.get("events"),
-            scales=rec.get("scales"))
+        message = messages.state_message(rec, self.telemetry_summary())  # names the scene the loop simulated
         self.last_state = message
         formats = {c.session.fmt for c in self.connections.values() if c.session.welcomed}
         self._frames = {fmt: codec.encode(message, fmt) for fmt in formats}

@@ -145,11 +145,6 @@ class Simulation:
         for event in output.events:
             done_event = done_event or event.get("name") == TRIAL_DONE
             self.events.append({"tick": tick, "t": t_s, **event})
-        if finished is None and done_event:
-            # Scenarios that still announce a trial's end only by the event (until they set
-            # ScenarioOutput.finished): its content is the metrics, as the recorder took them.
-            finished = next({k: v for k, v in e.items() if k not in ("name", "tick", "t")}
-                            for e in output.events if e.get("name") == TRIAL_DONE)
         if finished is not None:
             if not done_event:
                 self.events.append({"tick": tick, "t": t_s, "name": TRIAL_DONE, **finished})

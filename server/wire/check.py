@@ -18,6 +18,7 @@ import math
 from functools import lru_cache
 from typing import Any, Callable
 
+from server.core.numbers import is_finite_number, is_number
 from server.wire.codec import WireError
 from server.wire.schema import MAX_SAFE_INT, MESSAGES, Message
 
@@ -33,9 +34,9 @@ def _plain(doc: str) -> str:
 
 
 def _finite(value: Any, path: str) -> int | float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if not is_number(value):
         raise _Mismatch
-    if isinstance(value, float) and not math.isfinite(value):
+    if not is_finite_number(value):  # NaN, infinity, or an int too long for a float
         raise WireError("non_finite", f"'{path}' must be a finite number")
     return value
 
@@ -93,8 +94,10 @@ def _numbers(value: Any, size: int, path: str) -> tuple[float, ...]:
         if v.__class__ is float:  # the common case first: the path is spelt only for an error
             if not math.isfinite(v):
                 raise WireError("non_finite", f"'{path}' must contain finite numbers")
-        elif isinstance(v, bool) or not isinstance(v, (int, float)):
+        elif not is_number(v):
             raise _Mismatch
+        elif not is_finite_number(v):  # an int too long for a float
+            raise WireError("non_finite", f"'{path}' must contain finite numbers")
         out.append(float(v))
     return tuple(out)
 

@@ -102,16 +102,10 @@ assert set(_STATE_EMPTY) == {f.name for f in STATE.fields if not f.required}
 _STATE_FIELDS = tuple(f.name for f in STATE.fields[1:])
 
 
-def state_message(record: Mapping[str, Any] | None = None, telemetry: dict | None = None, **v10: Any) -> dict:
+def state_message(record: Mapping[str, Any], telemetry: dict) -> dict:
     """The wire `state` for a loop state record: the declared fields in their order, taken from
     the record (loop-internal keys such as `samples` stay behind), plus `type` and `telemetry`.
-    KeyError naming the field when the record lacks a required one.
-
-    Until the hub passes its record (issue 17), the v1.0 keyword call (`frame=..., scene=...,
-    telemetry=..., visible=None, ...`) still works: its fields by name, None as absent."""
-    if v10:
-        record = {k: v for k, v in v10.items() if v is not None}
-    assert record is not None and telemetry is not None
+    KeyError naming the field when the record lacks a required one."""
     msg: dict[str, Any] = {"type": "state"}
     for name in _STATE_FIELDS:
         if name == "telemetry":

@@ -50,8 +50,9 @@ class FakeSocket:
         return [m["type"] for m in self.got]
 
 
-def state_record(tick: int) -> dict:
-    return {"frame": tick, "tick": tick, "t": tick / 1000, "hip": [0, 0, 0], "proxy": [0, 0, 0], "force": [0, 0, 0],
+def state_record(tick: int, scene: str) -> dict:
+    """A loop state record; the loop names the scene it simulated."""
+    return {"frame": tick, "tick": tick, "t": tick / 1000, "scene": scene, "hip": [0, 0, 0], "proxy": [0, 0, 0], "force": [0, 0, 0],
             "contact": False, "contacts": [], "objects": [], "cues": [], "hud": "", "values": {}, "samples": b"",
             "trackers": []}
 
@@ -128,10 +129,10 @@ def test_a_state_of_the_old_scene_read_together_with_the_new_scene_is_not_sent_a
         for ws in sockets:
             ws.send({"type": "hello", "v": 1, "role": "observer", "client": "t"})
         await settle()
-        hub.on_loop_record(["state", state_record(1)])
+        hub.on_loop_record(["state", state_record(1, "aaaa")])
         hub.on_loop_record(["scene", {"name": "b"}, "bbbb"])  # in the same reader callback
         await settle()
-        hub.on_loop_record(["state", state_record(2)])
+        hub.on_loop_record(["state", state_record(2, "bbbb")])
         await settle()
         for ws in sockets:
             seen = [(m["type"], m.get("hash") or m.get("scene")) for m in ws.got]

@@ -28,18 +28,17 @@ class Flaky(ContactAngle):
 
 
 class Finishing(ContactAngle):
-    """Ends its trial at tick `at` with metrics: through ScenarioOutput.finished, or (`legacy`) only
-    by an event named trial_done, as scenarios did before `finished`."""
+    """Ends its trial at tick `at` with metrics through ScenarioOutput.finished, with (`with_event`)
+    or without the trial_done event the scenarios emit beside it."""
     at = None
-    legacy = False
+    with_event = False
 
     def step(self, ctx):
         out = super().step(ctx)
         if ctx.tick != self.at:
             return out
-        if self.legacy:
-            return replace(out, events=out.events + ({"name": "trial_done", "completion_s": 1.5},))
-        return replace(out, finished={"completion_s": 1.5})
+        events = out.events + (({"name": "trial_done", "completion_s": 1.5},) if self.with_event else ())
+        return replace(out, finished={"completion_s": 1.5}, events=events)
 
 
 def tracker(client, seq, pos, now=0):
@@ -212,10 +211,10 @@ def test_the_state_record_carries_the_touchability_overrides():
     assert [s["state"]["haptic"] for s in run(core, 40) if s["state"] is not None][-1] == {}
 
 
-@pytest.mark.parametrize("legacy", [False, True])
-def test_a_trial_end_rides_with_the_next_state_record_as_finished_and_as_an_event(legacy):
+@pytest.mark.parametrize("with_event", [False, True])
+def test_a_trial_end_rides_with_the_next_state_record_as_finished_and_as_an_event(with_event):
     scenario = Finishing()
-    scenario.at, scenario.legacy = 5, legacy
+    scenario.at, scenario.with_event = 5, with_event
     core = LoopCore(Simulation(scenario))
     states = [s["state"] for s in run(core, 40) if s["state"] is not None]
     assert [s["tick"] for s in states[:2]] == [0, 17], "tick 5 publishes nothing"

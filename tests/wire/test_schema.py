@@ -98,13 +98,6 @@ def test_state_message_picks_the_declared_fields_from_the_loop_record():
     check_message(decode(encode(message)))
 
 
-def test_state_message_takes_the_v10_keyword_call_until_the_hub_passes_its_record():
-    record = {k: v for k, v in _record().items() if k in _order("state")}
-    record["visible"] = None
-    legacy = messages.state_message(**record, telemetry=TELEMETRY)
-    assert legacy == messages.state_message({**record, "visible": {}}, TELEMETRY)
-
-
 def test_state_message_fills_absent_optional_fields_and_names_a_missing_required_one():
     record = _record()
     for name in ("visible", "events", "scales", "stiffness", "haptic", "driver"):
@@ -251,3 +244,14 @@ def test_the_loop_rounds_the_documented_fields_to_the_documented_places():
     assert any(not _decimals_ok(x, 8) for x in record["hip"] + record["proxy"])  # the probe had digits to lose
     for _, normal, depth in record["contacts"]:
         assert all(_decimals_ok(x, 6) for x in normal) and _decimals_ok(depth, 9)
+
+
+@pytest.mark.parametrize("field", ["t", "pos"])
+def test_an_integer_too_long_for_a_float_is_refused_as_non_finite_not_raised(field):
+    """JSON allows integers of any length; float() of a 400-digit one raises OverflowError."""
+    huge = int("9" * 400)
+    body = {"type": "tracker", "seq": 1, "t": 1, "pos": [0, 0, 0]}
+    body[field] = huge if field == "t" else [0, huge, 0]
+    with pytest.raises(WireError) as caught:
+        messages.parse_client_message(decode(json.dumps(body), "json"))
+    assert caught.value.code == "non_finite"
