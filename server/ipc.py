@@ -14,7 +14,8 @@ this machine, the empty non-blocking `recv` alone was p50 5 µs / p99 34 µs of 
 
 Records, hub → loop: ["tracker", client_id, seq, t_ms, [x,y,z], quat|None, recv_ns],
 ["input", client_id, key, action, value?], ["trial", body|None], ["scenario", name, params, seed],
-["devices", report], ["record", every_n_ticks], ["stop"].
+["devices", report], ["record", every_n_ticks], ["tracker_gone", client_id] (a /ws client that
+sent tracker samples left: the HIP it drove goes home), ["stop"].
 Records, loop → hub: ["hello", info], ["scene", scene_map, hash], ["scenario", info],
 ["state", state_map], ["fail_safe"], ["log", level, text].
 The cue channel (loop → device host process, devices/feed.py) is a second pair of the same kind:

@@ -4,7 +4,7 @@ The hub's shell (server/hub/hub.py) owns the socket and the clock; this object o
 protocol decision about one client:
 - the hello grace period: the first frame ends it, or the deadline (`hello_deadline_passed`);
   a client without a valid hello by then is welcomed as an observer, and a hello after that is
-  refused (docs/protocol.md "hello");
+  refused (docs/protocol.md "Connecting: hello, grace period, observers");
 - the version check (`unsupported_version`, then close 1002) and which messages a role may send
   (`forbidden`), through `Access`, the seam where access control will plug in;
 - decoding and validation (server/wire), with exactly one `error` per bad frame;

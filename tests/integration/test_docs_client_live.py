@@ -2,7 +2,7 @@
 hash from the `scene` message it received (recipe "Scene hash", step 3 in JavaScript as the doc
 gives it, run by node) and predicts the force of every state from the scene's materials, the
 state's `stiffness` overrides and the god-object's spring (`force` = k·(proxy − hip)) — also
-after a key changed the stiffness at run time. Nothing here imports the server's code."""
+after a key changed the stiffness at run time. Nothing here imports the server's code (only the bench's helper that starts and stops it)."""
 
 from __future__ import annotations
 
@@ -14,6 +14,8 @@ import time
 
 import pytest
 import websockets
+
+from server.bench.loop_bench import get_json, start_server, stop_server
 
 # The doc's step 3 in JavaScript: JSON.stringify with every object's keys sorted; then SHA-256.
 NODE_SCENE_HASH = r"""
@@ -49,13 +51,24 @@ async def _recv(ws, timeout: float = 5.0) -> dict:
     return json.loads(await asyncio.wait_for(ws.recv(), timeout))
 
 
+@pytest.fixture
+def own_server():
+    """A server of its own: the test switches the scenario, which a shared server must not see."""
+    proc, base = start_server("contact-angle")
+    try:
+        yield base
+    finally:
+        stop_server(proc)
+
+
 @pytest.mark.skipif(shutil.which("node") is None, reason="needs node for the doc's JavaScript recipe")
-def test_a_client_from_the_doc_reproduces_the_scene_hash_and_predicts_the_force(live_server):
+def test_a_client_from_the_doc_reproduces_the_scene_hash_and_predicts_the_force(own_server):
     async def go():
-        async with websockets.connect(live_server.ws_url, subprotocols=["viestac.v1.json"]) as ws:
+        ws_url = own_server.replace("http://", "ws://") + "/ws"
+        async with websockets.connect(ws_url, subprotocols=["viestac.v1.json"]) as ws:
             await ws.send(json.dumps({"type": "hello", "v": 1, "role": "participant", "client": "doc-client"}))
             assert (await _recv(ws))["type"] == "welcome"
-            await asyncio.to_thread(live_server.post, "/api/scenario", {"name": "stiffness"})
+            await asyncio.to_thread(get_json, own_server + "/api/scenario", "POST", body={"name": "stiffness"})
             while (message := await _recv(ws))["type"] != "scene" or message["scene"]["name"] != "stiffness":
                 pass
             scene_message = message
