@@ -294,7 +294,7 @@ def _bench_roundtrip(args: argparse.Namespace) -> int:
     from server.bench.roundtrip_bench import run_roundtrip_bench
 
     result = run_roundtrip_bench(seconds=args.seconds, clients=args.clients, fmt=args.format, where=args.where,
-                                 rate_hz=args.rate, warmup_s=args.warmup)
+                                 rate_hz=args.rate, warmup_s=args.warmup, join=args.join)
     return _print_bench(result, args.json)
 
 
@@ -436,6 +436,9 @@ def build_parser() -> argparse.ArgumentParser:
                                 "pressed into the dome, the tilt cue changes with every sample (a frame at once)")
     roundtrip.add_argument("--rate", type=float, default=60.0, help="tracker samples per second (default 60)")
     roundtrip.add_argument("--warmup", type=float, default=3.0)
+    roundtrip.add_argument("--join", choices=("last", "first"), default="last",
+                           help="the participant joins after the viewers (default: served last in every broadcast) "
+                                "or before them")
     roundtrip.add_argument("--json", action="store_true", help="print one JSON object")
     roundtrip.set_defaults(func=_bench_roundtrip)
     for name, func, what in (("accuracy", _bench_accuracy, "cost against error of every contact method on fixed "
