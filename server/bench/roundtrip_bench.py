@@ -3,9 +3,9 @@ state frame that shows it comes back (its `hip` equals the sent position), with 
 
 The real server (`viestac serve --port 0`, with its simulated rig), N viewers in the load
 generator's process (server/bench/load.py, in the same format), and the participant in this
-process, alone in its event loop as in a browser tab. By default it joins after the viewers:
-the hub wakes the senders of a broadcast in the order the clients joined, so it is served last
-(`join="first"`: before them, served first). It sends a `tracker` message
+process, alone in its event loop as in a browser tab. By default it joins after the viewers
+(`join="first"`: before them); the hub wakes the senders of a broadcast in the order the clients
+joined, participants and operators first, so the join order shows whether that rule holds. It sends a `tracker` message
 at `rate_hz` along a path of distinct positions (server/bench/roundtrip.py): in free space the
 frames that show the samples come on the 60 Hz cadence; in contact every sample changes the tilt
 cue, and the loop publishes a frame in the tick that applies it. Both ends are stamped on
@@ -160,8 +160,7 @@ def _observers(base: str) -> dict[int, dict]:
 
 
 def _wait_viewers(base: str, clients: int, timeout_s: float = 60.0) -> None:
-    """Until every viewer is welcomed: the participant joins last, so each broadcast wakes its
-    sender after all the viewers' (the hub wakes them in the order they joined): the worst place."""
+    """Until every viewer is welcomed (then the participant joins, after them)."""
     deadline = time.monotonic() + timeout_s
     while len(_observers(base)) < clients:
         if time.monotonic() > deadline:

@@ -179,7 +179,7 @@ class Hub:
         while delivered != self._frame_seq:
             delivered = self._frame_seq
             # Participants and operators first: the frame showing their own hand must not wait behind
-            # every viewer's send (docs/performance.md, "Tracker -> state round trip").
+            # every viewer's send (docs/performance.md, "Tracker → state round trip").
             for i, s in enumerate(sorted(self.sessions.values(), key=lambda s: s.role == "observer")):
                 frame = self._frames.get(s.fmt)
                 if not s.welcomed or frame is None:
