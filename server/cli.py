@@ -74,8 +74,8 @@ def listen_socket(host: str, port: int) -> socket.socket:
     """The server's TCP socket, bound, for uvicorn. Every connection accepted on it has
     TCP_NODELAY: without it, Nagle's algorithm holds a state frame while the previous one is
     unacknowledged, until the client's next message carries the ACK or its delayed-ACK timer
-    (40 ms on Linux) fires; tracker -> state took one tracker period, up to 48 ms
-    (docs/performance.md, "Tracker -> state round trip"). asyncio sets TCP_NODELAY on an accepted
+    (40 ms on Linux) fires: tracker → state took one tracker period (p50 17 ms), at worst 44 ms
+    (docs/performance.md, "Tracker → state round trip"). asyncio sets TCP_NODELAY on an accepted
     connection only when the socket object says IPPROTO_TCP, and accept() copies the proto of the
     listening socket object, 0 unless given here. Linux also copies the listener's TCP_NODELAY
     into every accepted socket, so it holds under any event loop uvicorn picks."""
@@ -294,7 +294,7 @@ def _bench_roundtrip(args: argparse.Namespace) -> int:
     from server.bench.roundtrip_bench import run_roundtrip_bench
 
     result = run_roundtrip_bench(seconds=args.seconds, clients=args.clients, fmt=args.format, where=args.where,
-                                 rate_hz=args.rate, warmup_s=args.warmup)
+                                 rate_hz=args.rate, warmup_s=args.warmup, join=args.join)
     return _print_bench(result, args.json)
 
 
@@ -436,6 +436,9 @@ def build_parser() -> argparse.ArgumentParser:
                                 "pressed into the dome, the tilt cue changes with every sample (a frame at once)")
     roundtrip.add_argument("--rate", type=float, default=60.0, help="tracker samples per second (default 60)")
     roundtrip.add_argument("--warmup", type=float, default=3.0)
+    roundtrip.add_argument("--join", choices=("last", "first"), default="last",
+                           help="the participant joins after the viewers (default) or before them; the hub serves "
+                                "participants first either way")
     roundtrip.add_argument("--json", action="store_true", help="print one JSON object")
     roundtrip.set_defaults(func=_bench_roundtrip)
     for name, func, what in (("accuracy", _bench_accuracy, "cost against error of every contact method on fixed "

@@ -42,28 +42,34 @@ def sample_position(where: str, k: int) -> tuple[float, float, float]:
     return (round(pos[0], 9), round(pos[1], 9), round(pos[2], 9))
 
 
-def match_samples(sent: list[tuple[int, tuple]], frames: list[tuple[int, tuple]],
-                  max_wait_ns: int = 1_000_000_000) -> list[int | None]:
-    """For each sample (send ns, position): the receive time (ns) of the first state frame at or
-    after the send whose hip equals the position, within `max_wait_ns`; None if no frame showed it
-    (a later sample replaced it before a frame went out). `frames`: (receive ns, hip), in the
+def match_samples(sent: list[tuple[int, tuple]], frames: list[tuple[int, tuple, int]],
+                  max_wait_ns: int = 1_000_000_000) -> list[tuple | None]:
+    """For each sample (send ns, position): the first state frame received at or after the send
+    whose hip equals the position, within `max_wait_ns`; None if no frame showed it (a later
+    sample replaced it before a frame went out). `frames`: (receive ns, hip, tick ns), in the
     order received. The wait limit keeps a sample 1000 indices later, at the same position, out."""
-    seen: dict[tuple, list[int]] = {}
-    for t_ns, hip in frames:
-        seen.setdefault(tuple(hip), []).append(t_ns)
-    matches: list[int | None] = []
+    seen: dict[tuple, list[tuple]] = {}
+    for frame in frames:
+        seen.setdefault(tuple(frame[1]), []).append(frame)
+    matches: list[tuple | None] = []
     for t_ns, pos in sent:
-        times = seen.get(tuple(pos), [])
-        i = bisect.bisect_left(times, t_ns)
-        matches.append(times[i] if i < len(times) and times[i] - t_ns <= max_wait_ns else None)
+        shown = seen.get(tuple(pos), [])
+        i = bisect.bisect_left(shown, t_ns, key=lambda f: f[0])
+        matches.append(shown[i] if i < len(shown) and shown[i][0] - t_ns <= max_wait_ns else None)
     return matches
 
 
-def summarize(sent: list[tuple[int, tuple]], matches: list[int | None]) -> dict:
+def summarize(sent: list[tuple[int, tuple]], matches: list[tuple | None]) -> dict:
     """p50/p99/max of send → first frame showing the sample (ms), how many samples fell in the
-    delayed-ACK band, how many no frame showed (`superseded`)."""
-    latencies = sorted((m - t) / 1e6 for (t, _), m in zip(sent, matches) if m is not None)
+    delayed-ACK band, how many no frame showed (`superseded`); and the split at the loop tick
+    whose state the frame carries (its `t`, the same clock): send → tick, tick → received."""
+    pairs = [(t, m) for (t, _), m in zip(sent, matches) if m is not None]
+    latencies = sorted((m[0] - t) / 1e6 for t, m in pairs)
+    to_tick = sorted((m[2] - t) / 1e6 for t, m in pairs)
+    from_tick = sorted((m[0] - m[2]) / 1e6 for t, m in pairs)
     return {"samples": len(sent), "shown": len(latencies), "superseded": len(sent) - len(latencies),
             "p50_ms": percentile(latencies, 0.5), "p99_ms": percentile(latencies, 0.99),
             "max_ms": percentile(latencies, 1.0),
-            "in_35_50_ms": sum(1 for v in latencies if BAND_MS[0] <= v <= BAND_MS[1])}
+            "in_35_50_ms": sum(1 for v in latencies if BAND_MS[0] <= v <= BAND_MS[1]),
+            "to_tick_p50_ms": percentile(to_tick, 0.5), "to_tick_p99_ms": percentile(to_tick, 0.99),
+            "tick_to_client_p50_ms": percentile(from_tick, 0.5), "tick_to_client_p99_ms": percentile(from_tick, 0.99)}

@@ -3,8 +3,9 @@ state frame that shows it comes back (its `hip` equals the sent position), with 
 
 The real server (`viestac serve --port 0`, with its simulated rig), N viewers in the load
 generator's process (server/bench/load.py, in the same format), and the participant in this
-process, alone in its event loop as in a browser tab. It joins after the viewers: the hub wakes
-the senders of a broadcast in the order the clients joined, so it is served last. It sends a `tracker` message
+process, alone in its event loop as in a browser tab. By default it joins after the viewers
+(`join="first"`: before them); the hub wakes the senders of a broadcast in the order the clients
+joined, participants and operators first, so the join order shows whether that rule holds. It sends a `tracker` message
 at `rate_hz` along a path of distinct positions (server/bench/roundtrip.py): in free space the
 frames that show the samples come on the 60 Hz cadence; in contact every sample changes the tilt
 cue, and the loop publishes a frame in the tick that applies it. Both ends are stamped on
@@ -38,10 +39,11 @@ def phase_plan(wheres: tuple[str, ...], seconds: float, warmup_s: float) -> list
 
 
 async def _participant(url: str, fmt: str, plan: list[tuple[str, float, float]], rate_hz: float,
-                       server_pid: int) -> tuple[list[list], list[tuple[int, tuple]], dict]:
+                       server_pid: int, joined=None) -> tuple[list[list], list[tuple[int, tuple, int]], dict]:
     """Send the samples of every phase and record every state frame. Returns, per phase, the
-    measured samples [(send ns, pos)], the frames [(receive ns, hip)] and the NODELAY findings."""
-    frames: list[tuple[int, tuple]] = []
+    measured samples [(send ns, pos)], the frames [(receive ns, hip, tick ns)] and the NODELAY
+    findings. `joined`: called (in a thread) once the participant is welcomed, before it sends."""
+    frames: list[tuple[int, tuple, int]] = []
     measured: list[list] = [[] for _ in plan]
     async with websockets.connect(url, subprotocols=[f"viestac.v1.{fmt}"], compression=None,
                                   max_size=1 << 21) as ws:
@@ -60,9 +62,11 @@ async def _participant(url: str, fmt: str, plan: list[tuple[str, float, float]],
                 now = time.monotonic_ns()  # before decoding: the frame is here
                 message = codec.decode(data, fmt)
                 if message["type"] == "state":
-                    frames.append((now, tuple(message["hip"])))
+                    frames.append((now, tuple(message["hip"]), round(message["t"] * 1e9)))
 
         reader = asyncio.create_task(read())
+        if joined is not None:
+            await asyncio.to_thread(joined)
         k = 0
         next_ns = time.monotonic_ns()
         for index, (where, lead_s, seconds) in enumerate(plan):
@@ -86,8 +90,11 @@ async def _participant(url: str, fmt: str, plan: list[tuple[str, float, float]],
     return measured, frames, nodelay
 
 
+JOINS = ("last", "first")
+
+
 def run_roundtrip_bench(seconds: float = 20.0, clients: int = 0, fmt: str = "msgpack", where: str = "both",
-                        rate_hz: float = 60.0, warmup_s: float = 3.0) -> dict:
+                        rate_hz: float = 60.0, warmup_s: float = 3.0, join: str = "last") -> dict:
     if not 0 < seconds <= 3600:
         raise ValueError(f"seconds must be in (0, 3600], got {seconds}")
     if clients < 0:
@@ -100,6 +107,8 @@ def run_roundtrip_bench(seconds: float = 20.0, clients: int = 0, fmt: str = "msg
         raise ValueError(f"rate_hz must be in (0, 1000], got {rate_hz}")
     if warmup_s < 0:
         raise ValueError(f"warmup_s must be >= 0, got {warmup_s}")
+    if join not in JOINS:
+        raise ValueError(f"join must be one of {', '.join(JOINS)}, got {join!r}")
     plan = phase_plan(WHERES if where == "both" else (where,), seconds, warmup_s)
     total_s = sum(lead + s for _, lead, s in plan)
     proc = load = reset = None
@@ -108,16 +117,23 @@ def run_roundtrip_bench(seconds: float = 20.0, clients: int = 0, fmt: str = "msg
     try:
         proc, base = start_server("contact-angle")
         ws_url = base.replace("http://", "ws://") + "/ws"
-        # The viewers run until they are stopped below; their frames are counted by the server.
-        load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers", str(clients),
-                                 "--trackers", "0", "--format", fmt, "--warmup", "0",
-                                 "--seconds", str(total_s + 60)], stdout=subprocess.DEVNULL)
-        _wait_viewers(base, clients)
-        # The loop's telemetry and the viewers' counters from just before the first measured sample.
         window: dict = {}
-        reset = threading.Timer(max(0.0, warmup_s - 0.5), _window_start, (base, window))
-        reset.start()
-        measured, frames, nodelay = asyncio.run(_participant(ws_url, fmt, plan, rate_hz, proc.pid))
+
+        def start_viewers() -> None:
+            # The viewers run until they are stopped below; their frames are counted by the server.
+            nonlocal load, reset
+            load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers",
+                                     str(clients), "--trackers", "0", "--format", fmt, "--warmup", "0",
+                                     "--seconds", str(total_s + 60)], stdout=subprocess.DEVNULL)
+            _wait_viewers(base, clients)
+            # The loop's telemetry and the viewers' counters from just before the first measured sample.
+            reset = threading.Timer(max(0.0, warmup_s - 0.5), _window_start, (base, window))
+            reset.start()
+
+        if join == "last":
+            start_viewers()
+        measured, frames, nodelay = asyncio.run(_participant(ws_url, fmt, plan, rate_hz, proc.pid,
+                                                             start_viewers if join == "first" else None))
         reset.join()
         telemetry = get_json(base + "/api/telemetry")
         viewers = _viewer_counters(base, window)
@@ -130,7 +146,8 @@ def run_roundtrip_bench(seconds: float = 20.0, clients: int = 0, fmt: str = "msg
         if proc is not None:
             stop_server(proc)
         gc.unfreeze()
-    result: dict = {"format": fmt, "clients": clients, "rate_hz": rate_hz, "seconds": seconds, **nodelay}
+    result: dict = {"format": fmt, "clients": clients, "join": join, "rate_hz": rate_hz, "seconds": seconds,
+                    **nodelay}
     for (phase, _, _), sent in zip(plan, measured):
         result[phase] = summarize(sent, match_samples(sent, frames))
     result.update({**viewers, "period_p99_us": telemetry["period_p99_us"], "overruns": telemetry["overruns"],
@@ -143,8 +160,7 @@ def _observers(base: str) -> dict[int, dict]:
 
 
 def _wait_viewers(base: str, clients: int, timeout_s: float = 60.0) -> None:
-    """Until every viewer is welcomed: the participant joins last, so each broadcast wakes its
-    sender after all the viewers' (the hub wakes them in the order they joined): the worst place."""
+    """Until every viewer is welcomed (then the participant joins, after them)."""
     deadline = time.monotonic() + timeout_s
     while len(_observers(base)) < clients:
         if time.monotonic() > deadline:

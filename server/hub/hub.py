@@ -160,7 +160,9 @@ class Hub:
         delivered = 0
         while delivered != self._frame_seq:
             delivered = self._frame_seq
-            for i, c in enumerate(list(self.connections.values())):
+            # Participants and operators first: the frame showing their own hand must not wait behind
+            # every viewer's send (docs/performance.md, "Tracker → state round trip (/ws)").
+            for i, c in enumerate(sorted(self.connections.values(), key=lambda c: c.session.role == "observer")):
                 frame = self._frames.get(c.session.fmt)
                 if not c.session.welcomed or frame is None:
                     continue

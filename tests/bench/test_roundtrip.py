@@ -67,33 +67,38 @@ def test_an_unknown_path_is_refused():
 def test_each_sample_matches_the_first_frame_at_or_after_its_send_that_shows_its_position():
     a, b, c = (0.0, 0.1, 1.0), (0.0, 0.2, 1.0), (0.0, 0.3, 1.0)
     sent = [(100 * MS, a), (117 * MS, b), (134 * MS, c)]
-    frames = [(90 * MS, (9.0, 9.0, 9.0)), (105 * MS, a), (121 * MS, a), (123 * MS, b), (140 * MS, b)]
+    first_a, second_a, first_b = (105 * MS, a, 103 * MS), (121 * MS, a, 119 * MS), (123 * MS, b, 120 * MS)
+    frames = [(90 * MS, (9.0, 9.0, 9.0), 88 * MS), first_a, second_a, first_b, (140 * MS, b, 137 * MS)]
     # a: the first of its two frames; b: 6 ms; c: never shown (superseded or lost)
-    assert match_samples(sent, frames) == [105 * MS, 123 * MS, None]
+    assert match_samples(sent, frames) == [first_a, first_b, None]
 
 
 def test_a_frame_received_before_the_send_or_after_the_wait_limit_does_not_show_the_sample():
     pos = (0.0, 0.5, 1.0)
     sent = [(100 * MS, pos)]
-    assert match_samples(sent, [(99 * MS, pos)]) == [None], "a frame from before the send: an earlier sample"
-    assert match_samples(sent, [(100 * MS + 2_000 * MS, pos)], max_wait_ns=1_000 * MS) == [None], \
-        "the same position 1000 samples later"
-    assert match_samples(sent, [(100 * MS, pos)]) == [100 * MS]
+    assert match_samples(sent, [(99 * MS, pos, 98 * MS)]) == [None], "a frame from before the send: an earlier sample"
+    late = (100 * MS + 2_000 * MS, pos, 100 * MS + 1_999 * MS)
+    assert match_samples(sent, [late], max_wait_ns=1_000 * MS) == [None], "the same position 1000 samples later"
+    assert match_samples(sent, [(100 * MS, pos, 100 * MS)]) == [(100 * MS, pos, 100 * MS)]
 
 
 def test_the_hip_of_a_decoded_frame_matches_whatever_sequence_type_it_arrives_in():
     sent = [(0, (0.0, 0.25, 1.000001))]
-    assert match_samples(sent, [(5 * MS, [0, 0.25, 1.000001])]) == [5 * MS]  # JSON: a list, 0.0 as 0
+    frame = (5 * MS, [0, 0.25, 1.000001], 2 * MS)  # JSON: a list, 0.0 as 0
+    assert match_samples(sent, [frame]) == [frame]
 
 
-def test_summary_counts_samples_in_the_delayed_ack_band_and_the_superseded():
+def test_summary_counts_samples_in_the_delayed_ack_band_and_the_superseded_and_splits_at_the_tick():
     latencies = [1, 2, 3, 4, 34.9, 35, 42, 50, 50.1]
     sent = [(1000 * MS * i, (0.0, 0.0, float(i))) for i in range(len(latencies) + 1)]
-    matches = [t + round(v * MS) for (t, _), v in zip(sent, latencies)] + [None]
+    # each frame carries the tick 0.5 ms after its send
+    matches = [(t + round(v * MS), pos, t + MS // 2) for (t, pos), v in zip(sent, latencies)] + [None]
     summary = summarize(sent, matches)
     assert summary["samples"] == 10 and summary["shown"] == 9 and summary["superseded"] == 1
     assert summary["in_35_50_ms"] == sum(1 for v in latencies if BAND_MS[0] <= v <= BAND_MS[1]) == 3
     assert (summary["p50_ms"], summary["max_ms"]) == (34.9, 50.1)
+    assert summary["to_tick_p50_ms"] == summary["to_tick_p99_ms"] == 0.5
+    assert (summary["tick_to_client_p50_ms"], summary["tick_to_client_p99_ms"]) == (34.4, 49.6)
     assert summarize([], [])["p99_ms"] is None
 
 
@@ -104,18 +109,18 @@ def test_the_first_phase_waits_for_the_warm_up_and_later_ones_only_settle():
 
 
 @pytest.mark.parametrize("kwargs", [{"seconds": 0}, {"clients": -1}, {"fmt": "xml"}, {"where": "orbit"},
-                                    {"rate_hz": 0}, {"warmup_s": -1}])
+                                    {"rate_hz": 0}, {"warmup_s": -1}, {"join": "middle"}])
 def test_bad_arguments_are_refused_before_anything_starts(kwargs):
     with pytest.raises(ValueError):
         run_roundtrip_bench(**kwargs)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("fmt", ["json", "msgpack"])
-def test_a_short_live_run_reports_round_trips_in_free_space_and_in_contact(fmt):
-    result = run_roundtrip_bench(seconds=2, clients=2, fmt=fmt, where="both", warmup_s=1)
+@pytest.mark.parametrize(("fmt", "join"), [("json", "last"), ("msgpack", "first")])
+def test_a_short_live_run_reports_round_trips_in_free_space_and_in_contact(fmt, join):
+    result = run_roundtrip_bench(seconds=2, clients=2, fmt=fmt, where="both", warmup_s=1, join=join)
     print(f"\n{result}")
-    assert (result["format"], result["clients"]) == (fmt, 2)
+    assert (result["format"], result["clients"], result["join"]) == (fmt, 2, join)
     assert result["client_nodelay"] is True
     for where in ("free", "contact"):
         summary = result[where]
@@ -124,4 +129,7 @@ def test_a_short_live_run_reports_round_trips_in_free_space_and_in_contact(fmt):
         assert summary["shown"] >= summary["samples"] // 2, summary
         assert 0 < summary["p50_ms"] <= summary["p99_ms"] <= summary["max_ms"] < 1000
         assert math.isfinite(summary["max_ms"])
+        # both halves of the split at the loop tick are there, each shorter than the whole
+        assert 0 < summary["to_tick_p50_ms"] < summary["p99_ms"]
+        assert 0 < summary["tick_to_client_p50_ms"] < summary["p99_ms"]
     assert result["frames_sent_per_viewer_hz"] > 0 and result["viewer_frames_dropped"] >= 0
