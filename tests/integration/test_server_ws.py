@@ -133,6 +133,9 @@ def test_tracker_along_the_arc_moves_angle_and_tilt_commands(live_server):
                 value = state["values"].get("angle_deg")
                 if value is not None and abs(value - angle) < 0.5:
                     seen[angle] = state
+                    # Held for a moment, as a hand would: the device shows the newest cue (latest
+                    # wins), so an angle left within a few ms may never reach it.
+                    await asyncio.sleep(0.1)
                     break
                 await asyncio.sleep(0.01)
         # the devices while the HIP still touches the dome: when its driver leaves, the HIP goes home
