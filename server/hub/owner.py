@@ -14,7 +14,6 @@ another thread raises `WrongThread` instead of racing.
 from __future__ import annotations
 
 import asyncio
-import concurrent.futures
 import threading
 from typing import Any, Callable
 
@@ -50,17 +49,11 @@ class Owner:
         its exception. On the owner thread itself (or before binding) it is a plain call."""
         if self.here:
             return fn(*args, **kwargs)
-        done: concurrent.futures.Future = concurrent.futures.Future()
 
-        def run() -> None:
-            if not done.set_running_or_notify_cancel():
-                return
-            try:
-                done.set_result(fn(*args, **kwargs))
-            except BaseException as exc:  # noqa: BLE001 - handed to the calling thread
-                done.set_exception(exc)
+        async def run() -> Any:
+            return fn(*args, **kwargs)
 
-        self.loop.call_soon_threadsafe(run)
+        done = asyncio.run_coroutine_threadsafe(run(), self.loop)
         try:
             return done.result(CALL_TIMEOUT_S)
         except TimeoutError:

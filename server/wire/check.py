@@ -205,11 +205,6 @@ def compile_type(t: dict) -> Check:
     return check
 
 
-def check_value(value: Any, t: dict, path: str) -> Any:
-    """`value` checked against type `t`, in its receiver-side form (compiles `t` each call)."""
-    return compile_type(t)(value, path)
-
-
 @lru_cache(maxsize=None)
 def _compiled(name: str) -> tuple[tuple[str, bool, Any, Check, str], ...]:
     return tuple((f.name, f.required, f.default, compile_type(f.type), _plain(f.type["doc"]))
