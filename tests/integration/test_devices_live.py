@@ -9,6 +9,7 @@ import threading
 import time
 
 import pytest
+from scipy.stats import poisson
 
 from devices.emulator import Emulator
 from server.bench.loop_bench import get_json, start_server, stop_server
@@ -85,8 +86,12 @@ def test_unplug_and_replug_under_load_leave_the_loop_alone(server_with_emulated_
           f"before, {during['overruns']} in {during['ticks']} ticks across unplug+replug; period p99 "
           f"{before['period_p99_us']} / {during['period_p99_us']} us")
     assert during["ticks"] > 1800, "the loop kept ticking"
-    # Overruns do not rise: at most the baseline rate (scaled to the window) plus one stray.
-    allowed = before["overruns"] * during["ticks"] / max(1, before["ticks"]) + 1
+    # Overruns do not rise. On a VM they come at random (late timer interrupts, docs/performance.md
+    # "Overruns on this machine"), so "the baseline rate plus one" failed about one run in seven by
+    # chance; allow what the baseline rate (at least 1 per baseline window) gives in 999 of 1000
+    # windows. A stall from the unplug costs tens of overruns and still fails.
+    rate = max(before["overruns"], 1) / max(1, before["ticks"])
+    allowed = poisson.ppf(0.999, rate * during["ticks"])
     assert during["overruns"] <= allowed
     snap = get_json(base + "/api/devices")["devices"][0]
     assert snap["disconnects"] == 1 and snap["connects"] == 2 and snap["status"] == "connected"
