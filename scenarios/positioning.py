@@ -32,6 +32,7 @@ from scenarios.guidance import (BOUNDARY, MODES, PATTERNS, TARGET_THRESHOLD, Pat
                                 pulse_cue)
 from server.core.haptics.primitives import Box, Cone, Cylinder, Plane, Pose, Sphere
 from server.core.scene import Camera, Material, Mesh, Scene, SceneObject
+from server.core.tool import DEFAULT_PROXY_RADIUS
 
 TABLE = (3.0, 4.0)            # depth (x) × width (y)
 LEG_HEIGHT, LEG_RADIUS = 5.0, 0.05
@@ -134,7 +135,7 @@ def table_objects() -> list[SceneObject]:
     return objects
 
 
-def carried_position(item: Item, proxy, proxy_radius: float = 0.06) -> tuple[float, float, float]:
+def carried_position(item: Item, proxy, proxy_radius: float = DEFAULT_PROXY_RADIUS) -> tuple[float, float, float]:
     """A grasped object hangs below the fingertip, its top touching the proxy sphere (orientation
     fixed), and never sinks into the table."""
     return proxy[0], proxy[1], max(item.half, proxy[2] - item.half - proxy_radius)

@@ -20,11 +20,12 @@ import math
 from dataclasses import dataclass
 
 from scenarios.positioning import ITEMS
+from server.core.tool import DEFAULT_PROXY_RADIUS
 from server.simulate.virtual_device import Feel
 from server.simulate.virtual_hub import VirtualHub
 
 ITEM = {item.id: item for item in ITEMS}
-PROXY = 0.06                   # the fingertip sphere: a carried object hangs half + this below it
+PROXY = DEFAULT_PROXY_RADIUS    # the fingertip sphere: a carried object hangs half + this below it
 ARROW_GAP = 0.04 + 0.12        # arrow head centre above the target object's top (scenarios/positioning.py)
 SLOWER_WHEN_CLOSER = ("none-at-target",)
 
