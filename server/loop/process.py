@@ -42,7 +42,9 @@ from server.core.scene import Scene
 class LoopConfig:
     scenario: str = "contact-angle"
     scenario_params: dict = field(default_factory=dict)
-    trial: dict | None = None  # a running trial ({"phase", "params", "index"}), restored after a restart
+    trial: dict | None = None  # a free trial ({"phase", "params", "index"}) restored after a restart
+    start_tick: int = 0  # a restarted loop continues the dead one's clock (server/hub/supervisor.py)
+    start_frame: int = 0
     scene_file: str | None = None  # a custom scene (docs/protocol.md format) instead of the scenario's
     tick_hz: int = 1000
     state_hz: float = 60.0
@@ -71,6 +73,7 @@ def build_core(config: LoopConfig) -> LoopCore:
     scene = Scene.load(config.scene_file) if config.scene_file else None
     core = LoopCore(make_sim(scenario, config.seed, scene), state_hz=config.state_hz, make_sim=make_sim)
     core.params, core.seed = dict(config.scenario_params), config.seed
+    core.sim.tick, core.frames = config.start_tick, config.start_frame
     if config.trial is not None:
         core.apply(["trial", config.trial], 0)
         core.outbox.clear()  # announced with the scene at start
