@@ -188,4 +188,5 @@ class ChildProcess:
                 await asyncio.wait_for(asyncio.to_thread(self.proc.wait), wait_s)
             except asyncio.TimeoutError:
                 self.proc.kill()
+                await asyncio.to_thread(self.proc.wait)
         self._close_socket()
