@@ -18,10 +18,11 @@ from server.bench.loop_bench import get_json, start_server, stop_server
 SCENARIOS = ("positioning", "hot-wire", "peg-in-hole")
 
 
-def run_switch_bench(switches: int = 100, every_s: float = 0.024, settle_s: float = 0.5) -> dict:
+def run_switch_bench(switches: int = 100, every_s: float = 0.024, settle_s: float = 0.5,
+                     start: str = "contact-angle") -> dict:
     if switches <= 0 or every_s < 0:
         raise ValueError("switches must be > 0 and every_s >= 0")
-    proc, base = start_server("contact-angle")
+    proc, base = start_server(start)
     try:
         time.sleep(1.0)  # past the start-up's own late ticks
         get_json(base + "/api/telemetry/reset", "POST")
@@ -54,8 +55,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="switch_bench", description=__doc__.splitlines()[0])
     parser.add_argument("--switches", type=int, default=100)
     parser.add_argument("--every-ms", type=float, default=24.0)
+    parser.add_argument("--start", default="contact-angle", help="the scenario the server starts with")
     args = parser.parse_args(argv)
-    print(json.dumps(run_switch_bench(args.switches, args.every_ms / 1e3)))
+    print(json.dumps(run_switch_bench(args.switches, args.every_ms / 1e3, start=args.start)))
     return 0
 
 
