@@ -5,7 +5,6 @@ from __future__ import annotations
 import asyncio
 import gc
 import logging
-from dataclasses import replace
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, WebSocket
@@ -31,7 +30,7 @@ async def _flush_recorder(experiment: Experiment, every_s: float = 0.25) -> None
     """The running trial's rows go to disk in batches, off the event loop."""
     while True:
         await asyncio.sleep(every_s)
-        await asyncio.to_thread(experiment.recorder.flush)
+        await asyncio.to_thread(experiment.flush)
 
 
 def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
@@ -41,10 +40,10 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     supervisor = LoopSupervisor(settings.loop_config(), hub.on_loop_record)
     supervisor.owner = hub.owner  # one thread owns both: the event loop's (server/hub/owner.py)
     hub.send_to_loop = supervisor.send
-    # A restarted loop comes back with what ran, not with the start-up scenario.
-    hub.on_scenario = lambda state: setattr(supervisor, "config", replace(
-        supervisor.config, scenario=state["id"], scenario_params=state["params"], seed=state["seed"],
-        trial=state["trial"]))
+    # A restarted loop comes back with what ran, not with the start-up scenario; a recorded trial
+    # is not restarted by it (the experiment ends that attempt as interrupted, docs/data.md).
+    hub.on_scenario = lambda state: supervisor.resume(
+        state, trial=None if experiment.recorder.active is not None else state["trial"])
 
     store = Store(settings.data_dir / "viestac.sqlite", utc_now)
     # REST runs the engine on worker threads (SQLite off the event loop); its hub calls run on the owner.
@@ -82,7 +81,7 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
         gc.freeze()
         yield
         flusher.cancel()
-        await asyncio.to_thread(experiment.recorder.flush)
+        await asyncio.to_thread(experiment.flush)
         await supervisor.stop()
         await devices.stop()  # every actuator off first, then the ports are closed
         if rig:

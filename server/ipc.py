@@ -66,6 +66,8 @@ def drain(sock: socket.socket, limit: int = 1024) -> list[list]:
         except (BlockingIOError, InterruptedError):
             break
         if not data:
+            if records:  # hand over what came before the close; the next call raises
+                break
             raise PeerClosed()
         records.append(msgpack.unpackb(data, raw=False))
     return records

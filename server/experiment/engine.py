@@ -13,6 +13,11 @@ one stops working and the hand-over is recorded). Each change also names the tri
 (`seq`), so two clicks racing for the same trial cannot both succeed (409 for the second).
 
 Timestamps are the server's: UTC wall-clock from the store's clock, and the loop's tick.
+
+A loop restart during a trial interrupts it (the recorder sees the new loop's hello): `flush()`,
+which the server calls every 0.25 s off the event loop, ends that attempt with its rows up to the
+crash and puts the trial back to pending, as a server crash does (docs/data.md "A loop restart
+during a trial"); finishing or aborting it in the meantime gets 409 and does the same.
 """
 
 from __future__ import annotations
@@ -198,6 +203,28 @@ class Experiment:
             raise NotFound(f"session {session_id} has no trial {seq}")
         return trial
 
+    # -- the recorder's rows and interruptions ------------------------------------------------
+    def flush(self) -> TrialRow | None:
+        """Write the running trial's rows; end an attempt a loop restart interrupted (returns it)."""
+        self.recorder.flush()
+        active = self.recorder.active
+        if active is None or active.interrupted is None:
+            return None
+        with self._lock:
+            return self._interrupted()
+
+    def _interrupted(self) -> TrialRow | None:
+        """The recorded attempt could not go on (the recorder says why): rows to disk, trial pending."""
+        active = self.recorder.active
+        if active is None or active.interrupted is None:
+            return None
+        self.recorder.end()
+        self.hub.set_recording(0)
+        try:
+            return self.store.interrupt(active.trial_id, active.interrupted, active.last_tick)
+        except Conflict:  # ended meanwhile by other means: nothing left to interrupt
+            return None
+
     # -- the lifecycle ------------------------------------------------------------------------
     def start(self, session_id: str, token: str | None, seq: int) -> dict:
         """Start trial `seq`, which must be the session's next pending trial."""
@@ -288,6 +315,11 @@ class Experiment:
         return trial
 
     def _end(self, trial: TrialRow, status: str, reason: str = "") -> dict:
+        active = self.recorder.active
+        if active is not None and active.interrupted is not None and active.trial_id == trial.id:
+            self._interrupted()
+            raise Conflict(f"trial {trial.seq} was interrupted ({active.interrupted}); it is pending again and "
+                           f"runs as a new attempt when started")
         recorded = self.recorder.end()  # every row of the trial is on disk before it changes state
         self.hub.set_recording(0)
         self.hub.set_trial(None)

@@ -116,12 +116,14 @@ def _utc(text: str | None) -> datetime | None:
 
 def _duration(trial: dict, tick_hz: float) -> tuple[float | None, str]:
     """Seconds the trial's last attempt ran: from its ticks when both are known, else from the
-    server's UTC stamps, else unknown."""
+    server's UTC stamps, else unknown. Never negative: ticks that went back (a loop restart in a
+    trial, before restarted loops continued the tick count) fall back to UTC, a clock stepped back
+    to unknown."""
     start, end = trial.get("started_tick"), trial.get("ended_tick")
-    if start is not None and end is not None:
+    if start is not None and end is not None and end >= start:
         return round((end - start) / tick_hz, 9), "ticks"
     t0, t1 = _utc(trial.get("started_utc")), _utc(trial.get("ended_utc"))
-    if t0 is not None and t1 is not None and (t0.tzinfo is None) == (t1.tzinfo is None):
+    if t0 is not None and t1 is not None and (t0.tzinfo is None) == (t1.tzinfo is None) and t1 >= t0:
         return round((t1 - t0).total_seconds(), 6), "utc"
     return None, ""
 

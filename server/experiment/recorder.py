@@ -5,8 +5,16 @@ runs, keeps from each state record the trajectory rows (HIP, proxy, contact, car
 every Nth tick as the loop was asked), the cue commands whenever they changed, and the events
 (the scenario's, every key and command, device status and refusals, tracker loss). The trial's
 metrics are what the scenario reported when the trial ended (the record's `finished` entries:
-ScenarioOutput.finished). Rows from ticks before the trial's first tick are dropped: the loop
-announces the tick at which the trial took effect.
+ScenarioOutput.finished). Rows from ticks before the trial's first tick are not the trial's: the
+loop announces the tick at which the trial took effect, and rows of earlier ticks in the same state
+record belong to the time before it. A state record of a tick before the first tick cannot happen
+(ticks never go back, not even across a loop restart: server/hub/supervisor.py); if one came, its
+rows are counted and said in a `dropped` event, never lost silently.
+
+A loop restart (a `hello` from a new loop process) while a trial is recorded interrupts it: the
+rows up to the crash stay with the attempt, and `interrupted` is set so the experiment ends the
+attempt as interrupted and retries the trial (docs/data.md "A loop restart during a trial");
+nothing of the new loop is added to it.
 
 Nothing here blocks the event loop for long: rows wait in memory and `flush()` writes them in
 one transaction per table; the experiment flushes every 0.25 s in a worker thread and always
@@ -38,12 +46,17 @@ class Active:
     metrics: dict = field(default_factory=dict)  # what the scenario reported when the trial ended
     last_tracker_tick: int | None = None
     tracker_lost: bool = False
+    last_tick: int | None = None         # the tick of the last state record recorded
+    dropped_records: int = 0             # state records of ticks before first_tick (never expected)
+    dropped_samples: int = 0             # trajectory rows in them
+    interrupted: str | None = None       # why the attempt stopped before it ended ("loop restart")
 
 
 class Recorder:
     def __init__(self, store: Store):
         self.store = store
         self.active: Active | None = None
+        self.loop_pid: int | None = None  # the loop process whose records these are
         self._lock = threading.Lock()  # flush() runs in a worker thread, records arrive on the event loop
 
     # -- control (the experiment) -----------------------------------------------------------
@@ -57,16 +70,22 @@ class Recorder:
         """Stop recording the trial and write its remaining rows; returns what was recorded."""
         with self._lock:
             done, self.active = self.active, None
+            if done is not None and done.dropped_records:
+                done.events.append((done.session_id, done.trial_id, done.attempt, done.last_tick, "dropped",
+                                    {"state_records": done.dropped_records, "samples": done.dropped_samples,
+                                     "reason": "state records of ticks before the trial's first tick"}))
         if done is not None:
             self._write(done, done.samples, done.cues, done.events)
         return done
 
     # -- records from the loop (hub listener) -------------------------------------------------
     def on_record(self, record: list) -> None:
-        a = self.active
-        if a is None:
-            return
         kind = record[0]
+        if kind == "hello":
+            self._hello(record[1].get("pid"))
+        a = self.active
+        if a is None or a.interrupted is not None:
+            return
         with self._lock:
             if kind == "scenario":
                 trial = record[1].get("trial")
@@ -81,12 +100,24 @@ class Recorder:
                 a.events.append((a.session_id, a.trial_id, a.attempt, None, "loop",
                                  {"kind": kind, "detail": record[1:]}))
 
+    def _hello(self, pid: int | None) -> None:
+        """A loop process started; if it replaces one, the recorded trial (if any) is interrupted."""
+        restarted, self.loop_pid = self.loop_pid is not None and pid != self.loop_pid, pid
+        with self._lock:
+            a = self.active
+            if restarted and a is not None and a.interrupted is None:
+                a.interrupted = "loop restart"
+
     def _state(self, a: Active, rec: dict) -> None:
         first = a.first_tick
-        a.samples.extend(row for row in rec.get("trajectory", ()) if row[0] >= first)
         tick = rec["tick"]
-        if tick < first:
+        rows = rec.get("trajectory", ())
+        if tick < first:  # ticks went back: not expected (see the module doc); counted, never silent
+            a.dropped_records += 1
+            a.dropped_samples += len(rows)
             return
+        a.samples.extend(row for row in rows if row[0] >= first)
+        a.last_tick = tick
         if rec["cues"] != a.last_cues:
             a.cues.append((tick, rec["cues"]))
             a.last_cues = rec["cues"]

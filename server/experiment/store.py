@@ -188,11 +188,26 @@ class Store:
         with self._tx() as db:
             rows = [_trial(r) for r in db.execute("SELECT * FROM trials WHERE status = 'running'")]
             for t in rows:
-                db.execute("UPDATE trials SET status = 'pending', reason = 'interrupted' WHERE id = ?", (t.id,))
-                db.execute("INSERT INTO events (session_id, trial_id, attempt, utc, tick, kind, body_json) "
-                           "VALUES (?, ?, ?, ?, NULL, 'interrupted', ?)",
-                           (t.session_id, t.id, t.attempt, self.utc(), _dumps({"reason": "server restart"})))
+                self._interrupt(db, t, "server restart", None)
         return rows
+
+    def interrupt(self, trial_id: int, reason: str, tick: int | None = None) -> TrialRow:
+        """A running trial whose attempt could not go on (the loop restarted): back to pending, its
+        attempt counted and its rows kept, with an `interrupted` event, as after a server crash."""
+        with self._tx() as db:
+            row = db.execute("SELECT * FROM trials WHERE id = ?", (trial_id,)).fetchone()
+            if row is None:
+                raise StoreError(f"unknown trial {trial_id}")
+            if row["status"] != "running":
+                raise Conflict(f"trial {row['seq']} is {row['status']}, not running")
+            self._interrupt(db, _trial(row), reason, tick)
+        return self.trial(trial_id)
+
+    def _interrupt(self, db: sqlite3.Connection, t: TrialRow, reason: str, tick: int | None) -> None:
+        db.execute("UPDATE trials SET status = 'pending', reason = 'interrupted' WHERE id = ?", (t.id,))
+        db.execute("INSERT INTO events (session_id, trial_id, attempt, utc, tick, kind, body_json) "
+                   "VALUES (?, ?, ?, ?, ?, 'interrupted', ?)",
+                   (t.session_id, t.id, t.attempt, self.utc(), tick, _dumps({"reason": reason})))
 
     def integrity(self) -> str:
         with self._lock:

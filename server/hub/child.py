@@ -2,9 +2,13 @@
 
 Shared by the loop supervisor and the device host. Adapter only, on the asyncio loop: records
 from the child are handed to `_on_record` (add_reader, no thread); records to it are sent
-without blocking. A dead child is logged and started again with backoff (0.5 s, doubling up to
-10 s), so a crash cannot take the server down silently. Only the event loop's thread uses it
+without blocking. A death is seen when the child's end of the socket closes (the kernel closes it
+as the process exits, before it can be reaped), with a poll of the process as a backstop, and the
+child is started again at once; only repeated crashes wait (RestartBackoff), so a crash cannot
+take the server down silently and a crash loop cannot spin. Only the event loop's thread uses it
 (server/hub/owner.py): a restart replaces the socket (and the loop's doorbell) under any caller.
+`on_exit(what, returncode)` and `on_start(what)` tell the hub (its health) when a child goes
+and comes.
 """
 
 from __future__ import annotations
@@ -13,11 +17,43 @@ import asyncio
 import logging
 import socket
 import subprocess
+import time
+from typing import Callable
 
 from server import ipc
 from server.hub.owner import Owner
 
 log = logging.getLogger("viestac.hub")
+
+HEALTHY_S = 10.0      # up this long: the next death is a first death again (no wait)
+BACKOFF_FIRST_S = 0.5  # the wait before restarting after a second death in a row, doubling
+BACKOFF_MAX_S = 10.0
+POLL_S = 0.2          # the backstop: a child whose socket somehow stays open is still seen dead
+REAP_WAIT_S = 1.0     # its socket closed but the process lives on: killed after this
+
+
+class RestartBackoff:
+    """How long to wait before restarting a child that died (pure; the caller passes the time).
+
+    The first death restarts at once; each further death within HEALTHY_S of the previous start
+    waits BACKOFF_FIRST_S, doubling up to BACKOFF_MAX_S; a child that stayed up HEALTHY_S starts
+    the count again."""
+
+    def __init__(self, healthy_s: float = HEALTHY_S, first_s: float = BACKOFF_FIRST_S, max_s: float = BACKOFF_MAX_S):
+        self.healthy_s, self.first_s, self.max_s = healthy_s, first_s, max_s
+        self.crashes = 0  # deaths in a row, each within healthy_s of its start
+        self._started_at: float | None = None
+
+    def started(self, now_s: float) -> None:
+        self._started_at = now_s
+
+    def died(self, now_s: float) -> float:
+        """The wait before the next start, in seconds."""
+        if self._started_at is not None and now_s - self._started_at >= self.healthy_s:
+            self.crashes = 0
+        delay = 0.0 if self.crashes == 0 else min(self.first_s * 2 ** (self.crashes - 1), self.max_s)
+        self.crashes += 1
+        return delay
 
 
 class ChildProcess:
@@ -26,8 +62,12 @@ class ChildProcess:
     def __init__(self) -> None:
         self.proc: subprocess.Popen | None = None
         self.restarts = 0
+        self.backoff = RestartBackoff()
+        self.on_exit: Callable[[str, int | None], None] = lambda what, returncode: None
+        self.on_start: Callable[[str], None] = lambda what: None
         self._sock: socket.socket | None = None
         self._watch: asyncio.Task | None = None
+        self._restart: asyncio.Task | None = None
         self._closing = False
         self.owner = Owner(f"the {self.what}")  # bound by start() unless the app shares the hub's
 
@@ -52,11 +92,13 @@ class ChildProcess:
             self.owner.bind()
         ours, theirs = ipc.channel_pair()
         self.proc = self._spawn(theirs)
-        theirs.close()  # the child holds it now
+        theirs.close()  # the child holds it now: when the child dies, our end reads EOF
         self._sock = ours
+        self.backoff.started(time.monotonic())
         asyncio.get_running_loop().add_reader(ours.fileno(), self._readable)
         if self._watch is None:
             self._watch = asyncio.create_task(self._watchdog())
+        self._notify(self.on_start, self.what)
 
     def _send(self, record: list) -> bool:
         """One record without blocking; False if it could not go (full, or no child)."""
@@ -65,7 +107,7 @@ class ChildProcess:
             return False
         try:
             return ipc.send_record(self._sock, record)
-        except OSError:  # the child is gone; the watchdog starts it again
+        except OSError:  # the child is gone; it is being started again
             return False
 
     def _readable(self) -> None:
@@ -73,6 +115,7 @@ class ChildProcess:
             records = ipc.drain(self._sock)
         except ipc.PeerClosed:
             asyncio.get_running_loop().remove_reader(self._sock.fileno())
+            self._died()
             return
         for record in records:
             try:
@@ -82,16 +125,46 @@ class ChildProcess:
                               record[0] if record else None, self.what)
 
     async def _watchdog(self) -> None:
-        backoff = 0.5
         while not self._closing:
-            await asyncio.sleep(0.2)
-            if self.proc is not None and self.proc.poll() is not None and not self._closing:
-                log.error("%s exited with code %s; restarting in %.1f s", self.what, self.proc.returncode, backoff)
-                self._close_socket()
-                await asyncio.sleep(backoff)
-                backoff = min(backoff * 2, 10.0)
-                self.restarts += 1
-                self.start()
+            await asyncio.sleep(POLL_S)
+            if self.proc is not None and self.proc.poll() is not None:
+                self._died()
+
+    def _died(self) -> None:
+        """The child is gone (its socket closed, or the poll saw it): restart it, once."""
+        if self._closing or (self._restart is not None and not self._restart.done()):
+            return
+        self._restart = asyncio.get_running_loop().create_task(self._restart_child())
+
+    async def _restart_child(self) -> None:
+        proc = self.proc
+        loop = asyncio.get_running_loop()
+        give_up = loop.time() + REAP_WAIT_S
+        while proc is not None and proc.poll() is None:  # closed as it exits: reaped within microseconds
+            if loop.time() > give_up:
+                log.error("%s closed its socket but did not exit; killing it", self.what)
+                proc.kill()
+                await asyncio.to_thread(proc.wait)
+                break
+            await asyncio.sleep(0.001)
+        code = None if proc is None else proc.returncode
+        self._close_socket()
+        delay = self.backoff.died(time.monotonic())
+        log.error("%s exited with code %s; restarting %s", self.what, code,
+                  "now" if delay == 0 else f"in {delay:.1f} s ({self.backoff.crashes} crashes in a row)")
+        self._notify(self.on_exit, self.what, code)
+        if delay:
+            await asyncio.sleep(delay)
+        if self._closing:
+            return
+        self.restarts += 1
+        self.start()
+
+    def _notify(self, callback: Callable, *args) -> None:
+        try:
+            callback(*args)
+        except Exception:  # noqa: BLE001 - a listener's bug must not stop restarts
+            log.exception("the %s's lifecycle callback failed", self.what)
 
     def _close_socket(self) -> None:
         if self._sock is not None:
@@ -106,12 +179,14 @@ class ChildProcess:
     async def _stop(self, stop_record: list, wait_s: float) -> None:
         """Ask the child to stop, wait up to `wait_s`, then kill it; no restart after this."""
         self._closing = True
-        if self._watch:
-            self._watch.cancel()
+        for task in (self._watch, self._restart):
+            if task is not None:
+                task.cancel()
         self._send(stop_record)
         if self.proc is not None:
             try:
                 await asyncio.wait_for(asyncio.to_thread(self.proc.wait), wait_s)
             except asyncio.TimeoutError:
                 self.proc.kill()
+                await asyncio.to_thread(self.proc.wait)
         self._close_socket()

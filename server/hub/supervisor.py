@@ -7,6 +7,12 @@ the ring is an unlocked read-modify-write, and a restart replaces the doorbell).
 process also gets the loop end of the cue channel (to the device host process,
 server/hub/device_host.py), so device commands never pass this event loop, and the tracker UDP
 socket (server/loop/tracker_udp.py); both are made once and kept across loop restarts.
+
+A restarted loop continues the clock: it starts at the tick the dead one would have reached (the
+last tick seen here plus the time since then on this process's monotonic clock), so ticks, the
+simulation time and frame numbers never go back (the recorder and the clients rely on it). It
+resumes the scenario that ran (`resume`), and a free trial, but never a recorded trial: the
+experiment ends that attempt as interrupted (docs/data.md "A loop restart during a trial").
 """
 
 from __future__ import annotations
@@ -15,6 +21,8 @@ import os
 import socket
 import subprocess
 import sys
+import time
+from dataclasses import replace
 from typing import Callable
 
 from server.hub.child import ChildProcess
@@ -34,8 +42,25 @@ class LoopSupervisor(ChildProcess):
         self.tracker_sock: socket.socket | None = None  # the tracker UDP port
         self.dropped_to_loop = 0
         self._doorbell: ipc.Doorbell | None = None
+        self._last: tuple[int, int, float] | None = None  # (tick, frame, monotonic s) of the last state record
+
+    def resume(self, state: dict, *, trial: dict | None) -> None:
+        """What a restarted loop runs: the scenario the loop announced, and `trial` (None: none)."""
+        self.config = replace(self.config, scenario=state["id"], scenario_params=state["params"], seed=state["seed"],
+                              trial=trial)
+
+    def continue_from(self, now_s: float) -> tuple[int, int]:
+        """(tick, frame) a loop started now begins at: past every tick and frame the last one reached."""
+        if self._last is None:
+            return self.config.start_tick, self.config.start_frame
+        tick, frame, seen_s = self._last
+        # The dead loop ran at most one tick per period after its last state record (it resyncs
+        # after a stall, never bursts), so this is past its last tick.
+        return tick + 1 + int(max(0.0, now_s - seen_s) * self.config.tick_hz), frame + 1
 
     def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
+        start_tick, start_frame = self.continue_from(time.monotonic())
+        config = replace(self.config, start_tick=start_tick, start_frame=start_frame)
         self._doorbell = ipc.Doorbell()
         args = ["--fd", str(theirs.fileno()), "--doorbell", str(self._doorbell.fd)]
         passed = [theirs.fileno(), self._doorbell.fd]
@@ -44,11 +69,14 @@ class LoopSupervisor(ChildProcess):
                 args += [option, str(shared.fileno())]
                 passed.append(shared.fileno())
         return subprocess.Popen(
-            [sys.executable, "-m", "server.loop.process", *args, "--config", self.config.to_json()],
+            [sys.executable, "-m", "server.loop.process", *args, "--config", config.to_json()],
             pass_fds=tuple(passed), cwd=os.getcwd(),
             start_new_session=True)  # Ctrl-C in a terminal stops the hub, which stops the loop in order
 
     def _on_record(self, record: list) -> None:
+        if record[0] == "state":
+            state = record[1]
+            self._last = (state["tick"], state["frame"], time.monotonic())
         self.on_record(record)
 
     def _closed(self) -> None:

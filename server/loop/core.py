@@ -20,6 +20,19 @@ A failing tick (an exception in a scenario) does not stop the loop: every actuat
 through the cue output, a `fail_safe` record and the error go to the hub, the tick counter
 advances, and the next good tick sends its cues again whatever they are.
 
+A scenario switch is built outside the tick. Building one takes milliseconds (a scene of many
+bodies: 8-17 ms for the positioning tasks), more than a tick's period, so with `build_off_tick`
+(the loop process) `apply(["scenario", ...])` only checks the name and records the switch as
+`pending_switch`; the driver builds it with `build()` off the tick (any thread: it reads nothing
+of the core) and hands it in with `install()` between ticks. Until then the running scenario
+goes on: tracker samples, keys and commands apply to it, while `trial` records wait and apply to
+the new scenario right after it is installed (the hub sends a trial after the switch it is for).
+A second switch during a build supersedes the first (latest wins: its build is discarded with
+any trial waiting for it), so a burst of switches ends on the last one asked for. Without
+`build_off_tick` (the virtual hub, rendering, tests: no real-time tick to protect) apply()
+builds and installs at once through the same two calls. The new scene and scenario are announced
+when the switch is installed.
+
 Tracker samples go through the tracker rule of the tool they move (server/core/tool.py): one
 source drives the HIP; `["tracker_gone", client_id]` sends it home when its driver leaves.
 """
@@ -28,6 +41,7 @@ from __future__ import annotations
 
 import traceback
 from array import array
+from dataclasses import dataclass
 from typing import Any, Callable
 
 from server.core.cues import cue_to_wire
@@ -37,6 +51,14 @@ from server.loop.simulation import Simulation, TickResult
 
 MAX_REPORTED_FAILURES = 10  # a failing scenario fails every tick: report the first ones, then every 1000th
 IGNORED_NOTICE_EVERY = 1000  # a source that is not the driver: one log line at its first ignored sample, then every Nth
+
+
+@dataclass(frozen=True, eq=False)  # compared by identity: two asks for the same scenario are two switches
+class Switch:
+    """A scenario switch asked of the loop, not yet installed."""
+    name: str
+    params: dict
+    seed: int
 
 
 def _round(v, digits: int = 9) -> list[float]:
@@ -61,7 +83,7 @@ class TickOutput:
 
 class LoopCore:
     def __init__(self, sim: Simulation, *, state_hz: float = 60.0,
-                 make_sim: Callable[..., Simulation] | None = None):
+                 make_sim: Callable[..., Simulation] | None = None, build_off_tick: bool = False):
         if not 0 < state_hz <= sim.tick_hz:
             raise ValueError("state_hz must be in (0, tick_hz]")
         self.sim = sim
@@ -79,6 +101,9 @@ class LoopCore:
         self.trajectory: list[list] = []  # rows since the last state record (server/core/records.py TRAJECTORY_COLUMNS)
         self._device_cues: tuple | None = None  # what the devices were last given; None: unknown (start)
         self._out = TickOutput()
+        self.build_off_tick = build_off_tick  # True: the driver builds a switch off the tick (module doc)
+        self.pending_switch: Switch | None = None  # asked, not yet installed
+        self._waiting: list[list] = []  # trial records for the pending switch's scenario
 
     # -- the tick --------------------------------------------------------------------------------
     def tick(self, records, now_ns: int) -> TickOutput:
@@ -143,24 +168,68 @@ class LoopCore:
             sim.events.append({"tick": sim.tick, "t": sim.tick / sim.tick_hz, "name": "input", "client": record[1],
                                "key": record[2], "action": record[3], "value": value})
         elif kind == "trial":  # ["trial", {"phase", "params", "index"} | None]; checked by the hub
+            if self.pending_switch is not None:  # for the scenario being built: applied when it is installed
+                self._waiting.append(record)
+                return
             body = record[1]
             trial = None if body is None else Trial.parse(type(self.sim.scenario).TRIAL_PARAMS, body.get("phase"),
                                                           body.get("params"), body.get("index", 0))
             self.sim.set_trial(trial)
             self.outbox.append(self.scenario_record())
-        elif kind == "scenario":  # ["scenario", name, params, seed]: switch between trials
+        elif kind == "scenario":  # ["scenario", name, params, seed]: switch between trials (module doc)
             _, name, params, seed = record
-            self.load_scenario(name, params, seed)
+            registry.resolve(name)  # an unknown name is reported now, not after a build
+            self.ask_switch(Switch(name, dict(params), seed))
         elif kind == "record":  # ["record", every_n_ticks]: trajectory rows ride with the state records
             self.record_every = max(0, int(record[1]))
             self.trajectory = []
         elif kind == "devices":  # the device manager's refusals, for the scenario (TickContext.refusals)
             self.sim.refusals = tuple(str(text) for text in record[1].get("refusals", ()))
 
-    def load_scenario(self, name: str, params: dict, seed: int) -> None:
-        """A new scenario and simulation (tick counter continues); announces the new scene."""
+    # -- scenario switches (module doc) -------------------------------------------------------------
+    def ask_switch(self, switch: Switch) -> None:
+        """Record a switch; it supersedes one still pending (latest wins). Built here unless the
+        driver builds off the tick."""
+        if self.pending_switch is not None:
+            self._waiting.clear()  # trials for the superseded scenario
+            self.outbox.append(["log", "warning", f"scenario switch to {self.pending_switch.name} superseded by "
+                                                  f"{switch.name} before it was built"])
+        self.pending_switch = switch
+        if not self.build_off_tick:
+            self.install(switch, self.build(switch))
+
+    def build(self, switch: Switch) -> Simulation:
+        """The new simulation (scenario, scene, bodies). Reads nothing of the core: safe off the
+        tick's thread."""
+        return self.make_sim(registry.create(switch.name, **switch.params), switch.seed)
+
+    def install(self, switch: Switch, sim: Simulation) -> bool:
+        """Put a built switch in place (between ticks); False if a later switch superseded it."""
+        if switch is not self.pending_switch:
+            return False
+        self.pending_switch = None
+        self._take_over(sim, switch.params, switch.seed)
+        waiting, self._waiting = self._waiting, []
+        for record in waiting:
+            try:
+                self.apply(record, 0)
+            except Exception:  # noqa: BLE001 - as in tick(): a bad record is reported, never fatal
+                self.outbox.append(["log", "error", f"record {record[0]} failed: {traceback.format_exc()}"])
+        return True
+
+    def abandon(self, switch: Switch, error: str) -> None:
+        """A switch whose build failed: reported; the running scenario goes on."""
+        self.outbox.append(["log", "error", f"record scenario failed: {error}"])
+        if switch is self.pending_switch:
+            self.pending_switch = None
+            if self._waiting:
+                self.outbox.append(["log", "error", f"{len(self._waiting)} trial record(s) for {switch.name} dropped: "
+                                                    "its scenario could not be built"])
+                self._waiting = []
+
+    def _take_over(self, sim: Simulation, params: dict, seed: int) -> None:
+        """`sim` replaces the running simulation; announces the new scene."""
         old = self.sim
-        sim = self.make_sim(registry.create(name, **params), seed)
         sim.tick = old.tick
         sim.refusals = old.refusals
         sim.events = old.events  # unpublished events and trial ends of the old scenario still go out

@@ -30,6 +30,7 @@ from dataclasses import asdict, dataclass, field
 from scenarios import registry
 from server.core.haptics.contact_gate import ContactGate
 from server import ipc
+from server.loop.builder import SwitchBuilder
 from server.loop.clock import Clock, MonotonicClock
 from server.loop.core import LoopCore
 from server.loop.scheduler import DeadlineScheduler
@@ -42,7 +43,9 @@ from server.core.scene import Scene
 class LoopConfig:
     scenario: str = "contact-angle"
     scenario_params: dict = field(default_factory=dict)
-    trial: dict | None = None  # a running trial ({"phase", "params", "index"}), restored after a restart
+    trial: dict | None = None  # a free trial ({"phase", "params", "index"}) restored after a restart
+    start_tick: int = 0  # a restarted loop continues the dead one's clock (server/hub/supervisor.py)
+    start_frame: int = 0
     scene_file: str | None = None  # a custom scene (docs/protocol.md format) instead of the scenario's
     tick_hz: int = 1000
     state_hz: float = 60.0
@@ -69,8 +72,10 @@ def build_core(config: LoopConfig) -> LoopCore:
 
     scenario = registry.create(config.scenario, **config.scenario_params)
     scene = Scene.load(config.scene_file) if config.scene_file else None
-    core = LoopCore(make_sim(scenario, config.seed, scene), state_hz=config.state_hz, make_sim=make_sim)
+    core = LoopCore(make_sim(scenario, config.seed, scene), state_hz=config.state_hz, make_sim=make_sim,
+                    build_off_tick=True)  # switches are built by SwitchBuilder, never inside a tick
     core.params, core.seed = dict(config.scenario_params), config.seed
+    core.sim.tick, core.frames = config.start_tick, config.start_frame
     if config.trial is not None:
         core.apply(["trial", config.trial], 0)
         core.outbox.clear()  # announced with the scene at start
@@ -98,6 +103,7 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
     cpus = sorted(os.sched_getaffinity(0))
     if config.pin_cpu and len(cpus) > 1:
         os.sched_setaffinity(0, {cpus[-1]})
+    builder = SwitchBuilder(core)
     parent = os.getppid()
     ipc.send_record(sock, ["hello", {"pid": os.getpid(), "rt": rt, "tick_hz": config.tick_hz,
                                      "state_hz": config.state_hz, "scenario": core.sim.scenario.id}])
@@ -140,6 +146,8 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
             out.state["resyncs"] = scheduler.resyncs
             ipc.send_record(sock, ["state", out.state])
         core.record_sample(period, clock.now_ns() - start)
+        if core.pending_switch is not None or builder.building:
+            builder.between_ticks()  # off the tick: install a built switch, build the next
         if core.sim.tick % 1000 == 0 and os.getppid() != parent:
             return  # the hub died without closing the mailbox
 

@@ -1,0 +1,82 @@
+"""Builds the loop's scenario switches on a thread of their own, off the tick.
+
+Building a scenario takes milliseconds (8-17 ms for the positioning tasks' scenes), several tick
+periods, so the tick never does it (server/loop/core.py, "A scenario switch is built outside the
+tick"). The loop process calls `between_ticks()` after every tick: it installs a finished build
+(cheap: the core takes the new simulation over and announces it) and starts building the core's
+pending switch, if any, on a new thread.
+
+That thread must not delay the tick. It inherits the tick thread's SCHED_FIFO priority and CPU;
+at equal FIFO priority the woken tick thread would wait for it to block, so it first drops to the
+lowest real-time priority (or stays at normal priority when the loop has none) on the same CPU:
+the tick thread preempts it the moment it wakes, and while a tick runs the builder does not run at
+all. Measured against the other arrangement, normal priority on the other CPU: there the builder
+holding the GIL was preempted by other processes while the tick thread waited for that GIL, and
+ticks took up to 110 ms. What remains is the GIL hand-over: while a build runs the switch interval
+is cut from 5 ms to BUILD_SWITCH_INTERVAL_S, so a waking tick thread gets the GIL within about
+that long. One build at a time; a switch superseded during its build is discarded when it ends,
+and the latest one is built next.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+import traceback
+
+from server.loop.core import LoopCore, Switch
+from server.loop.simulation import Simulation
+
+BUILD_SWITCH_INTERVAL_S = 0.0001
+
+
+def _step_aside() -> None:
+    """This thread only: below the tick thread (on Linux the call acts on the calling thread)."""
+    try:
+        if os.sched_getscheduler(0) == os.SCHED_FIFO:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(os.sched_get_priority_min(os.SCHED_FIFO)))
+    except (PermissionError, OSError, AttributeError):
+        pass  # the loop runs at normal priority: so does its builder
+
+
+class SwitchBuilder:
+    def __init__(self, core: LoopCore):
+        self.core = core
+        self.builds = 0
+        self._thread: threading.Thread | None = None
+        self._done: tuple[Switch, Simulation | None, str | None] | None = None  # set by the thread (one store)
+        self._interval = sys.getswitchinterval()
+
+    @property
+    def building(self) -> bool:
+        return self._thread is not None
+
+    def between_ticks(self) -> None:
+        """Install a finished build; start building the pending switch. Call from the tick's thread."""
+        done = self._done
+        if done is not None:
+            self._done = None
+            self._thread.join()  # it has stored its result: it is ending
+            self._thread = None
+            sys.setswitchinterval(self._interval)
+            switch, sim, error = done
+            if sim is not None:
+                self.core.install(switch, sim)  # False: superseded meanwhile; the latest is built next
+            else:
+                self.core.abandon(switch, error or "build failed")
+        switch = self.core.pending_switch
+        if switch is not None and self._thread is None:
+            sys.setswitchinterval(BUILD_SWITCH_INTERVAL_S)
+            self._thread = threading.Thread(target=self._build, args=(switch,), name="scenario-builder",
+                                            daemon=True)
+            self._thread.start()
+
+    def _build(self, switch: Switch) -> None:
+        _step_aside()
+        try:
+            result = (switch, self.core.build(switch), None)
+        except Exception:  # noqa: BLE001 - a bad switch is reported, the loop goes on
+            result = (switch, None, traceback.format_exc())
+        self.builds += 1
+        self._done = result

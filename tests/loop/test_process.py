@@ -1,0 +1,77 @@
+"""The loop process for real (a subprocess on a mailbox): a scenario switch takes effect in a later
+tick than the one that received it (built off the tick), and a restarted loop continues the
+tick and frame count it is given."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+import time
+
+from server import ipc
+from server.loop.process import LoopConfig
+
+
+def start_loop(config: LoopConfig) -> tuple[subprocess.Popen, socket.socket]:
+    ours, theirs = ipc.channel_pair()
+    proc = subprocess.Popen([sys.executable, "-m", "server.loop.process", "--fd", str(theirs.fileno()),
+                             "--config", config.to_json()], pass_fds=(theirs.fileno(),))
+    theirs.close()
+    return proc, ours
+
+
+def records_until(sock: socket.socket, done, timeout_s: float = 20.0) -> list[list]:
+    seen: list[list] = []
+    deadline = time.monotonic() + timeout_s
+    while not done(seen):
+        assert time.monotonic() < deadline, f"timed out; last records: {[r[0] for r in seen[-10:]]}"
+        try:
+            seen.extend(ipc.drain(sock))
+        except ipc.PeerClosed:
+            raise AssertionError("the loop process exited") from None
+        time.sleep(0.002)
+    return seen
+
+
+def stop(proc: subprocess.Popen, sock: socket.socket) -> None:
+    ipc.send_record(sock, ["stop"])
+    try:
+        proc.wait(5)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+    sock.close()
+
+
+def test_a_switch_is_installed_in_a_later_tick_than_the_one_that_received_it():
+    proc, sock = start_loop(LoopConfig(realtime=False, pin_cpu=False))
+    try:
+        records_until(sock, lambda seen: any(r[0] == "state" for r in seen))
+        # The key rides in the same mailbox drain: its event names the tick that applied the switch record.
+        assert ipc.send_record(sock, ["scenario", "positioning", {}, 0])
+        assert ipc.send_record(sock, ["input", 1, "space", "press"])
+        seen = records_until(sock, lambda seen: any(r[0] == "scenario" for r in seen))
+        key_tick = next(e["tick"] for r in seen if r[0] == "state" for e in r[1]["events"] if e["name"] == "input")
+        scene_at = next(i for i, r in enumerate(seen) if r[0] == "scene")
+        announced = next(r[1] for r in seen if r[0] == "scenario")
+        assert announced["id"] == "positioning-v1" and seen[scene_at][1]["name"] != "contact-angle"
+        assert announced["tick"] > key_tick, "the switch was not built inside the tick that received it"
+        old_scene = next(r[1]["scene"] for r in seen if r[0] == "state")
+        assert all(r[1]["scene"] == old_scene for r in seen[:scene_at] if r[0] == "state"), \
+            "the running scenario went on until the new one was installed"
+    finally:
+        stop(proc, sock)
+
+
+def test_a_loop_given_a_start_tick_and_frame_continues_from_them():
+    proc, sock = start_loop(LoopConfig(realtime=False, pin_cpu=False, start_tick=123_456, start_frame=789))
+    try:
+        seen = records_until(sock, lambda seen: sum(r[0] == "state" for r in seen) >= 3)
+        announced = next(r[1] for r in seen if r[0] == "scenario")
+        states = [r[1] for r in seen if r[0] == "state"]
+        assert announced["tick"] == 123_456
+        assert states[0]["tick"] >= 123_456 and states[0]["frame"] == 790
+        assert [s["tick"] for s in states] == sorted(s["tick"] for s in states)
+    finally:
+        stop(proc, sock)

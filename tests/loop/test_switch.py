@@ -1,0 +1,98 @@
+"""Scenario switches off the tick (server/loop/core.py): with build_off_tick, tick() never builds a
+scenario; the driver builds it and installs it between ticks; records during the build go to the
+running scenario, trials wait for the new one, the latest switch wins."""
+
+from scenarios.contact_angle import ContactAngle
+from server.loop.core import LoopCore
+from server.loop.simulation import Simulation
+
+MS = 1_000_000
+TRIAL = {"phase": "main", "params": {"mode": "production", "level": 7, "start_level": 2}, "index": 5}
+
+
+class CountingBuilds:
+    def __init__(self):
+        self.built = []
+
+    def __call__(self, scenario, seed):
+        self.built.append(scenario.id)
+        return Simulation(scenario, seed=seed)
+
+
+def off_tick_core():
+    make = CountingBuilds()
+    return LoopCore(Simulation(ContactAngle()), state_hz=1000, make_sim=make, build_off_tick=True), make
+
+
+def test_tick_never_builds_a_switch_it_only_records_it():
+    core, make = off_tick_core()
+    core.tick((), 0)
+    out = core.tick([["scenario", "stiffness", {"middle_level": 3}, 4], ["input", 1, "space", "press"]], MS)
+    assert make.built == [], "no scenario was built inside the tick"
+    assert core.pending_switch is not None and core.pending_switch.name == "stiffness"
+    assert core.sim.scenario.id == "contact-angle-v1" and out.state["scene"] == core.sim.scene.hash
+    assert not [r for r in out.records if r[0] in ("scene", "scenario")], "nothing announced before it is installed"
+    assert [e["key"] for e in out.state["events"] if e["name"] == "input"] == ["space"], \
+        "a key during the build goes to the running scenario"
+    for t in range(2, 5):
+        assert core.tick((), t * MS).state["scene"] == out.state["scene"]
+    assert make.built == []
+
+    switch = core.pending_switch
+    sim = core.build(switch)  # the driver, off the tick
+    assert make.built == ["stiffness-v1"] and core.sim.scenario.id == "contact-angle-v1", "building installs nothing"
+    assert core.install(switch, sim) and core.pending_switch is None
+    out = core.tick((), 5 * MS)
+    assert [r[0] for r in out.records] == ["scene", "scenario"], "announced with the first tick after the install"
+    assert out.records[1][1]["id"] == "stiffness-v1" and out.records[1][1]["tick"] == 5
+    assert out.state["scene"] == out.records[0][2] and out.tick == 5, "the tick counter goes on"
+
+
+def test_a_trial_sent_after_a_switch_waits_for_the_new_scenario():
+    core, _ = off_tick_core()
+    core.tick([["scenario", "stiffness", {}, 0], ["trial", TRIAL]], 0)
+    assert core.sim.trial is None, "the trial is for the scenario being built, not the running one"
+    switch = core.pending_switch
+    core.install(switch, core.build(switch))
+    assert core.sim.scenario.id == "stiffness-v1" and core.sim.trial is not None and core.sim.trial.index == 5
+    scenarios = [r[1] for r in core.outbox if r[0] == "scenario"]
+    assert scenarios[-1]["trial"]["index"] == 5, "the trial is announced right after the new scenario"
+
+
+def test_a_second_switch_during_the_build_wins_and_the_first_is_discarded():
+    core, make = off_tick_core()
+    core.tick([["scenario", "stiffness", {}, 0], ["trial", TRIAL]], 0)
+    first = core.pending_switch
+    built_first = core.build(first)  # the first build runs while the second switch arrives
+    out = core.tick([["scenario", "texture", {}, 2]], MS)
+    assert any(r[:2] == ["log", "warning"] and "superseded" in r[2] for r in out.records)
+    assert not core.install(first, built_first), "a superseded build is not installed"
+    assert core.sim.scenario.id == "contact-angle-v1"
+    second = core.pending_switch
+    assert core.install(second, core.build(second))
+    assert core.sim.scenario.id == "texture-v1" and core.sim.trial is None, "the first switch's trial went with it"
+    assert make.built == ["stiffness-v1", "texture-v1"]
+
+
+def test_a_failed_build_is_reported_and_the_running_scenario_goes_on():
+    core, _ = off_tick_core()
+    out = core.tick([["scenario", "no-such-scenario", {}, 0]], 0)
+    assert core.pending_switch is None and any("no-such-scenario" in r[2] for r in out.records if r[0] == "log"), \
+        "an unknown name is refused at once"
+    core.tick([["scenario", "stiffness", {"middle_level": "bad"}, 0], ["trial", TRIAL]], MS)
+    switch = core.pending_switch
+    try:
+        core.build(switch)
+    except Exception as exc:  # noqa: BLE001 - what the builder thread catches
+        core.abandon(switch, repr(exc))
+    out = core.tick((), 2 * MS)
+    assert core.pending_switch is None and core.sim.scenario.id == "contact-angle-v1"
+    texts = [r[2] for r in out.records if r[0] == "log"]
+    assert any("record scenario failed" in t for t in texts) and any("trial record" in t for t in texts)
+
+
+def test_without_build_off_tick_apply_builds_and_installs_at_once():
+    core = LoopCore(Simulation(ContactAngle()))
+    core.apply(["scenario", "stiffness", {}, 0], 0)
+    core.apply(["trial", TRIAL], 0)
+    assert core.pending_switch is None and core.sim.scenario.id == "stiffness-v1" and core.sim.trial.index == 5
