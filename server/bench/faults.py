@@ -209,6 +209,7 @@ class FaultBench:
 
     async def repetition(self, kind: str) -> dict:
         trial = await self.start_trial()
+        await self.participant.nudge()
         await asyncio.sleep(SETTLE_S)
         overruns_before = await self.overruns()
         rep = await getattr(self, f"fault_{kind}")()
@@ -218,6 +219,8 @@ class FaultBench:
         samples = self.health_samples()
         if kind in fm.PROCESS_FAULTS:
             rep["degraded_ms"], rep["ok_ms"] = fm.health_times(samples, fault_ns)
+        else:  # an input fault: did health say degraded while it lasted (a wedged loop must)
+            rep["degraded_ms"] = fm.health_times(samples, fault_ns, end_ns)[0]
         rep["ok_after"] = ok_ns is not None
         rep["reasons"] = self.codes_between(fault_ns, time.monotonic_ns())
         rep["frames_lost"] = fm.frames_lost(self.participant.state_times(), fault_ns, end_ns, 60.0)
@@ -280,8 +283,12 @@ class FaultBench:
             await asyncio.to_thread(proc.stdout.readline)  # "MODEL emulator on PTY": it is there
             plugged = time.monotonic_ns()
             back = await self.until(lambda: _device_back(devices.samples, plugged, model, connects))
+        await asyncio.sleep(0.5)  # the held cue reaches the new device; its timeline is flushed
+        rows = fm.parse_timeline(timeline.read_text()) if timeline.exists() else []
+        shown = next((r.t_us for r in rows if r.on), None)
         return {"fault_ns": t0, "end_ns": back or time.monotonic_ns(), "plugged_ms": ms_since(t0, plugged),
-                "reconnect_ms": ms_since(plugged, back), "from_kill_ms": ms_since(t0, back)}
+                "reconnect_ms": ms_since(plugged, back), "from_kill_ms": ms_since(t0, back),
+                "cue_reapplied": shown is not None, "cue_reapplied_ms": off_ms(plugged, shown)}
 
     async def fault_emulator_restart(self) -> dict:
         return await self._replace_emulator("ferrovibe", 0.0)
@@ -298,46 +305,33 @@ class FaultBench:
         return {"fault_ns": t0, "end_ns": t0, "held": held,
                 "actuators_off_ms": off_ms(t0, off_us)}
 
-    async def _flood(self, message: dict) -> dict:
-        """A second participant sends `message` FLOOD_RATE times a second for FLOOD_S; the viewer's
-        frames before and during."""
-        flooder = WsClient(self.ws_url, "participant", name="bench-faults-flooder")
-        await flooder.connect()
-        await asyncio.sleep(1.0)
-        t0 = time.monotonic_ns()
-        sent = 0
-        try:
-            batch, period = FLOOD_RATE // 100, 0.01
-            next_t = time.monotonic()
-            while time.monotonic_ns() - t0 < FLOOD_S * 1e9:
-                for _ in range(batch):
-                    await flooder.send(message)
-                    sent += 1
-                next_t += period
-                await asyncio.sleep(max(0.0, next_t - time.monotonic()))
-        except Exception as exc:  # the server may close a flooding connection: that is an answer too
-            self.notes.append(f"flood stopped after {sent} messages: {exc!r}")
-        t1 = time.monotonic_ns()
-        await flooder.close()
+    async def _flood(self, what: str) -> dict:
+        """A second participant, in a process of its own, sends FLOOD_RATE messages a second for
+        FLOOD_S; the viewer's frames before and during."""
+        proc = await asyncio.create_subprocess_exec(
+            sys.executable, "-m", "server.bench.faults_clients", "--url", self.ws_url, "--what", what,
+            "--rate", str(FLOOD_RATE), "--seconds", str(FLOOD_S), stdout=asyncio.subprocess.PIPE, cwd=REPO)
+        out, _ = await proc.communicate()
+        flood = json.loads(out.decode().strip().splitlines()[-1])
+        t0, t1 = flood["t0_ns"], flood["t1_ns"]
         window = int(1e9)
         states = self.viewer.states
         before = [s[3] for s in states if t0 - window <= s[0] < t0]
         during = [s[3] for s in states if t0 <= s[0] <= t1]
         times = self.viewer.state_times()
         rate_before, rate_during = fm.rate_hz(times, t0 - window, t0), fm.rate_hz(times, t0, t1)
-        return {"fault_ns": t0, "end_ns": t1, "sent_per_s": round(sent / ((t1 - t0) / 1e9)),
+        return {"fault_ns": t0, "end_ns": t1, "sent_per_s": round(flood["sent"] / ((t1 - t0) / 1e9)),
                 "frame_bytes_before": fm.median(before), "frame_bytes_during": fm.median(during),
                 "frame_growth": round(fm.median(during) / fm.median(before), 2) if before and during else None,
                 "viewer_hz_before": rate_before, "viewer_hz_during": rate_during,
                 "rate_kept": round(rate_during / rate_before, 3) if rate_before and rate_during is not None else None,
-                "flooder_errors": len(flooder.errors), "flooder_closed": flooder.closed_at is not None
-                and flooder.closed_at < t1}
+                "flooder_errors": flood["error_codes"], "flooder_closed": flood["closed"]}
 
     async def fault_key_flood(self) -> dict:
-        return await self._flood({"type": "input", "key": "a", "action": "press"})
+        return await self._flood("key")
 
     async def fault_tracker_flood(self) -> dict:
-        return await self._flood({"type": "tracker", "seq": 1, "t": 0.0, "pos": list(CONTACT_POS)})
+        return await self._flood("tracker")
 
     async def fault_slow_readers(self) -> dict:
         times = self.viewer.state_times
@@ -362,7 +356,7 @@ class FaultBench:
             await asyncio.sleep(0.1)
             errors = len(client.errors)
             await client.send_raw(text)
-            await self.until(lambda: len(client.errors) > errors or client.closed_at is not None, 1.0)
+            await self.until(lambda c=client, n=errors: len(c.errors) > n or c.closed_at is not None, 1.0)
             await asyncio.sleep(0.2)
             outcome[name] = {"error_reply": [c for _, c in client.errors[errors:]], "open": client.closed_at is None}
             await client.close()

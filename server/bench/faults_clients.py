@@ -25,6 +25,8 @@ from server.wire import codec
 _A = math.radians(LATENCY_ANGLE_DEG)
 # 3 mm inside the contact-angle dome at 30°: the FerroVibe's tilt cue stays on (100 %, 330°).
 CONTACT_POS = (0.0, round(-LATENCY_IN * math.sin(_A), 9), round(LATENCY_IN * math.cos(_A), 9))
+_B = math.radians(LATENCY_ANGLE_DEG + 5.0)
+NUDGE_POS = (0.0, round(-LATENCY_IN * math.sin(_B), 9), round(LATENCY_IN * math.cos(_B), 9))  # another tilt
 TRACKER_HZ = 100.0
 
 
@@ -95,6 +97,7 @@ class Participant(WsClient):
     def __init__(self, url: str, fmt: str = "msgpack"):
         super().__init__(url, "participant", fmt, "bench-faults-participant")
         self.paused = False
+        self.pos = CONTACT_POS
         self.seq = 0
         self._sender: asyncio.Task | None = None
 
@@ -107,9 +110,16 @@ class Participant(WsClient):
         while True:
             if not self.paused:
                 with contextlib.suppress(websockets.ConnectionClosed):
-                    await self.tracker(CONTACT_POS)
+                    await self.tracker(self.pos)
             next_t += 1.0 / TRACKER_HZ
             await asyncio.sleep(max(0.0, next_t - time.monotonic()))
+
+    async def nudge(self) -> None:
+        """Press at another angle for a moment and back: two changes of the tilt cue, so every
+        device is given the current cue again whatever an earlier fault left it showing."""
+        self.pos = NUDGE_POS
+        await asyncio.sleep(0.06)
+        self.pos = CONTACT_POS
 
     async def tracker(self, pos) -> None:
         await self.send({"type": "tracker", "seq": self.seq, "t": time.monotonic() * 1e3, "pos": list(pos)})
@@ -200,6 +210,51 @@ def reason_codes(answer: dict | None) -> tuple | None:
     return tuple(r.get("code") for r in reasons) if isinstance(reasons, list) else None
 
 
+FLOOD_MESSAGES = {"key": {"type": "input", "key": "a", "action": "press"},
+                  "tracker": {"type": "tracker", "seq": 1, "t": 0.0, "pos": list(CONTACT_POS)}}
+
+
+async def flood(url: str, what: str, rate: int, seconds: float) -> dict:
+    """A participant that sends FLOOD_MESSAGES[what] `rate` times a second for `seconds`, in
+    batches every 10 ms; run in a process of its own (`python -m server.bench.faults_clients`) so
+    the bench's viewer is not starved by its own sends."""
+    client = WsClient(url, "participant", name=f"bench-faults-{what}-flood")
+    await client.connect()
+    await asyncio.sleep(0.5)
+    data = codec.encode(FLOOD_MESSAGES[what], client.fmt)
+    t0 = time.monotonic_ns()
+    sent = 0
+    error = None
+    next_t = time.monotonic()
+    try:
+        while time.monotonic_ns() - t0 < seconds * 1e9:
+            for _ in range(max(1, rate // 100)):
+                await client.ws.send(data)
+                sent += 1
+            next_t += 0.01
+            await asyncio.sleep(max(0.0, next_t - time.monotonic()))
+    except websockets.ConnectionClosed as exc:  # the server may close a flooding connection: an answer too
+        error = repr(exc)
+    t1 = time.monotonic_ns()
+    await asyncio.sleep(0.2)
+    codes = sorted({c for _, c in client.errors})
+    closed = client.closed_at is not None
+    await client.close()
+    return {"t0_ns": t0, "t1_ns": t1, "sent": sent, "error_codes": codes, "closed": closed, "error": error}
+
+
+def main() -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description="a flooding participant of viestac bench faults")
+    parser.add_argument("--url", required=True)
+    parser.add_argument("--what", choices=sorted(FLOOD_MESSAGES), required=True)
+    parser.add_argument("--rate", type=int, default=10_000)
+    parser.add_argument("--seconds", type=float, default=1.0)
+    args = parser.parse_args()
+    print(json.dumps(asyncio.run(flood(args.url, args.what, args.rate, args.seconds))), flush=True)
+
+
 def udp_tracker(address: str):
     """A sender of tracker datagrams to the loop's tracker UDP port ('HOST:PORT')."""
     host, _, port = address.rpartition(":")
@@ -212,3 +267,7 @@ def udp_tracker(address: str):
         seq[0] += 1
     send.close = sock.close
     return send
+
+
+if __name__ == "__main__":
+    main()

@@ -116,8 +116,7 @@ def health_times(samples: list[tuple[int, str]], fault_ns: int,
         elif status == "ok":
             ok_ns = t_ns
             break
-    ms = (lambda t: None if t is None else round((t - fault_ns) / 1e6, 3))
-    return ms(degraded_ns), ms(ok_ns)
+    return tuple(None if t is None else round((t - fault_ns) / 1e6, 3) for t in (degraded_ns, ok_ns))
 
 
 def expected_samples(started_tick: int | None, ended_tick: int | None, every: int) -> int | None:
@@ -194,7 +193,9 @@ PROCESS_FAULTS = ("loop_kill", "device_host_kill", "emulator_restart", "device_u
 
 def judge(kind: str, reps: list[dict]) -> list[Check]:
     """The acceptance checks of one fault kind over its repetitions' measurements."""
-    col = (lambda key: [r.get(key) for r in reps])
+    def col(key: str) -> list:
+        return [r.get(key) for r in reps]
+
     checks: list[Check] = []
     if kind == "loop_kill":
         checks.append(at_most("first state frame again (ms)", col("first_state_ms"), LOOP_FIRST_STATE_MS))
@@ -207,6 +208,7 @@ def judge(kind: str, reps: list[dict]) -> list[Check]:
         checks.append(all_true("devices connected again", [r.get("reconnect_ms") is not None for r in reps]))
     elif kind in ("emulator_restart", "device_unplug"):
         checks.append(at_most("connected again after the new device (ms)", col("reconnect_ms"), RECONNECT_MS))
+        checks.append(all_true("the held cue shown again by the new device", col("cue_reapplied")))
     elif kind == "tracker_loss":
         checks.append(at_most("cue off after the tracker left (ms)",
                               [r.get("actuators_off_ms") for r in reps if r.get("held")], TRACKER_LOSS_OFF_MS))
@@ -217,6 +219,8 @@ def judge(kind: str, reps: list[dict]) -> list[Check]:
     elif kind in ("huge_values_ws", "huge_values_udp"):
         checks.append(at_most("state frames resume (ms)", col("resume_ms"), RESUME_MS))
         checks.append(all_true("recovered on the next sane sample", col("recovered")))
+        checks.append(at_most("health degraded while frames stopped (ms)",
+                              [r.get("degraded_ms") for r in reps if not r.get("recovered")], DEGRADED_MS))
     elif kind == "bad_frames":
         checks.append(all_true("connection open with an error reply", col("stayed_open")))
     if kind in PROCESS_FAULTS:
