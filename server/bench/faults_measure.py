@@ -47,6 +47,8 @@ def parse_timeline(text: str) -> list[TimelineRow]:
     is skipped."""
     rows = []
     for raw in csv.DictReader(io.StringIO(text)):
+        if None in raw.values():
+            continue  # fewer fields than the header
         try:
             rows.append(TimelineRow(int(raw["t_us"]), int(raw["channel"]), actuator_on(raw)))
         except (KeyError, TypeError, ValueError):
@@ -89,7 +91,7 @@ def frames_lost(recv_ns: list[int], start_ns: int, end_ns: int, rate_hz: float) 
     period_ns = 1e9 / rate_hz
     inside = [t for t in recv_ns if start_ns <= t <= end_ns]
     edges = [start_ns, *inside, end_ns]
-    return sum(max(0, int((b - a) / period_ns) - 1) for a, b in zip(edges, edges[1:]))
+    return sum(max(0, round((b - a) / period_ns) - 1) for a, b in zip(edges, edges[1:]))
 
 
 def rate_hz(recv_ns: list[int], start_ns: int, end_ns: int) -> float | None:
