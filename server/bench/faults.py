@@ -559,6 +559,10 @@ def run_fault_bench(repeat: int = 3, kinds: tuple[str, ...] = FAULTS, progress=N
         tick_hz = get_json(base + "/api/health")["loop"]["tick_hz"]
         bench = FaultBench(base, rig_dir, data_dir)
         reps = asyncio.run(_run(bench, tuple(kinds), repeat, progress))
+        for client in (bench.participant, bench.viewer):
+            if client.unreadable:
+                bench.notes.append(f"{client.name}: {len(client.unreadable)} frames not understood, e.g. "
+                                   f"{client.unreadable[0]}")
         stop_server(proc)
         proc = None
         samples = count_samples(data_dir / "viestac.sqlite", reps, RECORD_EVERY, tick_hz)

@@ -39,6 +39,7 @@ class WsClient:
         self.states: list[tuple[int, int, int, int, tuple]] = []
         self.health: list[tuple[int, str, tuple | None]] = []
         self.errors: list[tuple[int, str]] = []
+        self.unreadable: list[str] = []
         self.closed_at: int | None = None
         self.client_id: int | None = None
         self.ws = None
@@ -60,24 +61,28 @@ class WsClient:
     async def _read(self) -> None:
         try:
             async for data in self.ws:
-                now = time.monotonic_ns()
-                message = codec.decode(data, self.fmt)
-                kind = message.get("type")
-                if kind == "state":
-                    self.states.append((now, message["tick"], round(message["t"] * 1e9), len(data),
-                                        tuple(message["hip"])))
-                elif kind == "health":
-                    reasons = message.get("reasons")
-                    codes = tuple(r.get("code") for r in reasons) if isinstance(reasons, list) else None
-                    self.health.append((now, message.get("status"), codes))
-                elif kind == "welcome":
-                    self.client_id = message.get("client_id")
-                elif kind == "error":
-                    self.errors.append((now, message.get("code")))
+                try:
+                    self._take(time.monotonic_ns(), data)
+                except Exception as exc:  # one odd frame must not end the recording: count it
+                    self.unreadable.append(repr(exc))
         except websockets.ConnectionClosed:
             pass
         finally:
             self.closed_at = time.monotonic_ns()
+
+    def _take(self, now: int, data) -> None:
+        message = codec.decode(data, self.fmt)
+        kind = message.get("type")
+        if kind == "state":
+            self.states.append((now, message["tick"], round(message["t"] * 1e9), len(data), tuple(message["hip"])))
+        elif kind == "health":
+            reasons = message.get("reasons")
+            codes = tuple(r.get("code") for r in reasons) if isinstance(reasons, list) else None
+            self.health.append((now, message.get("status"), codes))
+        elif kind == "welcome":
+            self.client_id = message.get("client_id")
+        elif kind == "error":
+            self.errors.append((now, message.get("code")))
 
     async def close(self) -> None:
         if self.ws is not None:
