@@ -312,6 +312,18 @@ def _bench_stability(args: argparse.Namespace) -> int:
     return _print_bench(result, args.json)
 
 
+def _bench_faults(args: argparse.Namespace) -> int:
+    from server.bench.faults import FAULTS, run_fault_bench
+    from server.bench.faults_measure import table
+
+    kinds = tuple(k for k in args.only.split(",") if k) if args.only else FAULTS
+    progress = None if args.json else (lambda what: print(f"  {what}", file=sys.stderr, flush=True))
+    result = run_fault_bench(repeat=args.repeat, kinds=kinds, progress=progress,
+                             keep=Path(args.keep) if args.keep else None)
+    print(json.dumps(result) if args.json else table(result))
+    return 1 if args.check and not result["pass"] else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="viestac", description="ViESTac tactile evaluation server")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -441,6 +453,18 @@ def build_parser() -> argparse.ArgumentParser:
                                 "participants first either way")
     roundtrip.add_argument("--json", action="store_true", help="print one JSON object")
     roundtrip.set_defaults(func=_bench_roundtrip)
+    faults = bench_sub.add_parser("faults", help="kill -9 of each process, device unplug, tracker loss, floods, huge "
+                                                 "and non-finite values, bad frames, slow readers: recovery times, "
+                                                 "overruns, frames and samples lost (docs/reliability.md)")
+    faults.add_argument("--repeat", type=int, default=3, help="repetitions of each fault (default 3)")
+    faults.add_argument("--only", default="", metavar="FAULT[,FAULT...]", help="only these faults (default all: "
+                        "loop_kill, device_host_kill, emulator_restart, device_unplug, tracker_loss, key_flood, "
+                        "tracker_flood, slow_readers, bad_frames, huge_values_ws, huge_values_udp)")
+    faults.add_argument("--keep", metavar="DIR", help="keep the run's database, study and actuator timelines in "
+                        "this new directory")
+    faults.add_argument("--check", action="store_true", help="exit 1 when a fault misses its acceptance")
+    faults.add_argument("--json", action="store_true", help="print one JSON object")
+    faults.set_defaults(func=_bench_faults)
     for name, func, what in (("accuracy", _bench_accuracy, "cost against error of every contact method on fixed "
                                                            "trajectories over the thesis scenes"),
                              ("stability", _bench_stability, "where each method fails: speed x thickness, stiffness "
