@@ -104,6 +104,7 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
     if config.pin_cpu and len(cpus) > 1:
         os.sched_setaffinity(0, {cpus[-1]})
     builder = SwitchBuilder(core)
+    builder.warm_up()
     parent = os.getppid()
     ipc.send_record(sock, ["hello", {"pid": os.getpid(), "rt": rt, "tick_hz": config.tick_hz,
                                      "state_hz": config.state_hz, "scenario": core.sim.scenario.id}])
@@ -146,7 +147,7 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
             out.state["resyncs"] = scheduler.resyncs
             ipc.send_record(sock, ["state", out.state])
         core.record_sample(period, clock.now_ns() - start)
-        if core.pending_switch is not None or builder.building:
+        if core.pending_switch is not None or builder.busy:
             builder.between_ticks()  # off the tick: install a built switch, build the next
         if core.sim.tick % 1000 == 0 and os.getppid() != parent:
             return  # the hub died without closing the mailbox

@@ -96,3 +96,28 @@ def test_without_build_off_tick_apply_builds_and_installs_at_once():
     core.apply(["scenario", "stiffness", {}, 0], 0)
     core.apply(["trial", TRIAL], 0)
     assert core.pending_switch is None and core.sim.scenario.id == "stiffness-v1" and core.sim.trial.index == 5
+
+
+def test_the_builder_warms_up_off_the_calling_thread_then_builds_the_pending_switch(monkeypatch):
+    import sys
+    import threading
+    import time
+
+    from server.loop import builder as builder_module
+
+    imported = []  # (module, thread name)
+    real = builder_module.importlib.import_module
+    monkeypatch.setattr(builder_module.importlib, "import_module",
+                        lambda name: imported.append((name, threading.current_thread().name)) or real(name))
+    core, make = off_tick_core()
+    builder = builder_module.SwitchBuilder(core)
+    builder.warm_up(("colorsys",))
+    core.tick([["scenario", "stiffness", {}, 0]], MS)
+    assert builder.busy and imported == [], "nothing is imported before between_ticks"
+    deadline = time.monotonic() + 10
+    while core.sim.scenario.id != "stiffness-v1" and time.monotonic() < deadline:
+        builder.between_ticks()
+        time.sleep(0.001)
+    assert imported == [("colorsys", "loop-warm-up")] and "colorsys" in sys.modules
+    assert make.built == ["stiffness-v1"], "the pending switch was built after the warm-up"
+    assert not builder.busy and sys.getswitchinterval() > 0.001, "the switch interval is restored"
