@@ -16,6 +16,7 @@ import urllib.error
 import pytest
 
 from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.integration.test_experiment_live import Api, new_session
 
 POLL_S = 0.005
 
@@ -114,3 +115,12 @@ def test_a_killed_device_emulator_is_device_missing_and_its_trial_is_refused_unl
     code, body = post(base, "/api/trial", {"phase": "main", "params": {"angle_deg": 10}, "force": True})
     assert code == 200 and body["trial"]["phase"] == "main"
     get_json(base + "/api/trial", "DELETE")
+
+    # the experiment engine refuses the study's next trial too, before anything is recorded
+    api = Api(base)
+    sid = new_session(api, "P07")["id"]
+    status, err = api.call("POST", f"/api/sessions/{sid}/trials/0/start")
+    assert status == 409 and "'ferrovibe'" in err["detail"], err
+    assert api.ok("GET", f"/api/sessions/{sid}")["trials"][0]["status"] == "pending"
+    started = api.ok("POST", f"/api/sessions/{sid}/trials/0/start?force=true")
+    assert started["status"] == "running"
