@@ -8,7 +8,7 @@ protocol decision about one client:
 - the version check (`unsupported_version`, then close 1002) and which messages a role may send
   (`forbidden`), through `Access`, the seam where access control will plug in;
 - decoding and validation (server/wire), with exactly one `error` per bad frame;
-- what the client is sent: an ordered control queue (welcome, health, scene, errors, close) and a
+- what the client is sent: an ordered control queue (welcome, scene, health, errors, close) and a
   latest-wins slot for state frames, taken by the shell's sender with `next_frame()`;
 - the ordering rule: every state after `scene` H names H until the next `scene`. A state frame
   whose scene is not the last scene handed out is dropped when it is taken (the slot may hold a
@@ -94,7 +94,7 @@ class Session:
         self.welcomed = False
         self.close_code: int | None = None
         self.hello_deadline_ns = opened_ns + hello_timeout_ns
-        # control items: (kind, frame, scene hash or None) with kind welcome | health | scene | error, or a
+        # control items: (kind, frame, scene hash or None) with kind welcome | scene | health | error, or a
         # Close; the slot: (frame, scene hash)
         self._control: deque = deque()
         self._slot: tuple[bytes | str, str] | None = None
@@ -203,10 +203,10 @@ class Session:
         s = self.server
         welcome = messages.welcome(self.id, self.role, s.name, s.tick_hz, s.state_hz, self.fmt)
         self._control.append(("welcome", codec.encode(welcome, self.fmt), None))
-        if self._health is not None:
-            self._control.append(("health", self._health, None))
         if self._scene is not None:
             self._control.append(("scene", self._scene[1], self._scene[0]))
+        if self._health is not None:  # after the scene: a v1.0 client reads welcome, then scene
+            self._control.append(("health", self._health, None))
 
     def set_scene(self, scene_hash: str, frames: Mapping[str, bytes | str]) -> None:
         """The current scene (`frames`: its scene message encoded per format). A welcomed client

@@ -271,8 +271,8 @@ ERROR = Message("error", "server_to_client", "", (
 
 HEALTH_STATUSES = ("ok", "degraded", "starting")
 
-HEALTH = Message("health", "server_to_client", "after `welcome`, and whenever the server's health status or the set "
-                 "of reason codes changes", (
+HEALTH = Message("health", "server_to_client", "after `welcome` and the first `scene`, and whenever the server's "
+                 "health status or the set of reason codes changes", (
     _type("health"),
     Field("status", enum(HEALTH_STATUSES), "`ok`; `degraded` while any reason holds (clients tell the user: the "
           "console a banner, the participant's HUD that tactile feedback is paused); `starting` before the haptic "

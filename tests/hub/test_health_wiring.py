@@ -89,11 +89,13 @@ def taken(session):
 
 
 @pytest.mark.parametrize("fmt", codec.FORMATS)
-def test_a_session_gets_health_after_its_welcome_and_only_the_latest(fmt):
+def test_a_session_gets_health_after_its_welcome_and_scene_and_only_the_latest(fmt):
     session = Session(3, fmt, ServerInfo("t", 1000, 60.0), 0)
     session.set_health(health_frames("ok"))
+    session.set_scene("aaaa", {f: codec.encode({"type": "scene", "v": 1, "hash": "aaaa", "scene": {}}, f)
+                               for f in codec.FORMATS})
     session.hello_deadline_passed(10**10)
-    assert [m["type"] for m in taken(session)] == ["welcome", "health"]
+    assert [m["type"] for m in taken(session)] == ["welcome", "scene", "health"], "a v1.0 reader: welcome, scene"
     session.set_health(health_frames("degraded", ["loop_down"]))
     session.set_health(health_frames("degraded", ["loop_down", "device_missing"]))
     got = taken(session)
