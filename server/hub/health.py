@@ -8,7 +8,7 @@ Nothing here reads a clock, a socket or a process, so every rule is tested with 
 
 Status: `starting` until the loop's first state record (unless the loop died first; reasons are
 listed all the same), then `degraded` while any reason holds, else `ok`. A reason is `{"code", "message", "since_s"}` (`since_s`: how
-long the condition has held, seconds); the codes (docs/reliability.md):
+long the condition has held, seconds); the codes (docs/protocol.md `health`):
 
 - `loop_down`: the loop process is not running (it is being restarted);
 - `loop_stalled`: the loop process is alive but no state record came for more than `stall_s`

@@ -12,6 +12,8 @@ from devices.capability import check
 from devices.profiles import profile_by_model
 from scenarios.contact_angle import ContactAngle
 from scenarios import registry
+from server.app import create_app
+from server.config import Settings
 from server.hub.control import DeviceMissing, ScenarioControl, ScenarioRefused
 from server.hub.hub import Hub
 from server.hub.session import ServerInfo, Session
@@ -161,3 +163,10 @@ def test_the_hub_turns_records_and_reports_into_health_and_tells_each_client():
         assert "loop_down" in hub.check_health().codes
 
     asyncio.run(go())
+
+
+def test_the_overrun_threshold_setting_reaches_health(tmp_path):
+    with pytest.raises(ValueError, match="overrun_threshold"):
+        Settings(overrun_threshold=-1)
+    app = create_app(Settings(overrun_threshold=25, data_dir=tmp_path, simulated_rig=False, tracker_udp="off"))
+    assert app.state.hub.health.overrun_threshold == 25
