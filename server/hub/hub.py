@@ -306,16 +306,16 @@ class Hub:
         """Every HEALTH_EVERY_S: poll the child processes (`children`: "loop" / "device_host" →
         ChildProcess), then evaluate health. The poll stands in until the children report their
         starts and exits themselves; on_child_start/on_child_exit take either."""
-        alive = {what: False for what in children}
+        seen: dict[str, object] = {what: None for what in children}  # the process last seen running
         while True:
             for what, child in children.items():
-                now_alive = child.alive
-                if now_alive != alive[what]:
-                    alive[what] = now_alive
-                    if now_alive:
+                proc = child.proc if child.alive else None
+                if proc is not seen[what]:
+                    if seen[what] is not None:  # it died (and may be running again already: a new process)
+                        self.on_child_exit(what, seen[what].returncode)
+                    if proc is not None:
                         self.on_child_start(what)
-                    else:
-                        self.on_child_exit(what, child.proc.returncode if child.proc is not None else None)
+                    seen[what] = proc
             self.check_health()
             await asyncio.sleep(HEALTH_EVERY_S)
 

@@ -170,3 +170,42 @@ def test_the_overrun_threshold_setting_reaches_health(tmp_path):
         Settings(overrun_threshold=-1)
     app = create_app(Settings(overrun_threshold=25, data_dir=tmp_path, simulated_rig=False, tracker_udp="off"))
     assert app.state.hub.health.overrun_threshold == 25
+
+
+class FakeChild:
+    def __init__(self):
+        self.proc = None
+
+    @property
+    def alive(self):
+        return self.proc is not None and self.proc.returncode is None
+
+
+class FakeProc:
+    def __init__(self):
+        self.returncode = None
+
+
+def test_the_periodic_check_sees_exits_and_restarts_even_between_two_polls():
+    async def go():
+        hub = Hub(server_name="test", tick_hz=1000, state_hz=60)
+        events = []
+        hub.on_child_start = lambda what: events.append(("start", what))
+        hub.on_child_exit = lambda what, code: events.append(("exit", what, code))
+        loop, host = FakeChild(), FakeChild()
+        task = asyncio.create_task(hub.watch_health({"loop": loop, "device_host": host}))
+        loop.proc, host.proc = FakeProc(), FakeProc()
+        await asyncio.sleep(0.06)
+        assert sorted(events) == [("start", "device_host"), ("start", "loop")]
+        events.clear()
+        loop.proc.returncode = -9
+        await asyncio.sleep(0.06)
+        assert events == [("exit", "loop", -9)]
+        events.clear()
+        host.proc.returncode = 1
+        host.proc = FakeProc()  # exited and restarted before the next poll
+        await asyncio.sleep(0.06)
+        assert events == [("exit", "device_host", 1), ("start", "device_host")]
+        task.cancel()
+
+    asyncio.run(go())
