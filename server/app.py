@@ -36,7 +36,8 @@ async def _flush_recorder(experiment: Experiment, every_s: float = 0.25) -> None
 def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     """`tracker_sock`: the tracker UDP port bound already (viestac serve binds it first, to fail
     early and print it); otherwise it is bound at start-up from settings.tracker_address()."""
-    hub = Hub(server_name=f"viestac/{__version__}", tick_hz=settings.tick_hz, state_hz=settings.state_hz)
+    hub = Hub(server_name=f"viestac/{__version__}", tick_hz=settings.tick_hz, state_hz=settings.state_hz,
+              overrun_threshold=settings.overrun_threshold)
     supervisor = LoopSupervisor(settings.loop_config(), hub.on_loop_record)
     supervisor.owner = hub.owner  # one thread owns both: the event loop's (server/hub/owner.py)
     hub.send_to_loop = supervisor.send
@@ -62,6 +63,10 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
         devices = DeviceHost(configs, on_report=hub.on_device_report,
                              on_profiles=lambda profiles: setattr(hub, "device_profiles", profiles))
         devices.owner = hub.owner
+        # health hears of every start and exit at once, not at its next 25 ms poll
+        for name, child in (("loop", supervisor), ("device_host", devices)):
+            child.on_start = lambda _what, name=name: hub.on_child_start(name)
+            child.on_exit = lambda _what, code, name=name: hub.on_child_exit(name, code)
         devices.start()  # the serial devices and the cue feed run in a process of their own
         supervisor.cue_sock = devices.loop_end  # the loop sends changed cues straight to it
         app.state.device_host = devices
@@ -75,12 +80,14 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
             log.info("tracker UDP port: %s (docs/protocol.md)", app.state.tracker_udp)
         supervisor.start()
         flusher = asyncio.get_running_loop().create_task(_flush_recorder(experiment))
+        health = asyncio.get_running_loop().create_task(hub.watch_health({"loop": supervisor, "device_host": devices}))
         # A full collection over FastAPI's start-up heap pauses this process, event loop and all,
         # for 10-20 ms (measured when the device threads still lived here); freeze it.
         gc.collect()
         gc.freeze()
         yield
         flusher.cancel()
+        health.cancel()
         await asyncio.to_thread(experiment.flush)
         await supervisor.stop()
         await devices.stop()  # every actuator off first, then the ports are closed

@@ -40,7 +40,8 @@ def _serve(args: argparse.Namespace) -> int:
                             gate_dwell_s=args.gate_dwell_ms / 1000.0, devices=tuple(devices),
                             simulated_rig=not args.no_rig, rig_models=tuple(m for m in args.rig.split(",") if m),
                             data_dir=Path(args.data_dir), studies_dir=Path(args.studies),
-                            record_every=args.record_every, force=args.force, tracker_udp=args.tracker_udp)
+                            record_every=args.record_every, force=args.force, tracker_udp=args.tracker_udp,
+                            overrun_threshold=args.overrun_threshold)
     except (ParamError, ProfileError, ValueError) as exc:
         print(f"viestac serve: {exc}", file=sys.stderr)
         return 2
@@ -359,6 +360,8 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--tracker-udp", default="auto", metavar="HOST:PORT|PORT|auto|off",
                        help="the UDP port the 1 kHz loop reads tracker samples from, the shortest tracker -> device "
                             "path (docs/protocol.md); auto = the HTTP host and port + 1 (a free one with --port 0)")
+    serve.add_argument("--overrun-threshold", type=int, default=10, metavar="N",
+                       help="/api/health is degraded above N loop overruns (periods > 1.5 ms) in 10 s (default 10)")
     serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     serve.set_defaults(func=_serve)
 

@@ -38,6 +38,7 @@ class Settings:
     record_every: int = 10          # trajectory rows every Nth tick during a trial (1: every tick)
     force: bool = False             # run scenarios no configured device can show (serve --force; studies too)
     tracker_udp: str = "auto"       # the loop's tracker UDP port: "auto" (HTTP host, HTTP port + 1), HOST:PORT, PORT, "off"
+    overrun_threshold: int = 10     # health is degraded above this many loop overruns (> 1.5 ms) per 10 s
 
     def __post_init__(self) -> None:
         if not 0 <= self.port <= 65535:
@@ -48,6 +49,8 @@ class Settings:
             raise ValueError("state_hz must be in 1..tick_hz")
         if not 1 <= self.record_every <= 1000:
             raise ValueError("record_every must be in 1..1000 ticks")
+        if not 0 <= self.overrun_threshold <= 10_000:
+            raise ValueError("overrun_threshold must be in 0..10000 overruns per 10 s")
         if not (0.0 <= self.gate_band <= 0.1 and 0.0 <= self.gate_dwell_s <= 1.0):
             raise ValueError("gate band must be in [0, 0.1] scene units and dwell in [0, 1] s")
         spec = registry.resolve(self.scenario)  # fails early, with a hint

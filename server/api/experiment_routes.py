@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Header, HTTPException, Request
+from fastapi import APIRouter, Depends, Header, HTTPException, Query, Request
 from pydantic import BaseModel, Field
 
 from server.core.scenario import ParamError
@@ -153,9 +153,11 @@ def notes(session_id: str, body: NotesRequest, experiment: ExperimentDep, token:
 
 @router.post("/sessions/{session_id}/trials/{seq}/start", summary="Start the next pending trial (its scenario and "
                                                                   "trial go to the loop, recording starts)")
-def start(session_id: str, seq: int, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+def start(session_id: str, seq: int, experiment: ExperimentDep, token: TokenDep = None,
+          force: bool = Query(False, description="start even when a device the scenario needs is not "
+                                                 "connected (otherwise 409)")) -> dict:
     try:
-        return experiment.start(session_id, token, seq)
+        return experiment.start(session_id, token, seq, force)
     except ERRORS as exc:
         raise _http(exc) from None
 

@@ -18,7 +18,7 @@ from server.core.scenario import ParamError, describe
 from scenarios.registry import SCENARIOS, UnknownScenario
 from server import __version__
 from server.hub.device_host import DeviceHostUnavailable
-from server.hub.control import BusyError, ScenarioRefused
+from server.hub.control import BusyError, DeviceMissing, ScenarioRefused
 from server.hub.hub import Hub
 from server.hub.supervisor import LoopSupervisor
 
@@ -38,10 +38,12 @@ HubDep = Annotated[Hub, Depends(get_hub)]
 SupervisorDep = Annotated[LoopSupervisor, Depends(get_supervisor)]
 
 
-@router.get("/health", summary="Server and 1 kHz loop status, with loop timing over the last 10 s")
+@router.get("/health", summary="Server and 1 kHz loop status (ok | degraded | starting, with the reasons a "
+                                "person can act on), with loop timing over the last 10 s")
 async def health(request: Request, hub: HubDep, supervisor: SupervisorDep) -> dict:
     alive = supervisor.alive
-    return {"status": "ok" if alive and hub.states_received else "starting" if alive else "degraded",
+    report = hub.check_health()  # server/hub/health.py; the same verdict the clients' `health` message carries
+    return {"status": report.status, "reasons": list(report.reasons), "notes": list(report.notes),
             "version": __version__, "uptime_s": round(time.monotonic() - _STARTED, 3),
             "loop": {"alive": alive, "pid": hub.loop_info.get("pid"), "rt": hub.telemetry.rt,
                      "restarts": supervisor.restarts, "scenario": hub.loop_info.get("scenario"),
@@ -70,6 +72,7 @@ class TrialRequest(BaseModel):
     phase: Literal["training", "trial", "main"]
     params: dict[str, Any] = Field(default_factory=dict, description="the scenario's TRIAL_PARAMS")
     index: int = Field(0, ge=0, description="trial number within its phase (shown to the participant)")
+    force: bool = Field(False, description="start even when a device the scenario needs is not connected")
 
 
 class CommandRequest(BaseModel):
@@ -105,10 +108,13 @@ async def switch_scenario(body: ScenarioRequest, hub: HubDep) -> dict:
         raise _busy_or_bad(exc) from None
 
 
-@router.post("/trial", summary="Start a trial of the running scenario (phase and trial parameters)")
+@router.post("/trial", summary="Start a trial of the running scenario (phase and trial parameters); 409 when a "
+                               "device it needs is not connected, unless force")
 async def start_trial(body: TrialRequest, hub: HubDep) -> dict:
     try:
-        return {"trial": hub.set_trial(body.phase, body.params, body.index)}
+        return {"trial": hub.set_trial(body.phase, body.params, body.index, body.force)}
+    except DeviceMissing as exc:
+        raise HTTPException(409, exc.report.message) from None
     except (ParamError, BusyError) as exc:
         raise _busy_or_bad(exc) from None
 

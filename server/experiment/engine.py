@@ -58,7 +58,10 @@ class HubPort(Protocol):
 
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict: ...
 
-    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None: ...
+    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0,
+                  force: bool = False) -> dict | None: ...
+
+    def require_devices(self, scenario: str | None = None, force: bool = False) -> None: ...
 
     def set_recording(self, every_n_ticks: int) -> None: ...
 
@@ -226,8 +229,10 @@ class Experiment:
             return None
 
     # -- the lifecycle ------------------------------------------------------------------------
-    def start(self, session_id: str, token: str | None, seq: int) -> dict:
-        """Start trial `seq`, which must be the session's next pending trial."""
+    def start(self, session_id: str, token: str | None, seq: int, force: bool = False) -> dict:
+        """Start trial `seq`, which must be the session's next pending trial. A trial that presents
+        the scenario is refused (DeviceMissing, 409) when a device it needs is not connected,
+        unless `force` (or the server runs with --force)."""
         with self._lock:
             self._check_token(session_id, token)
             trial = self._trial(session_id, seq)
@@ -238,18 +243,20 @@ class Experiment:
             running = self.store.running()
             if running is not None:
                 raise Conflict(f"trial {running.seq} of session {running.session_id} is still running")
-            self._prepare_loop(trial)
+            self._prepare_loop(trial, force)
+            if trial.kind != "questionnaire":  # checked before anything is recorded: a refusal changes nothing
+                self.hub.require_devices(trial.scenario, force or self.force_scenarios)
             started = self.store.transition(trial.id, "running", expect="pending")
             self.recorder.begin(session_id, started.id, started.attempt, self._trial_phase(started), started.index)
             self.hub.set_recording(self.record_every)
             self._set_trial(started)
         return started.to_dict()
 
-    def _prepare_loop(self, trial: TrialRow) -> None:
+    def _prepare_loop(self, trial: TrialRow, force: bool = False) -> None:
         state = self.hub.scenario_state or {}
         if state.get("id") != trial.scenario or state.get("params") != trial.scenario_params:
             self.hub.switch_scenario(trial.scenario, dict(trial.scenario_params), self._seed(trial),
-                                     force=self.force_scenarios)
+                                     force=self.force_scenarios or force)
 
     def _seed(self, trial: TrialRow) -> int:
         session = self.store.session(trial.session_id)
@@ -269,7 +276,7 @@ class Experiment:
         if phase is None:
             self.hub.set_trial(None)
         else:
-            self.hub.set_trial(phase, dict(trial.params), trial.index)
+            self.hub.set_trial(phase, dict(trial.params), trial.index, force=True)  # devices checked in start
 
     def answer(self, session_id: str, token: str | None, seq: int, question: str, value: Any,
                entered_by: str) -> dict:

@@ -10,14 +10,16 @@ raises BusyError and nothing changes here.
 
 Errors (REST and the hub map them to HTTP codes and `error` messages): ParamError (a bad value),
 PermissionError (a command the sender's role may not send), registry.UnknownScenario,
-ScenarioRefused (no configured device shows the scenario), BusyError.
+ScenarioRefused (no configured device shows the scenario), DeviceMissing (a trial needs a device
+that is not connected), BusyError.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any, Callable, Mapping
 
-from devices.capability import CapabilityReport, check
+from devices.capability import CapabilityReport, check, missing_device_text
 from scenarios import registry
 from server.core.scenario import ParamError, Trial, describe, find_control
 
@@ -30,17 +32,30 @@ class ScenarioRefused(Exception):
         self.report = report
 
 
+class DeviceMissing(ScenarioRefused):
+    """A trial refused because a required dimension is shown only by devices that are not
+    connected (report.missing names them); `force` starts it anyway."""
+
+    def __init__(self, report: CapabilityReport):
+        text = "; ".join(missing_device_text(report.scenario, m.dimension, device, status)
+                         for m in report.missing for device, status in zip(m.devices, m.statuses))
+        super().__init__(replace(report, message=text + ". The trial was not started (force: true starts it anyway)."))
+
+
 class BusyError(RuntimeError):
     """The loop's mailbox is full; the request was dropped."""
 
 
 class ScenarioControl:
     """`send`: hands one record to the loop (False: dropped). `profiles`: the device profiles by
-    name as they are now (for the capability check)."""
+    name as they are now (for the capability check); `statuses`: each device's connection status
+    as last reported (a device not in it counts as connected)."""
 
-    def __init__(self, send: Callable[[list], bool], profiles: Callable[[], Mapping[str, Any]]):
+    def __init__(self, send: Callable[[list], bool], profiles: Callable[[], Mapping[str, Any]],
+                 statuses: Callable[[], Mapping[str, str]] = dict):
         self.send = send
         self.profiles = profiles
+        self.statuses = statuses
         self.scenario_cls = None  # the scenario the loop runs (or was last told to run)
 
     def announced(self, state: Mapping[str, Any]) -> None:
@@ -70,7 +85,17 @@ class ScenarioControl:
 
     def capability(self, scenario_cls=None) -> CapabilityReport:
         cls = scenario_cls or self.scenario_cls
-        return check(cls.id, tuple(cls.REQUIRES), self.profiles())
+        return check(cls.id, tuple(cls.REQUIRES), self.profiles(), self.statuses())
+
+    def require_devices(self, scenario: str | None = None, force: bool = False) -> None:
+        """DeviceMissing unless every required dimension of `scenario` (default: the running one)
+        that a configured device shows is shown by a connected one, or `force`."""
+        cls = registry.resolve(scenario).factory if scenario else self.scenario_cls
+        if cls is None or force:
+            return
+        report = self.capability(cls)
+        if report.missing:
+            raise DeviceMissing(report)
 
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
         """Ask the loop to run another scenario (registry.UnknownScenario, ParamError,
@@ -87,13 +112,16 @@ class ScenarioControl:
         self.scenario_cls = spec.factory
         return {"id": spec.id, "params": checked, "seed": seed, "capability": report.to_dict()}
 
-    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None:
-        """Start a trial of the running scenario (phase None ends it)."""
+    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0,
+                  force: bool = False) -> dict | None:
+        """Start a trial of the running scenario (phase None ends it); DeviceMissing when a
+        device it needs is not connected, unless `force`."""
         trial = None
         if phase is not None:
             if self.scenario_cls is None:
                 raise ParamError("no scenario is running yet")
             trial = Trial.parse(self.scenario_cls.TRIAL_PARAMS, phase, params, index).to_dict()
+            self.require_devices(force=force)
         if not self.send(["trial", trial]):
             raise BusyError("the loop's input mailbox is full; try again")
         return trial

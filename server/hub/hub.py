@@ -11,6 +11,10 @@ roles, errors, what each client is sent and in which order) and the fan-out of t
   instead of after all 64 sends (the design measurements, docs/reference.md, saw tracker → device
   p99 4-6 ms at 32+ viewers when tracker frames queued behind one broadcast burst).
 - One thread owns the hub, the event loop's (server/hub/owner.py).
+- Health (server/hub/health.py) is fed from here: the loop's records, the device reports, the
+  child processes' starts and exits; it is evaluated every `HEALTH_EVERY_S` and on every record
+  that can change it, and each client is sent a `health` message when the status or the set of
+  reason codes changes.
 """
 
 from __future__ import annotations
@@ -23,10 +27,11 @@ from itertools import count
 
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
-from devices.capability import CapabilityReport
+from devices.capability import CapabilityReport, showing
 from scenarios import registry
 from server.core.scenario import ParamError
 from server.hub.control import BusyError, ScenarioControl
+from server.hub.health import HOST_DOWN, Health, HealthReport
 from server.hub.owner import Owner
 from server.hub.session import OPEN, Access, Close, Command, ServerInfo, Session, ToLoop
 from server.hub.telemetry import LoopTelemetry
@@ -35,6 +40,7 @@ from server.wire import codec, messages
 log = logging.getLogger("viestac.hub")
 
 SLICE = 8
+HEALTH_EVERY_S = 0.025  # a fault shows in health within 100 ms: 50 ms stall rule + this + a poll
 FLUSH_BEFORE_CLOSE_S = 2.0
 
 
@@ -48,9 +54,15 @@ class Connection:
 
 
 class Hub:
-    def __init__(self, *, server_name: str, tick_hz: int, state_hz: float):
+    def __init__(self, *, server_name: str, tick_hz: int, state_hz: float, overrun_threshold: int = 10):
+        self.health = Health(overrun_threshold=overrun_threshold)
+        self.health_report = HealthReport("starting")
+        self._health_frames: dict[str, bytes | str] = {}
+        self.device_statuses: dict[str, str] = {}  # name → status as the device host last reported it
+        self._device_profiles: dict = {}
         # scenario control (server/hub/control.py); send_to_loop and device_profiles are wired later
-        self.control = ScenarioControl(lambda record: self.send_to_loop(record), lambda: self.device_profiles)
+        self.control = ScenarioControl(lambda record: self.send_to_loop(record), lambda: self.device_profiles,
+                                       lambda: self.device_statuses)
         self.server_name = server_name
         self.tick_hz = tick_hz
         self.state_hz = state_hz
@@ -68,7 +80,6 @@ class Hub:
         self.last_state: dict | None = None
         self.states_received = 0
         self._device_report: dict | None = None
-        self.device_profiles: dict = {}  # name → DeviceProfile as the devices identified themselves (device host)
         self.tracker_applied: deque[list] = deque(maxlen=4096)  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.log_records: deque[dict] = deque(maxlen=200)
         self._frames: dict[str, bytes | str] = {}
@@ -88,6 +99,12 @@ class Hub:
         kind = record[0]
         if kind == "state":
             self._on_state(record[1])
+        elif kind == "fault":  # a tick failed (LoopCore; at most once per 100 failing ticks)
+            self.health.fault(time.monotonic(), record[1].get("failures", 0), record[1].get("error", ""))
+            self.check_health()
+        elif kind == "recovered":
+            self.health.recovered(time.monotonic(), record[1].get("failures"))
+            self.check_health()
         elif kind == "scene":
             self._on_scene(record[1], record[2])
         elif kind == "hello":
@@ -100,6 +117,7 @@ class Hub:
         elif kind == "scenario":
             self.scenario_state = record[1]
             self.scenario_cls = registry.resolve(record[1]["id"]).factory
+            self._update_needs()
             self.on_scenario(record[1])
         elif kind == "log":
             level = logging.ERROR if record[1] == "error" else logging.WARNING
@@ -134,6 +152,11 @@ class Hub:
         """The rig's report (device host process): refusals no device shows, and each device's
         status. The loop learns it (TickContext.refusals), listeners record it."""
         self.owner.check()
+        statuses = report.get("status") or {}
+        if statuses != self.device_statuses:
+            self.device_statuses = dict(statuses)
+            self.health.devices(statuses, time.monotonic())
+            self.check_health()
         if report != self._device_report:
             self._device_report = report
             self.send_to_loop(["devices", report])
@@ -142,7 +165,8 @@ class Hub:
 
     def _on_state(self, rec: dict) -> None:
         # The devices got this tick's cues already: the loop sent them to the device host's feed.
-        self.telemetry.add(rec["samples"])
+        overruns = self.telemetry.add(rec["samples"])
+        self.health.state(time.monotonic(), rec.get("failures", 0), overruns)
         self.telemetry.resyncs = rec.get("resyncs", 0)
         if rec["trackers"]:
             self.tracker_applied.extend(rec["trackers"])
@@ -182,6 +206,8 @@ class Hub:
                           access=self.access)
         if self._scene_frames:
             session.set_scene(self.scene_hash, self._scene_frames)
+        if self._health_frames:
+            session.set_health(self._health_frames)
         c = Connection(ws, session)
         self.connections[session.id] = c
         sender = asyncio.create_task(self._sender(c))
@@ -242,6 +268,73 @@ class Hub:
             except BusyError as exc:
                 c.session.reply_error("busy", str(exc))
 
+    # ---- health (server/hub/health.py) ------------------------------------------------------
+    @property
+    def device_profiles(self) -> dict:
+        """name → DeviceProfile as the devices identified themselves (device host)."""
+        return self._device_profiles
+
+    @device_profiles.setter
+    def device_profiles(self, profiles: dict) -> None:
+        self._device_profiles = profiles
+        self._update_needs()
+
+    def _update_needs(self) -> None:
+        """Which devices show each dimension the running scenario requires (for device_missing)."""
+        cls = self.control.scenario_cls
+        if cls is not None:
+            self.health.needs(cls.id, showing(tuple(cls.REQUIRES), self._device_profiles))
+
+    def on_child_start(self, what: str) -> None:
+        """A child process ("loop" or "device_host") started (the supervisor's on_start hook)."""
+        now = time.monotonic()
+        (self.health.loop_started if what == "loop" else self.health.device_host_started)(now)
+        self.check_health()
+
+    def on_child_exit(self, what: str, returncode: int | None) -> None:
+        """A child process exited (the supervisor's on_exit hook)."""
+        now = time.monotonic()
+        if what == "loop":
+            self.health.loop_exited(now, returncode)
+        else:
+            self.health.device_host_exited(now, returncode)
+            # nobody drives them now; the restarted host reports them again
+            self.device_statuses = {name: HOST_DOWN for name in self._device_profiles}
+        self.check_health()
+
+    async def watch_health(self, children: dict) -> None:
+        """Every HEALTH_EVERY_S: poll the child processes (`children`: "loop" / "device_host" →
+        ChildProcess), then evaluate health. The poll stands in until the children report their
+        starts and exits themselves; on_child_start/on_child_exit take either."""
+        seen: dict[str, object] = {what: None for what in children}  # the process last seen running
+        while True:
+            for what, child in children.items():
+                proc = child.proc if child.alive else None
+                if proc is not seen[what]:
+                    if seen[what] is not None:  # it died (and may be running again already: a new process)
+                        self.on_child_exit(what, seen[what].returncode)
+                    if proc is not None:
+                        self.on_child_start(what)
+                    seen[what] = proc
+            self.check_health()
+            await asyncio.sleep(HEALTH_EVERY_S)
+
+    def check_health(self) -> HealthReport:
+        """Evaluate health now; clients are sent a `health` message when the status or the set of
+        reason codes changed."""
+        report = self.health.evaluate(time.monotonic())
+        previous, self.health_report = self.health_report, report
+        if not self._health_frames or (report.status, report.codes) != (previous.status, previous.codes):
+            if report.status != previous.status:
+                log.log(logging.INFO if report.status == "ok" else logging.WARNING, "health: %s%s", report.status,
+                        "".join(f"; {r['message']}" for r in report.reasons))
+            message = messages.health(report.status, list(report.reasons))
+            self._health_frames = {fmt: codec.encode(message, fmt) for fmt in codec.FORMATS}
+            for c in self.connections.values():
+                c.session.set_health(self._health_frames)
+                c.wake.set()
+        return report
+
     # ---- scenario control (WebSocket input and REST share these; server/hub/control.py) ----
     @property
     def scenario_cls(self):
@@ -263,9 +356,15 @@ class Hub:
         ScenarioRefused, BusyError on bad requests; nothing is sent then)."""
         return self.control.switch_scenario(name, params, seed, force)
 
-    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None:
-        """Start a trial of the running scenario (phase None ends it)."""
-        return self.control.set_trial(phase, params, index)
+    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0,
+                  force: bool = False) -> dict | None:
+        """Start a trial of the running scenario (phase None ends it); DeviceMissing when a device
+        it needs is not connected, unless `force`."""
+        return self.control.set_trial(phase, params, index, force)
+
+    def require_devices(self, scenario: str | None = None, force: bool = False) -> None:
+        """DeviceMissing when a device `scenario` (default: the running one) needs is not connected."""
+        self.control.require_devices(scenario, force)
 
     def scenario_info(self) -> dict:
         # the scene hash names the scene this scenario announced (the loop sends the scene first)

@@ -84,8 +84,12 @@ class HubForWorkers:
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
         return self._owner.call(self._hub.switch_scenario, name, params, seed, force)
 
-    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None:
-        return self._owner.call(self._hub.set_trial, phase, params, index)
+    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0,
+                  force: bool = False) -> dict | None:
+        return self._owner.call(self._hub.set_trial, phase, params, index, force)
+
+    def require_devices(self, scenario: str | None = None, force: bool = False) -> None:
+        self._owner.call(self._hub.require_devices, scenario, force)
 
     def set_recording(self, every_n_ticks: int) -> None:
         self._owner.call(self._hub.set_recording, every_n_ticks)

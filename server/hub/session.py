@@ -8,7 +8,7 @@ protocol decision about one client:
 - the version check (`unsupported_version`, then close 1002) and which messages a role may send
   (`forbidden`), through `Access`, the seam where access control will plug in;
 - decoding and validation (server/wire), with exactly one `error` per bad frame;
-- what the client is sent: an ordered control queue (welcome, scene, errors, close) and a
+- what the client is sent: an ordered control queue (welcome, scene, health, errors, close) and a
   latest-wins slot for state frames, taken by the shell's sender with `next_frame()`;
 - the ordering rule: every state after `scene` H names H until the next `scene`. A state frame
   whose scene is not the last scene handed out is dropped when it is taken (the slot may hold a
@@ -94,12 +94,13 @@ class Session:
         self.welcomed = False
         self.close_code: int | None = None
         self.hello_deadline_ns = opened_ns + hello_timeout_ns
-        # control items: (kind, frame, scene hash or None) with kind welcome | scene | error, or a
+        # control items: (kind, frame, scene hash or None) with kind welcome | scene | health | error, or a
         # Close; the slot: (frame, scene hash)
         self._control: deque = deque()
         self._slot: tuple[bytes | str, str] | None = None
         self._pending_errors = 0
         self._scene: tuple[str, bytes | str] | None = None  # the current scene in this client's format
+        self._health: bytes | str | None = None  # the current `health` message in this client's format
         self._sent_scene: str | None = None  # the last scene handed to the sender
         self._closed = False  # Close was handed out: nothing more goes
         # counters (GET /api/clients)
@@ -204,6 +205,8 @@ class Session:
         self._control.append(("welcome", codec.encode(welcome, self.fmt), None))
         if self._scene is not None:
             self._control.append(("scene", self._scene[1], self._scene[0]))
+        if self._health is not None:  # after the scene: a v1.0 client reads welcome, then scene
+            self._control.append(("health", self._health, None))
 
     def set_scene(self, scene_hash: str, frames: Mapping[str, bytes | str]) -> None:
         """The current scene (`frames`: its scene message encoded per format). A welcomed client
@@ -214,6 +217,15 @@ class Session:
         if any(_is_scene(item) for item in self._control):
             self._control = deque(item for item in self._control if not _is_scene(item))
         self._control.append(("scene", self._scene[1], scene_hash))
+
+    def set_health(self, frames: Mapping[str, bytes | str]) -> None:
+        """The server's current `health` message (`frames`: encoded per format). A welcomed client
+        is sent it; one still waiting in the queue is superseded (the latest is what is true)."""
+        self._health = frames[self.fmt]
+        if not self.welcomed or self.closing:
+            return
+        self._control = deque(item for item in self._control if not _is_kind(item, "health"))
+        self._control.append(("health", self._health, None))
 
     def offer_state(self, frame: bytes | str, scene_hash: str) -> None:
         """The latest state frame (in this client's format) and the scene it names; it replaces a
@@ -256,4 +268,8 @@ class Session:
 
 
 def _is_scene(item) -> bool:
-    return isinstance(item, tuple) and item[0] == "scene"
+    return _is_kind(item, "scene")
+
+
+def _is_kind(item, kind: str) -> bool:
+    return isinstance(item, tuple) and item[0] == kind

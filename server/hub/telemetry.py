@@ -31,10 +31,11 @@ class LoopTelemetry:
         self._max_cost_us = 0.0
         self._ticks_since_reset = 0
 
-    def add(self, samples: bytes) -> None:
+    def add(self, samples: bytes) -> int:
+        """Take a state record's (period, cost) pairs; returns how many of its periods were overruns."""
         pairs = np.frombuffer(samples, dtype=np.int64)
         if pairs.size < 2:
-            return
+            return 0
         periods_us = pairs[0::2] / 1000.0
         costs_us = pairs[1::2] / 1000.0
         n = periods_us.size
@@ -47,6 +48,7 @@ class LoopTelemetry:
         self._max_period_us = max(self._max_period_us, float(periods_us.max()))
         self._max_cost_us = max(self._max_cost_us, float(costs_us.max()))
         self._ticks_since_reset += n
+        return int(np.count_nonzero(pairs[0::2] > OVERRUN_US * 1000))
 
     @property
     def ticks(self) -> int:

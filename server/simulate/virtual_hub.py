@@ -51,8 +51,12 @@ class VirtualHub:
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
         return self.control.switch_scenario(name, params, seed, force)
 
-    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0) -> dict | None:
-        return self.control.set_trial(phase, params, index)
+    def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0,
+                  force: bool = False) -> dict | None:
+        return self.control.set_trial(phase, params, index, force)
+
+    def require_devices(self, scenario: str | None = None, force: bool = False) -> None:
+        self.control.require_devices(scenario, force)
 
     def set_recording(self, every_n_ticks: int) -> None:
         self.record_every = every_n_ticks

@@ -122,3 +122,10 @@ def state_message(record: Mapping[str, Any], telemetry: dict) -> dict:
 def error(code: str, message: str) -> dict:
     return {"type": "error", "code": code, "message": message}
 
+
+
+def health(status: str, reasons: list[Mapping[str, Any]]) -> dict:
+    """The `health` message: the status and each reason's code and message (no `since_s`: it would
+    change the frame every time without news)."""
+    return {"type": "health", "status": status,
+            "reasons": [{"code": r["code"], "message": r["message"]} for r in reasons]}

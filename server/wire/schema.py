@@ -269,7 +269,23 @@ ERROR = Message("error", "server_to_client", "", (
     Field("message", string(), "a sentence for a person"),
 ))
 
-MESSAGES: dict[str, Message] = {m.name: m for m in (HELLO, TRACKER, INPUT, WELCOME, SCENE, STATE, ERROR)}
+HEALTH_STATUSES = ("ok", "degraded", "starting")
+
+HEALTH = Message("health", "server_to_client", "after `welcome` and the first `scene`, and whenever the server's "
+                 "health status or the set of reason codes changes", (
+    _type("health"),
+    Field("status", enum(HEALTH_STATUSES), "`ok`; `degraded` while any reason holds (clients tell the user: the "
+          "console a banner, the participant's HUD that tactile feedback is paused); `starting` before the haptic "
+          "loop's first tick", since=1),
+    Field("reasons", array(mapping(string(), "map `{code, message}`"), "array of `{code, message}`"),
+          "why it is not `ok`: `code` is one of `loop_down`, `loop_stalled`, `tick_failures`, `device_missing`, "
+          "`device_host_down`, `device_host_restarted`, `overruns` (a client treats a code it does not know like "
+          "any other); `message` is a sentence for a person, e.g. \"device 'ferrovibe' is disconnected: check its "
+          "cable and power; the running scenario 'contact-angle' needs it for macro-roughness (tilt)\". "
+          "`GET /api/health` lists the same reasons", since=1),
+))
+
+MESSAGES: dict[str, Message] = {m.name: m for m in (HELLO, TRACKER, INPUT, WELCOME, SCENE, STATE, ERROR, HEALTH)}
 CLIENT_MESSAGE_NAMES = tuple(name for name, m in MESSAGES.items() if m.direction == "client_to_server")
 
 ERROR_CODES: dict[str, str] = {

@@ -172,6 +172,12 @@ MESSAGES = [
     ("error-unsupported-version", "server_to_client",
      {"type": "error", "code": "unsupported_version",
       "message": "protocol version 2 is not supported; this server speaks v1"}),
+    ("health-ok", "server_to_client", {"type": "health", "status": "ok", "reasons": []}),
+    ("health-degraded", "server_to_client",
+     {"type": "health", "status": "degraded", "reasons": [
+         {"code": "device_missing", "message": "device 'ferrovibe' is disconnected: check its cable and power; "
+                                               "the running scenario 'contact-angle' needs it for macro-roughness (tilt)"},
+         {"code": "loop_stalled", "message": "the haptic loop has not ticked for 0.07 s"}]}),
 ]
 
 # ---- frames a receiver accepts although no canonical encoder writes them --------------------------
@@ -338,6 +344,9 @@ INVALID_SERVER = [
      None, "non_finite"),
     bad("error-code-number", {"type": "error", "code": 3, "message": "x"}, "bad_message"),
     bad("error-message-missing", {"type": "error", "code": "busy"}, "bad_message"),
+    bad("health-status-unknown", {"type": "health", "status": "fine", "reasons": []}, "bad_message"),
+    bad("health-reason-code-number", {"type": "health", "status": "degraded", "reasons": [{"code": 3}]},
+        "bad_message"),
 ]
 
 # ---- scene hash: canonical JSON and hash --------------------------------------------------------------

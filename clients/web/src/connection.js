@@ -31,6 +31,7 @@ export class Connection {
     this.onWelcome = noop;
     this.onScene = noop;
     this.onState = noop;
+    this.onHealth = noop; // the server's health: {status, reasons: [{code, message}]}
     this.onError = noop; // (ProtocolError-like {code, message}, source: 'server' | 'client')
     this.onStatus = noop; // (status string, detail string)
 
@@ -149,6 +150,9 @@ export class Connection {
         break;
       case 'state':
         this.onState(msg);
+        break;
+      case 'health':
+        this.onHealth(msg);
         break;
       case 'error':
         this.onError(msg, 'server');

@@ -1,5 +1,6 @@
-// DOM overlay: scenario HUD text, connection status and a telemetry line. Desktop only (DOM
-// labels do not show inside an immersive WebXR session; that client draws into the scene).
+// DOM overlay: scenario HUD text, connection status, the server's health and a telemetry line.
+// Desktop only (DOM labels do not show inside an immersive WebXR session; that client draws into
+// the scene).
 
 const EVENTS_SHOWN = 3;
 
@@ -16,10 +17,30 @@ export function formatEvent({ tick, t, name, ...rest }) {
   return [`${when}${name ?? '?'}`, ...extra].join(' ');
 }
 
+// What a participant is told about a health reason: a few words, no internals (the console
+// shows the full messages). Codes this client does not know read as a server problem.
+const HEALTH_WORDS = {
+  device_missing: 'device disconnected',
+  device_host_down: 'devices restarting',
+  device_host_restarted: 'devices restarting',
+  loop_down: 'server restarting',
+  loop_stalled: 'server not responding',
+  tick_failures: 'server error',
+  overruns: 'server overloaded',
+};
+
+/** The short line for a `health` message: '' when ok or starting, else
+ * 'Tactile feedback paused — device disconnected' (each distinct cause once). */
+export function healthLine(health) {
+  if (health?.status !== 'degraded') return '';
+  const words = [...new Set((health.reasons ?? []).map((r) => HEALTH_WORDS[r.code] ?? 'server problem'))];
+  return `Tactile feedback paused — ${words.length ? words.join(', ') : 'server problem'}`;
+}
+
 export class Hud {
   /**
    * @param {{hud: HTMLElement, status: HTMLElement, telemetry: HTMLElement, values?: HTMLElement,
-   *          events?: HTMLElement}} els
+   *          events?: HTMLElement, health?: HTMLElement}} els
    */
   constructor(els, { showValues = false } = {}) {
     this.els = els;
@@ -39,6 +60,15 @@ export class Hud {
   setStatus(text, kind = 'info') {
     this.els.status.textContent = text;
     this.els.status.dataset.kind = kind;
+  }
+
+  /** The server's health (a `health` message): one short line while degraded, hidden otherwise. */
+  setHealth(health) {
+    if (!this.els.health) return;
+    const line = healthLine(health);
+    this.els.health.textContent = line;
+    this.els.health.hidden = line === '';
+    this.els.health.title = (health?.reasons ?? []).map((r) => r.message).join('\n');
   }
 
   /** Telemetry line: the server loop's p99 period and overruns, our fps and state rate. */

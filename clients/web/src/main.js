@@ -35,6 +35,7 @@ function main() {
     telemetry: document.getElementById('telemetry'),
     values: document.getElementById('values'),
     events: document.getElementById('events'),
+    health: document.getElementById('health'),
   }, { showValues: opts.role !== 'participant' });
 
   const stats = { framesReceived: 0, trackerSent: 0, trackerDropped: 0, lastStateFrame: null, lastError: null };
@@ -61,6 +62,7 @@ function main() {
     clientId: null,
     sceneHash: null,
     renderedHash: null, // hash of the scene last drawn
+    health: null, // the server's last `health` message
     stats,
     renderer: view.rendererInfo(),
     memory: () => ({ ...view.renderer.info.memory }),
@@ -111,6 +113,10 @@ function main() {
     hud.setValues(s.values);
     hud.addEvents(s.events);
     lastTelemetry = s.telemetry;
+  };
+  conn.onHealth = (h) => {
+    hook.health = h;
+    hud.setHealth(h);
   };
   conn.onError = (e, source) => {
     stats.lastError = { code: e.code, message: e.message, source };

@@ -722,6 +722,56 @@ export const SCHEMA = {
      "meaning": "a sentence for a person"
     }
    ]
+  },
+  {
+   "name": "health",
+   "direction": "server_to_client",
+   "fields": [
+    {
+     "name": "type",
+     "type": {
+      "kind": "const",
+      "value": "health",
+      "doc": "`\"health\"`"
+     },
+     "required": true,
+     "since": 0,
+     "meaning": ""
+    },
+    {
+     "name": "status",
+     "type": {
+      "kind": "enum",
+      "values": [
+       "ok",
+       "degraded",
+       "starting"
+      ],
+      "doc": "`\"ok\"` \\| `\"degraded\"` \\| `\"starting\"`"
+     },
+     "required": true,
+     "since": 1,
+     "meaning": "`ok`; `degraded` while any reason holds (clients tell the user: the console a banner, the participant's HUD that tactile feedback is paused); `starting` before the haptic loop's first tick"
+    },
+    {
+     "name": "reasons",
+     "type": {
+      "kind": "array",
+      "items": {
+       "kind": "map",
+       "values": {
+        "kind": "string",
+        "doc": "string"
+       },
+       "doc": "map `{code, message}`"
+      },
+      "doc": "array of `{code, message}`"
+     },
+     "required": true,
+     "since": 1,
+     "meaning": "why it is not `ok`: `code` is one of `loop_down`, `loop_stalled`, `tick_failures`, `device_missing`, `device_host_down`, `device_host_restarted`, `overruns` (a client treats a code it does not know like any other); `message` is a sentence for a person, e.g. \"device 'ferrovibe' is disconnected: check its cable and power; the running scenario 'contact-angle' needs it for macro-roughness (tilt)\". `GET /api/health` lists the same reasons"
+    }
+   ]
   }
  ],
  "error_codes": [

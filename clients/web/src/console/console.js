@@ -10,6 +10,7 @@ import { h, fill, say } from './dom.js';
 import { AnswerForm, changedAnswers, fieldFor, missingAnswers, questionsFor } from './answers.js';
 import { formatAnswers, formatParams, progress, queueRows, renderQueue, trialBySeq, trialName } from './queue.js';
 import { LivePanels } from './live.js';
+import { renderHealth } from './health.js';
 
 const REFRESH_MS = 2000;
 const SESSIONS_REFRESH_MS = 10000;
@@ -620,6 +621,7 @@ function main() {
       ? 'error' : 'warn');
     $('live-status').title = detail ?? '';
   };
+  live.onHealth = (health) => renderHealth($('health-banner'), health);
   live.start();
 
   const hook = {
@@ -628,6 +630,7 @@ function main() {
     state: () => ({ sessionId: state.sessionId, control: state.control, controlDetail: state.controlDetail,
       selected: state.selected, next: state.session?.next ?? null, running: state.session?.running ?? null }),
     live: live.stats,
+    health: () => live.stats.health,
     lanes: () => live.lanes().map((l) => ({ id: l.id, runs: l.runs.length, pulses: l.pulses?.length ?? null,
       text: l.text })),
     trajectory: () => live.trajectory().length,

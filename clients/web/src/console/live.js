@@ -30,7 +30,7 @@ export class LivePanels {
     this.els = els;
     this.cues = new History(WINDOW_S + 2);
     this.traj = new History(WINDOW_S + 2);
-    this.stats = { frames: 0, scene: null, status: 'idle', lastT: null };
+    this.stats = { frames: 0, scene: null, status: 'idle', lastT: null, health: null };
     this.bounds = { side: null, top: null };
     this.conn = new Connection({ url, role: 'observer', format, client: 'viestac-console/0.1' });
     this.conn.onStatus = (status, detail) => {
@@ -44,8 +44,13 @@ export class LivePanels {
       this.cues.push(cueSample(s));
       this.traj.push(trajSample(s));
     };
+    this.conn.onHealth = (h) => {
+      this.stats.health = h;
+      this.onHealth?.(h);
+    };
     this.conn.onError = () => {};
     this.onStatus = null;
+    this.onHealth = null;
     this._raf = null;
     this._lastDraw = 0;
   }

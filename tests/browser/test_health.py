@@ -1,0 +1,81 @@
+"""The server's health in the browser, against a server of its own that is made to fail: the loop is
+stopped (SIGSTOP) and continued, then the FerroVibe emulator of the simulated rig is killed. The
+console's banner and the participant's HUD line appear while degraded and go when ok again.
+Screenshots: tests/artifacts/browser/health-*.png.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from server.bench.loop_bench import start_server, stop_server
+from tests.browser.conftest import ARTIFACTS, require_web_deps
+from tests.browser.test_console import CONSOLE_VIEWPORT, Console
+from tests.browser.test_web_client import VIEWPORT, Client
+from tests.conftest import LiveServer
+
+pytestmark = pytest.mark.browser
+
+BANNER = "#health-banner"
+LINE = "#health"
+
+
+@pytest.fixture(scope="module")
+def server():
+    proc, base = start_server("contact-angle")
+    try:
+        yield LiveServer(base, base.replace("http://", "ws://") + "/ws")
+    finally:
+        stop_server(proc)
+
+
+def visible(page, selector: str) -> bool:
+    return page.evaluate("(sel) => { const el = document.querySelector(sel); return !!el && !el.hidden; }", selector)
+
+
+def wait_visible(page, selector: str, shown: bool, timeout_ms: int = 10_000) -> None:
+    page.wait_for_function("([sel, shown]) => { const el = document.querySelector(sel); "
+                           "return !!el && el.hidden === !shown; }", arg=[selector, shown], timeout=timeout_ms)
+
+
+def test_console_banner_and_participant_line_follow_health(browser, server):
+    require_web_deps()
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    console_ctx = browser.new_context(viewport=CONSOLE_VIEWPORT)
+    participant_ctx = browser.new_context(viewport=VIEWPORT)
+    try:
+        console = Console(console_ctx.new_page(), server).open()
+        participant = Client(participant_ctx.new_page(), server).open("?role=participant")
+        console.page.wait_for_function("window.__console.health()?.status === 'ok'", timeout=10_000)
+        assert not visible(console.page, BANNER) and not visible(participant.page, LINE)
+
+        # a stalled loop: both show it, both clear when it ticks again
+        pid = server.get("/api/health")["loop"]["pid"]
+        os.kill(pid, signal.SIGSTOP)
+        try:
+            wait_visible(console.page, BANNER, True)
+            wait_visible(participant.page, LINE, True)
+            assert "server not responding" in participant.page.inner_text(LINE)
+            assert "not ticked" in console.page.inner_text(BANNER)
+        finally:
+            os.kill(pid, signal.SIGCONT)
+        wait_visible(console.page, BANNER, False)
+        wait_visible(participant.page, LINE, False)
+
+        # the device the running scenario needs is gone
+        emulators = server.get("/api/devices")["simulated_rig"]["emulators"]
+        os.kill(emulators["ferrovibe"]["pid"], signal.SIGKILL)
+        wait_visible(console.page, BANNER, True)
+        wait_visible(participant.page, LINE, True)
+        console.wait_text(BANNER, "'ferrovibe' is disconnected")
+        assert participant.page.inner_text(LINE) == "Tactile feedback paused — device disconnected"
+        assert console.page.evaluate("window.__console.health().reasons[0].code") == "device_missing"
+        console.page.screenshot(path=str(ARTIFACTS / "health-console-degraded.png"))
+        participant.page.screenshot(path=str(ARTIFACTS / "health-participant-degraded.png"))
+        assert not console.page_errors and not participant.page_errors
+    finally:
+        console_ctx.close()
+        participant_ctx.close()
