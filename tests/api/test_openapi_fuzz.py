@@ -19,7 +19,7 @@ from server.bench.loop_bench import start_server, stop_server
 pytest.importorskip("schemathesis")
 
 CHECKS = "not_a_server_error,status_code_conformance,content_type_conformance,response_schema_conformance"
-MAX_EXAMPLES = 60  # per operation and phase: about 2,000 requests, ~15 s on two busy cores
+MAX_EXAMPLES = 200  # per operation and phase: about 5,500 requests, under a minute on two cores
 SEED = 18
 
 
@@ -31,14 +31,14 @@ def test_every_operation_answers_as_documented(tmp_path):
         run = subprocess.run(
             [sys.executable, "-m", "schemathesis.cli", "run", f"{base}/openapi.json", "--checks", CHECKS,
              "--max-examples", str(MAX_EXAMPLES), "--seed", str(SEED), "--generation-database", "none",
-             "--workers", "1", "--request-timeout", "10", "--max-time", "240", "--no-color",
+             "--workers", "1", "--request-timeout", "10", "--no-color",
              "--report", "json", "--report-json-path", str(report)],
             capture_output=True, text=True, timeout=400, cwd=tmp_path)
     finally:
         stop_server(proc)
     assert report.exists(), run.stdout[-4000:] + run.stderr[-2000:]
     result = json.loads(report.read_text())
-    summary = run.stdout[-6000:]
+    summary = json.dumps(result["failures"], indent=1) + "\n" + run.stdout[-6000:]
     assert result["operations"]["tested"] == result["operations"]["total"] > 20, summary
     assert result["test_cases"]["generated"] > 10 * result["operations"]["total"], summary
     assert result["failures"] == [] and result["errors"] == [], summary
