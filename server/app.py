@@ -8,12 +8,12 @@ import logging
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, WebSocket
-from fastapi.staticfiles import StaticFiles
 
 from devices.rig import SimulatedRig, default_rig_dir
 from server import __version__
 from server.api.experiment_routes import router as experiment_router
 from server.api.routes import router
+from server.api.web_client import WebClient
 from server.config import Settings
 from server.experiment.engine import Experiment
 from server.experiment.store import Store, utc_now
@@ -114,5 +114,5 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
         await hub.serve(ws)
 
     if settings.web_root.is_dir():
-        app.mount("/", StaticFiles(directory=settings.web_root, html=True), name="web")
+        app.mount("/", WebClient(directory=settings.web_root), name="web")  # an allowlist, not the folder
     return app

@@ -13,8 +13,10 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Header, HTTPException, Query, Request
+from fastapi import APIRouter, Depends, Header, HTTPException, Path, Query, Request
 from pydantic import BaseModel, Field
+
+from server.api.errors import MAX_INT, errors
 
 from server.core.scenario import ParamError
 from scenarios.registry import UnknownScenario
@@ -32,6 +34,8 @@ def get_experiment(request: Request) -> Experiment:
 
 ExperimentDep = Annotated[Experiment, Depends(get_experiment)]
 TokenDep = Annotated[str | None, Header(alias="X-Control-Token", description="the session's control token")]
+SeqPath = Annotated[int, Path(ge=0, le=MAX_INT, description="the trial's position in the session (0..)")]
+ParticipantIndex = Annotated[int, Query(ge=0, le=MAX_INT, description="row of the counterbalancing (0..)")]
 
 
 def _http(exc: Exception) -> HTTPException:
@@ -58,7 +62,7 @@ class SessionCreate(BaseModel):
     experimenter: str
     device: str | None = Field(None, description="the device worn (model or name), recorded with the session")
     notes: str = ""
-    participant_index: int | None = Field(None, ge=0, description="row of the counterbalancing (default: the "
+    participant_index: int | None = Field(None, ge=0, le=MAX_INT, description="row of the counterbalancing (default: the "
                                                                   "next one for this study)")
 
 
@@ -84,7 +88,7 @@ def studies(experiment: ExperimentDep) -> list[dict]:
     return experiment.studies()
 
 
-@router.get("/studies/{study_id}", summary="One study: tasks, conditions, orders, questions")
+@router.get("/studies/{study_id}", responses=errors(404, 422), summary="One study: tasks, conditions, orders, questions")
 def study(study_id: str, experiment: ExperimentDep) -> dict:
     try:
         return experiment.study(study_id).to_dict()
@@ -92,8 +96,8 @@ def study(study_id: str, experiment: ExperimentDep) -> dict:
         raise _http(exc) from None
 
 
-@router.get("/studies/{study_id}/plan", summary="The planned trials of one participant (counterbalancing row)")
-def study_plan(study_id: str, experiment: ExperimentDep, participant_index: int = 0) -> list[dict]:
+@router.get("/studies/{study_id}/plan", responses=errors(404, 422), summary="The planned trials of one participant (counterbalancing row)")
+def study_plan(study_id: str, experiment: ExperimentDep, participant_index: ParticipantIndex = 0) -> list[dict]:
     try:
         return [p.to_dict() for p in plan_session(experiment.study(study_id), participant_index)]
     except ERRORS as exc:
@@ -105,7 +109,7 @@ def sessions(experiment: ExperimentDep) -> list[dict]:
     return experiment.sessions()
 
 
-@router.post("/sessions", status_code=201, summary="A new session: the study's plan for one participant; returns the "
+@router.post("/sessions", status_code=201, responses=errors(400, 404, 409, 422), summary="A new session: the study's plan for one participant; returns the "
                                                     "control token")
 def create_session(body: SessionCreate, experiment: ExperimentDep) -> dict:
     try:
@@ -116,7 +120,7 @@ def create_session(body: SessionCreate, experiment: ExperimentDep) -> dict:
         raise _http(exc) from None
 
 
-@router.get("/sessions/{session_id}", summary="A session with its queue of trials, statuses and answers")
+@router.get("/sessions/{session_id}", responses=errors(404, 422), summary="A session with its queue of trials, statuses and answers")
 def session(session_id: str, experiment: ExperimentDep) -> dict:
     try:
         return experiment.session(session_id)
@@ -124,7 +128,7 @@ def session(session_id: str, experiment: ExperimentDep) -> dict:
         raise _http(exc) from None
 
 
-@router.post("/sessions/{session_id}/control", summary="Take control of a session from this console (the previous "
+@router.post("/sessions/{session_id}/control", responses=errors(400, 404, 409, 422), summary="Take control of a session from this console (the previous "
                                                         "token stops working)")
 def take_control(session_id: str, body: ControlRequest, experiment: ExperimentDep) -> dict:
     try:
@@ -133,7 +137,7 @@ def take_control(session_id: str, body: ControlRequest, experiment: ExperimentDe
         raise _http(exc) from None
 
 
-@router.get("/sessions/{session_id}/control", summary="Who controls the session, and whether this console's token "
+@router.get("/sessions/{session_id}/control", responses=errors(404, 422), summary="Who controls the session, and whether this console's token "
                                                        "(X-Control-Token) is the current one")
 def control(session_id: str, experiment: ExperimentDep, token: TokenDep = None) -> dict:
     try:
@@ -142,7 +146,7 @@ def control(session_id: str, experiment: ExperimentDep, token: TokenDep = None) 
         raise _http(exc) from None
 
 
-@router.put("/sessions/{session_id}/notes", summary="Replace the session's notes")
+@router.put("/sessions/{session_id}/notes", responses=errors(400, 403, 404, 409, 422), summary="Replace the session's notes")
 def notes(session_id: str, body: NotesRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
     try:
         experiment.set_notes(session_id, token, body.notes)
@@ -151,9 +155,9 @@ def notes(session_id: str, body: NotesRequest, experiment: ExperimentDep, token:
     return {"ok": True}
 
 
-@router.post("/sessions/{session_id}/trials/{seq}/start", summary="Start the next pending trial (its scenario and "
+@router.post("/sessions/{session_id}/trials/{seq}/start", responses=errors(403, 404, 409, 422, 503), summary="Start the next pending trial (its scenario and "
                                                                   "trial go to the loop, recording starts)")
-def start(session_id: str, seq: int, experiment: ExperimentDep, token: TokenDep = None,
+def start(session_id: str, seq: SeqPath, experiment: ExperimentDep, token: TokenDep = None,
           force: bool = Query(False, description="start even when a device the scenario needs is not "
                                                  "connected (otherwise 409)")) -> dict:
     try:
@@ -162,8 +166,8 @@ def start(session_id: str, seq: int, experiment: ExperimentDep, token: TokenDep 
         raise _http(exc) from None
 
 
-@router.put("/sessions/{session_id}/trials/{seq}/responses/{question}", summary="Enter or correct one answer")
-def answer(session_id: str, seq: int, question: str, body: AnswerRequest, experiment: ExperimentDep,
+@router.put("/sessions/{session_id}/trials/{seq}/responses/{question}", responses=errors(400, 403, 404, 409, 422), summary="Enter or correct one answer")
+def answer(session_id: str, seq: SeqPath, question: str, body: AnswerRequest, experiment: ExperimentDep,
            token: TokenDep = None) -> dict:
     try:
         return experiment.answer(session_id, token, seq, question, body.value, body.entered_by)
@@ -171,34 +175,34 @@ def answer(session_id: str, seq: int, question: str, body: AnswerRequest, experi
         raise _http(exc) from None
 
 
-@router.post("/sessions/{session_id}/trials/{seq}/finish", summary="The running trial is answered (needs every "
+@router.post("/sessions/{session_id}/trials/{seq}/finish", responses=errors(403, 404, 409, 422, 503), summary="The running trial is answered (needs every "
                                                                    "required answer); committed with its data")
-def finish(session_id: str, seq: int, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+def finish(session_id: str, seq: SeqPath, experiment: ExperimentDep, token: TokenDep = None) -> dict:
     try:
         return experiment.finish(session_id, token, seq)
     except ERRORS as exc:
         raise _http(exc) from None
 
 
-@router.post("/sessions/{session_id}/trials/{seq}/abort", summary="Abort the running trial")
-def abort(session_id: str, seq: int, body: ReasonRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+@router.post("/sessions/{session_id}/trials/{seq}/abort", responses=errors(400, 403, 404, 409, 422, 503), summary="Abort the running trial")
+def abort(session_id: str, seq: SeqPath, body: ReasonRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
     try:
         return experiment.abort(session_id, token, seq, body.reason)
     except ERRORS as exc:
         raise _http(exc) from None
 
 
-@router.post("/sessions/{session_id}/trials/{seq}/retry", summary="An aborted trial back into the queue")
-def retry(session_id: str, seq: int, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+@router.post("/sessions/{session_id}/trials/{seq}/retry", responses=errors(403, 404, 409, 422), summary="An aborted trial back into the queue")
+def retry(session_id: str, seq: SeqPath, experiment: ExperimentDep, token: TokenDep = None) -> dict:
     try:
         return experiment.retry(session_id, token, seq)
     except ERRORS as exc:
         raise _http(exc) from None
 
 
-@router.post("/sessions/{session_id}/trials/{seq}/exclude", summary="Exclude an answered or aborted trial from "
+@router.post("/sessions/{session_id}/trials/{seq}/exclude", responses=errors(400, 403, 404, 409, 422), summary="Exclude an answered or aborted trial from "
                                                                     "analysis, with a reason")
-def exclude(session_id: str, seq: int, body: ReasonRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+def exclude(session_id: str, seq: SeqPath, body: ReasonRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
     try:
         return experiment.exclude(session_id, token, seq, body.reason)
     except ERRORS as exc:

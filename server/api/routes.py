@@ -14,6 +14,8 @@ from typing import Any, Literal
 from fastapi import APIRouter, Depends, HTTPException, Query, Request
 from pydantic import BaseModel, Field
 
+from server.api.errors import MAX_INT, errors
+
 from server.core.scenario import ParamError, describe
 from scenarios.registry import SCENARIOS, UnknownScenario
 from server import __version__
@@ -64,14 +66,14 @@ async def scenarios(hub: HubDep) -> list[dict]:
 class ScenarioRequest(BaseModel):
     name: str = Field(description="scenario id or bare name, e.g. 'texture' or 'texture-v1'")
     params: dict[str, Any] = Field(default_factory=dict, description="the scenario's PARAMS (GET /api/scenarios)")
-    seed: int = Field(0, ge=0, description="seed of the scenario's random choices (e.g. the stiffness 'n' key)")
+    seed: int = Field(0, ge=0, le=MAX_INT, description="seed of the scenario's random choices (e.g. the stiffness 'n' key)")
     force: bool = Field(False, description="switch even when no configured device can show the scenario")
 
 
 class TrialRequest(BaseModel):
     phase: Literal["training", "trial", "main"]
     params: dict[str, Any] = Field(default_factory=dict, description="the scenario's TRIAL_PARAMS")
-    index: int = Field(0, ge=0, description="trial number within its phase (shown to the participant)")
+    index: int = Field(0, ge=0, le=MAX_INT, description="trial number within its phase (shown to the participant)")
     force: bool = Field(False, description="start even when a device the scenario needs is not connected")
 
 
@@ -87,7 +89,7 @@ def _busy_or_bad(exc: Exception) -> HTTPException:
     return HTTPException(422, str(exc))
 
 
-@router.get("/scenario", summary="The running scenario: id, parameters, trial, declaration, capability check")
+@router.get("/scenario", responses=errors(503), summary="The running scenario: id, parameters, trial, declaration, capability check")
 async def scenario(hub: HubDep) -> dict:
     info = hub.scenario_info()
     if not info:
@@ -95,7 +97,7 @@ async def scenario(hub: HubDep) -> dict:
     return info
 
 
-@router.post("/scenario", summary="Switch the running scenario (the new scene goes to every client); 409 when no "
+@router.post("/scenario", responses=errors(400, 404, 409, 422, 503), summary="Switch the running scenario (the new scene goes to every client); 409 when no "
                                   "configured device can show it, unless force")
 async def switch_scenario(body: ScenarioRequest, hub: HubDep) -> dict:
     try:
@@ -108,8 +110,9 @@ async def switch_scenario(body: ScenarioRequest, hub: HubDep) -> dict:
         raise _busy_or_bad(exc) from None
 
 
-@router.post("/trial", summary="Start a trial of the running scenario (phase and trial parameters); 409 when a "
-                               "device it needs is not connected, unless force")
+@router.post("/trial", responses=errors(400, 409, 422, 503), summary="Start a trial of the running scenario (phase and "
+                                                                     "trial parameters); 409 when a device it needs is "
+                                                                     "not connected, unless force")
 async def start_trial(body: TrialRequest, hub: HubDep) -> dict:
     try:
         return {"trial": hub.set_trial(body.phase, body.params, body.index, body.force)}
@@ -119,7 +122,7 @@ async def start_trial(body: TrialRequest, hub: HubDep) -> dict:
         raise _busy_or_bad(exc) from None
 
 
-@router.delete("/trial", summary="End the running trial (back to free exploration)")
+@router.delete("/trial", responses=errors(503), summary="End the running trial (back to free exploration)")
 async def end_trial(hub: HubDep) -> dict:
     try:
         return {"trial": hub.set_trial(None)}
@@ -127,7 +130,7 @@ async def end_trial(hub: HubDep) -> dict:
         raise _busy_or_bad(exc) from None
 
 
-@router.post("/command", summary="Send a key or experimenter command to the running scenario, as an operator")
+@router.post("/command", responses=errors(400, 422, 503), summary="Send a key or experimenter command to the running scenario, as an operator")
 async def command(body: CommandRequest, hub: HubDep) -> dict:
     try:
         hub.command(body.key, body.action, body.value, role="operator")
@@ -136,14 +139,14 @@ async def command(body: CommandRequest, hub: HubDep) -> dict:
     return {"ok": True}
 
 
-@router.get("/scene", summary="The current static scene (docs/protocol.md scene format)")
+@router.get("/scene", responses=errors(503), summary="The current static scene (docs/protocol.md scene format)")
 async def scene(hub: HubDep) -> dict:
     if hub.scene is None:
         raise HTTPException(503, "the loop has not published a scene yet")
     return {"hash": hub.scene_hash, "scene": hub.scene}
 
 
-@router.get("/state", summary="The latest state frame")
+@router.get("/state", responses=errors(503), summary="The latest state frame")
 async def state(hub: HubDep) -> dict:
     if hub.last_state is None:
         raise HTTPException(503, "no state yet")
@@ -155,7 +158,7 @@ async def clients(hub: HubDep) -> list[dict]:
     return hub.clients()
 
 
-@router.get("/devices", summary="Configured tactile devices: status, identity, link counters, refusals")
+@router.get("/devices", responses=errors(422, 503), summary="Configured tactile devices: status, identity, link counters, refusals")
 async def devices(request: Request, writes: int = Query(0, ge=0, le=1024, description=
                   "also list each device's latest N writes as [CLOCK_MONOTONIC ns when write() returned, hex bytes]")) -> dict:
     host = getattr(request.app.state, "device_host", None)
@@ -173,7 +176,7 @@ async def telemetry(hub: HubDep) -> dict:
     return hub.telemetry.cumulative()
 
 
-@router.get("/trackers", summary="Recent tracker samples with when the hub received and the loop applied them")
+@router.get("/trackers", responses=errors(422), summary="Recent tracker samples with when the hub received and the loop applied them")
 async def trackers(hub: HubDep, limit: int = 1000) -> dict:
     rows = list(hub.tracker_applied)[-max(1, min(limit, 4096)):]
     return {"columns": ["client_id", "seq", "t_ms", "hub_recv_ns", "loop_applied_ns"], "rows": rows,

@@ -1,0 +1,58 @@
+"""The browser client's files, served from an allowlist.
+
+`clients/web` also holds `package.json`, its lock file, tests and the whole `node_modules` tree;
+none of that is the client, so only these are served:
+- the two pages and their style sheets, and everything under `src/` and `skins/`;
+- `vendor/…`: the few files of the npm packages the pages import (their import maps point
+  here): three.js's ES module build (which imports `three.core.js` beside it), its
+  OrbitControls, and msgpack's ES modules (`.mjs`, which import each other by relative path).
+Anything else is a 404, whatever exists on disk.
+"""
+
+from __future__ import annotations
+
+import posixpath
+
+from starlette.exceptions import HTTPException
+from starlette.responses import Response
+from starlette.staticfiles import StaticFiles
+from starlette.types import Scope
+
+PAGES = frozenset({"index.html", "console.html", "style.css", "console.css"})
+TREES = ("src/", "skins/")
+# URL path → file, relative to the web root.
+VENDOR_FILES = {
+    "vendor/three/three.module.js": "node_modules/three/build/three.module.js",
+    "vendor/three/three.core.js": "node_modules/three/build/three.core.js",
+    "vendor/three/addons/controls/OrbitControls.js": "node_modules/three/examples/jsm/controls/OrbitControls.js",
+}
+# URL folder → (folder, the one file suffix served from it)
+VENDOR_TREES = {"vendor/msgpack/": ("node_modules/@msgpack/msgpack/dist.esm/", ".mjs")}
+
+
+def web_file(path: str) -> str | None:
+    """The file (relative to the web root) that serves URL path `path`, or None: not served.
+
+    `path` is relative to the mount, '/'-separated; '..' and '.' parts are resolved first, so
+    nothing outside the allowlist is reachable through them."""
+    path = posixpath.normpath("/" + path).lstrip("/")
+    if path in ("", "."):
+        return "index.html"
+    if path in PAGES or (path.startswith(TREES) and not path.endswith("/")):
+        return path
+    if path in VENDOR_FILES:
+        return VENDOR_FILES[path]
+    for url, (folder, suffix) in VENDOR_TREES.items():
+        if path.startswith(url) and path.endswith(suffix):
+            return folder + path[len(url):]
+    return None
+
+
+class WebClient(StaticFiles):
+    """StaticFiles over the web root that serves only `web_file`'s allowlist."""
+
+    async def get_response(self, path: str, scope: Scope) -> Response:
+        served = web_file(path)
+        if served is None:
+            raise HTTPException(status_code=404)
+        return await super().get_response(served, scope)
