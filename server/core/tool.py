@@ -20,6 +20,7 @@ from server.core.haptics.contact_gate import ContactGate
 from server.core.haptics.god_object import GodObject, ProxyStep
 from server.core.haptics.primitives import Body
 from server.core.haptics.vec import Vec3
+from server.core.workspace import clamp_to_workspace, in_workspace
 
 DEFAULT_PROXY_RADIUS = 0.06  # scene units: the fingertip sphere the scenes are built around
 DRIVER_QUIET_S = 1.0         # a driver silent this long loses the tool to the next source that sends
@@ -51,14 +52,20 @@ class Tool:
 
     # -- the tracker rule ------------------------------------------------------------------------
     def offer(self, source: int | str, seq: int, position: Vec3, t_s: float) -> bool:
-        """A tracker sample from `source` at simulation time `t_s`; True when it was applied."""
+        """A tracker sample from `source` at simulation time `t_s`; True when it was applied. A
+        position outside the workspace is clamped to it: the wire refuses those, but a driver that
+        bypasses the wire must not carry the god-object to where its arithmetic overflows."""
         driver = self.driver
         if driver is not None and source != driver and t_s - self._driver_t < DRIVER_QUIET_S:
             self.ignored[source] = self.ignored.get(source, 0) + 1
             return False
         self.driver, self.seq, self._driver_t = source, seq, t_s
-        self.tracked = position
+        self.place(position)
         return True
+
+    def place(self, position: Vec3) -> None:
+        """Move the tracked point (no tracker rule), clamped to the workspace."""
+        self.tracked = position if in_workspace(position) else clamp_to_workspace(position)
 
     def release(self, source: int | str) -> bool:
         """`source` is gone: if it drove the tool, the tool goes home and has no driver."""
@@ -98,6 +105,11 @@ class Tool:
             self.god.reset(position, bodies)
         self.forget_fixed_point()
         self.held = position
+
+    def reset_proxy(self) -> None:
+        """Forget the god-object's state (a tick failed): the next step starts from the HIP."""
+        self.god.forget()
+        self.forget_fixed_point()
 
     def forget_fixed_point(self) -> None:
         """The bodies moved (or the proxy was placed): the last fixed point may no longer hold."""

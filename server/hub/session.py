@@ -13,6 +13,10 @@ protocol decision about one client:
 - the ordering rule: every state after `scene` H names H until the next `scene`. A state frame
   whose scene is not the last scene handed out is dropped when it is taken (the slot may hold a
   frame of the previous scene when the new scene goes first: control is sent before the slot);
+- the input budget: `input` messages spend tokens of a bucket refilled on the injected clock
+  (INPUT_BURST, INPUT_RATE_PER_S; docs/protocol.md "Input budget"); one over budget is dropped
+  with `rate_limited`, at most one such error a second (the rest are counted), so one client's
+  key flood can neither flood the loop's events nor every viewer's state frames;
 - per-client counters.
 
 What a client asks of the loop comes out of `receive` as events (`ToLoop`, `Command`); the hub
@@ -30,6 +34,12 @@ from server.wire.codec import WireError
 
 HELLO_TIMEOUT_NS = 1_000_000_000
 MAX_PENDING_ERRORS = 64  # a client that floods bad frames and does not read gets no more replies queued
+# Input budget: a person types at most ~10-15 keys/s and a held key repeats at ~30/s (each repeat
+# a `down`), so 50/s never limits a person; a burst of 20 covers chords and a quick series of
+# presses. A client over it loses inputs, never its connection.
+INPUT_BURST = 20
+INPUT_RATE_PER_S = 50.0
+RATE_LIMITED_ERROR_EVERY_NS = 1_000_000_000  # at most one `rate_limited` error a second per client
 SENDS = ("tracker", "input")  # client messages that act on the loop (hello is always allowed)
 
 
@@ -109,6 +119,10 @@ class Session:
         self.tracker_count = 0
         self.last_tracker: dict | None = None
         self.errors = 0
+        self.rate_limited = 0  # inputs dropped over the budget
+        self._tokens = float(INPUT_BURST)
+        self._tokens_ns = opened_ns
+        self._rate_error_ns: int | None = None  # when the last rate_limited error was queued
 
     @property
     def closing(self) -> bool:
@@ -117,7 +131,8 @@ class Session:
     def info(self) -> dict:
         return {"client_id": self.id, "role": self.role, "client": self.client_name, "format": self.fmt,
                 "frames_sent": self.frames_sent, "frames_dropped": self.frames_dropped,
-                "tracker_count": self.tracker_count, "last_tracker": self.last_tracker, "errors": self.errors}
+                "tracker_count": self.tracker_count, "last_tracker": self.last_tracker, "errors": self.errors,
+                "rate_limited": self.rate_limited}
 
     # ---- time --------------------------------------------------------------------------------
     def hello_wait_s(self, now_ns: int) -> float | None:
@@ -168,8 +183,30 @@ class Session:
                       list(message.quat) if message.quat else None, now_ns]
             return [ToLoop(record, busy="the loop's input mailbox is full; tracker sample dropped")]
         if isinstance(message, messages.Input):
+            if not self._spend_input_token(now_ns):
+                self._refuse_over_budget(now_ns)
+                return []
             return [Command(message.key, message.action, message.value, self.role, self.id)]
         return []
+
+    def _spend_input_token(self, now_ns: int) -> bool:
+        elapsed = max(0, now_ns - self._tokens_ns)  # a clock that steps back refills nothing
+        self._tokens_ns = max(self._tokens_ns, now_ns)
+        self._tokens = min(float(INPUT_BURST), self._tokens + elapsed * (INPUT_RATE_PER_S / 1e9))
+        if self._tokens >= 1.0:
+            self._tokens -= 1.0
+            return True
+        return False
+
+    def _refuse_over_budget(self, now_ns: int) -> None:
+        self.rate_limited += 1
+        last = self._rate_error_ns
+        if last is not None and now_ns - last < RATE_LIMITED_ERROR_EVERY_NS:
+            self.errors += 1  # refused without a reply: counted, not queued
+            return
+        self._rate_error_ns = now_ns
+        self.reply_error("rate_limited", f"more than {INPUT_RATE_PER_S:g} inputs a second (bursts of {INPUT_BURST}): "
+                                         f"input dropped ({self.rate_limited} so far)")
 
     def _hello(self, hello: messages.Hello) -> None:
         if hello.version != messages.PROTOCOL_VERSION:

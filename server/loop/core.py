@@ -16,9 +16,13 @@ device command itself leaves first, on a channel of its own: the process sends i
 device host process's feed thread, past the hub's event loop. Scenario events and trial ends
 ride with the next state record, each stamped with its tick, so none is lost between publishes.
 
-A failing tick (an exception in a scenario) does not stop the loop: every actuator goes off
-through the cue output, a `fail_safe` record and the error go to the hub, the tick counter
-advances, and the next good tick sends its cues again whatever they are.
+A failing tick (an exception in a scenario, or in the god-object) does not stop the loop: every
+actuator goes off through the cue output, a `fail_safe` record and the error go to the hub, the
+tools forget their god-object state, the tick counter advances, and the next good tick sends its
+cues again whatever they are. Failures are counted (`failures` in every state record) and
+reported as `["fault", {"failures", "tick", "error"}]` at the first failure of a streak and at most
+every FAULT_REPORT_EVERY ticks while it lasts, then `["recovered", {"tick", "failures"}]` at the
+first good tick; both come out in `TickOutput.faults` (the hub reads them for health).
 
 A scenario switch is built outside the tick. Building one takes milliseconds (a scene of many
 bodies: 8-17 ms for the positioning tasks), more than a tick's period, so with `build_off_tick`
@@ -50,6 +54,8 @@ from server.core.scenario import Trial
 from server.loop.simulation import Simulation, TickResult
 
 MAX_REPORTED_FAILURES = 10  # a failing scenario fails every tick: report the first ones, then every 1000th
+FAULT_REPORT_EVERY = 100  # ticks: a `fault` record at a streak's first failure, then at most this often
+MAX_FAULT_TEXT = 300  # characters of the exception in a `fault` record
 IGNORED_NOTICE_EVERY = 1000  # a source that is not the driver: one log line at its first ignored sample, then every Nth
 
 
@@ -70,13 +76,15 @@ class TickOutput:
     nothing it can avoid): read it before the next tick. The state record and the record lists it
     points to are new each time and may be kept."""
 
-    __slots__ = ("tick", "result", "cues", "records", "state", "error")
+    __slots__ = ("tick", "result", "cues", "records", "faults", "state", "error")
 
     def __init__(self) -> None:
         self.tick = -1
         self.result: TickResult | None = None  # None: the step failed (fail-safe)
         self.cues: list[dict] | None = None  # wire form; hand to the devices (before the state); None: unchanged
         self.records: list[list] | tuple = ()  # for the hub, in order, before the state record
+        # `fault` / `recovered` records for the hub's health, sent after `records`, before the state
+        self.faults: list[list] | tuple = ()
         self.state: dict | None = None  # the state record, when one is due
         self.error: str | None = None  # why the step failed (also in `records` as a log line)
 
@@ -97,6 +105,9 @@ class LoopCore:
         self.tracker_applied: list[list] = []  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.frames = 0
         self.failures = 0            # ticks that failed since start
+        self._failing = False        # the last tick failed (a `recovered` record follows the next good one)
+        self._fault_reported_tick = 0
+        self._faults: list[list] = []  # this tick's `fault` / `recovered` records (TickOutput.faults)
         self.record_every = 0        # trajectory sampling: every Nth tick while an experiment records; 0 = off
         self.trajectory: list[list] = []  # rows since the last state record (server/core/records.py TRAJECTORY_COLUMNS)
         self._device_cues: tuple | None = None  # what the devices were last given; None: unknown (start)
@@ -120,25 +131,43 @@ class LoopCore:
             result, state = self.step(now_ns)
             out.cues = self.device_cues(result)
             out.error = None
-        except Exception:  # noqa: BLE001 - a scenario bug must not kill the loop: fail safe, report
+        except Exception as exc:  # noqa: BLE001 - a scenario bug must not kill the loop: fail safe, report
             result = state = None
-            out.cues = self._fail_safe(tick)
+            out.cues = self._fail_safe(tick, exc)
+        else:
+            if self._failing:  # the first good tick after failing ones
+                self._failing = False
+                self._faults.append(["recovered", {"tick": tick, "failures": self.failures}])
         out.tick, out.result, out.state = tick, result, state
         if self.outbox:
             out.records, self.outbox = self.outbox, []
         else:
             out.records = ()
+        if self._faults:
+            out.faults, self._faults = self._faults, []
+        else:
+            out.faults = ()
         return out
 
-    def _fail_safe(self, tick: int) -> list | None:
+    def _fail_safe(self, tick: int, exc: BaseException) -> list | None:
+        """A failed step: actuators off, the failure counted and reported (`fault`), and every
+        tool's god-object forgotten, so the next good sample renders from scratch instead of
+        from a proxy the failure left behind (a proxy stuck at 1e154 failed every tick after)."""
         self.failures += 1
         sim = self.sim
         cues = self.fail_safe_cues()  # every device off; the next good tick sends its cues again
         if sim.cues:
             sim.cues = ()
             self.outbox.append(["fail_safe"])
+        for tool in sim.tools:
+            tool.reset_proxy()
         sim.tick = tick + 1
         error = self._out.error = traceback.format_exc()
+        if not self._failing or tick - self._fault_reported_tick >= FAULT_REPORT_EVERY:
+            self._fault_reported_tick = tick
+            self._faults.append(["fault", {"failures": self.failures, "tick": tick,
+                                          "error": f"{type(exc).__name__}: {exc}"[:MAX_FAULT_TEXT]}])
+        self._failing = True
         if self.failures <= MAX_REPORTED_FAILURES or self.failures % 1000 == 0:
             self.outbox.append(["log", "error", f"tick failed ({self.failures}): {error}"])
         return cues
@@ -320,6 +349,8 @@ class LoopCore:
             "trajectory": self.trajectory,
             "finished": sim.finished,
         }
+        if self.failures:  # ticks failed since the loop started; absent means 0
+            record["failures"] = self.failures
         self.samples = array("q")
         self.tracker_applied = []
         self.trajectory = []

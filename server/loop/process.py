@@ -136,6 +136,8 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
         out = core.tick(records, start)
         for record in out.records:
             ipc.send_record(sock, record)
+        for record in out.faults:  # fault / recovered: the hub's health
+            ipc.send_record(sock, record)
         if out.cues is not None and cue_sock is not None:  # first: the device command leaves before the frame
             try:
                 if not ipc.send_record(cue_sock, ["cues", out.tick, clock.now_ns(), out.cues]):

@@ -94,8 +94,8 @@ class Simulation:
 
     def set_hip(self, position: Vec3) -> None:
         """Move the HIP directly (no tracker rule: offline rendering, a simulated participant);
-        applied at the next step (parameters change between ticks only)."""
-        self.tools[0].tracked = position
+        applied at the next step (parameters change between ticks only); clamped to the workspace."""
+        self.tools[0].place(position)
 
     def input(self, key: str, action: str, value: Any = None) -> None:
         self.scenario.on_input(key, action, value)

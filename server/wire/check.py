@@ -6,7 +6,9 @@ integral float such as 3.0 counts as 3), other numbers as float, vectors as tupl
 quaternion divided by its norm, optional fields that are absent or null as their default.
 Fields not declared are ignored (minor additions). A wrong field is WireError("bad_message")
 naming it; NaN or +-Infinity is WireError("non_finite") (the decoder already refuses those in
-frames; this catches maps built in Python).
+frames; this catches maps built in Python); a finite number beyond the protocol's bounds (an
+integer outside +-(2**53 - 1), a number or vector component beyond the type's `max_abs`, such as
+a tracker position outside the workspace) is WireError("out_of_range").
 
 Each type is compiled once into a closure: tracker messages are parsed in the loop process (the
 UDP tracker port), up to 32 a tick.
@@ -50,6 +52,10 @@ def _bounds(t: dict) -> Callable[[float], bool]:
     return lambda v: low <= v <= high
 
 
+def _out_of_range(path: str, limit: float, what: str = "") -> WireError:
+    return WireError("out_of_range", f"'{path}' must {what}lie within ±{limit:g}")
+
+
 def _int(t: dict) -> Check:
     inside = _bounds(t)
 
@@ -59,7 +65,9 @@ def _int(t: dict) -> Check:
             if not value.is_integer():
                 raise _Mismatch
             value = int(value)
-        if abs(value) > MAX_SAFE_INT or not inside(value):
+        if abs(value) > MAX_SAFE_INT:  # beyond what JavaScript (and a float64) holds exactly
+            raise WireError("out_of_range", f"'{path}' must be an integer within ±(2^53 − 1)")
+        if not inside(value):
             raise _Mismatch
         return value
     return check
@@ -67,9 +75,12 @@ def _int(t: dict) -> Check:
 
 def _number(t: dict) -> Check:
     inside = _bounds(t)
+    limit = t.get("max_abs")
 
     def check(value: Any, path: str) -> float:
         value = float(_finite(value, path))
+        if limit is not None and not -limit <= value <= limit:
+            raise _out_of_range(path, limit)
         if not inside(value):
             raise _Mismatch
         return value
@@ -106,9 +117,12 @@ def _vec(t: dict) -> Check:
     size = t["size"]
     inside = _bounds(t)
     bounded = "min" in t or "max" in t
+    limit = t.get("max_abs")
 
     def check(value: Any, path: str) -> tuple[float, ...]:
         out = _numbers(value, size, path)
+        if limit is not None and not all(-limit <= v <= limit for v in out):
+            raise _out_of_range(path, limit, "have every component ")
         if bounded and not all(inside(v) for v in out):
             raise _Mismatch
         return out

@@ -7,7 +7,11 @@ Theory of operation (docs/protocol.md, "Encoding"):
   2**53 is written as an integer, every other number as float64. JavaScript encoders do that by
   themselves, so with this rule the Python and JS codecs produce the same bytes for the same
   message (checked by tests/vectors/);
-- NaN and +-Infinity are never valid, in either direction;
+- NaN and +-Infinity are never valid, in either direction, anywhere in a frame (known field or
+  not; JSON's 1e999 is infinity too), and neither is an integer too long for a float64;
+- the size limit counts encoded bytes in both encodings (a JSON text frame as UTF-8);
+- maps and arrays nest at most MAX_DEPTH deep (checked without recursion, so no frame can reach
+  Python's recursion limit);
 - every failure is a `WireError` carrying a protocol error code, never a bare exception, so the
   hub can answer with one `error` frame and keep the connection.
 """
@@ -15,7 +19,8 @@ Theory of operation (docs/protocol.md, "Encoding"):
 from __future__ import annotations
 
 import json
-import math
+import sys
+from math import isfinite
 from typing import Any
 
 import msgpack
@@ -25,6 +30,10 @@ from server.core.canonical_json import NonFiniteNumber, canonical_numbers
 FORMATS = ("msgpack", "json")
 SUBPROTOCOLS = {"viestac.v1.msgpack": "msgpack", "viestac.v1.json": "json"}
 MAX_FRAME_BYTES = 64 * 1024
+MAX_DEPTH = 32  # maps and arrays nested in a frame; a client message needs 2, a scene 7
+_MAX_FLOAT_INT = int(sys.float_info.max)  # a longer integer has no float64 value
+_MAX_INT_DIGITS = len(str(_MAX_FLOAT_INT)) + 1  # JSON integer text longer than this is refused unparsed
+TOO_DEEP = f"maps and arrays may nest at most {MAX_DEPTH} deep"
 
 
 class WireError(Exception):
@@ -58,39 +67,68 @@ def _reject_constant(name: str) -> Any:
     raise WireError("non_finite", f"{name} is not a valid number")
 
 
-def _check_finite(value: Any) -> None:
-    if isinstance(value, float):
-        if not math.isfinite(value):
-            raise WireError("non_finite", "NaN and Infinity are not valid numbers")
-    elif isinstance(value, dict):
-        for v in value.values():
-            _check_finite(v)
-    elif isinstance(value, list):
-        for v in value:
-            _check_finite(v)
+def _json_int(text: str) -> int:
+    if len(text) > _MAX_INT_DIGITS:  # parsing it could take long (and raises past 4300 digits)
+        raise WireError("non_finite", f"an integer of {len(text)} digits has no float64 value")
+    return int(text)
+
+
+def _check_body(body: Any) -> None:
+    """Every number finite and float64-sized, nesting at most MAX_DEPTH: iterative, so a deeply
+    nested frame cannot reach the recursion limit."""
+    stack = [(body, 1)]
+    while stack:
+        value, depth = stack.pop()
+        items = value.values() if value.__class__ is dict else value
+        for v in items:
+            cls = v.__class__
+            if cls is float:
+                if not isfinite(v):
+                    raise WireError("non_finite", "NaN and Infinity are not valid numbers")
+            elif cls is int:
+                if v > _MAX_FLOAT_INT or v < -_MAX_FLOAT_INT:
+                    raise WireError("non_finite", "an integer too long for a float64 is not a valid number")
+            elif cls is dict or cls is list:
+                if depth >= MAX_DEPTH:
+                    raise WireError("bad_message", TOO_DEEP)
+                stack.append((v, depth + 1))
+
+
+def frame_size(data: bytes | str) -> int:
+    """Encoded bytes of a frame: a text frame counts as its UTF-8 bytes (up to 4 per character)."""
+    if isinstance(data, str):
+        n = len(data)
+        return n if n * 4 <= MAX_FRAME_BYTES or n > MAX_FRAME_BYTES else len(data.encode("utf-8", "surrogatepass"))
+    return len(data)
 
 
 def decode(data: bytes | str, fmt: str = "msgpack") -> dict:
     """Decode one frame into a message map with a string `type`; raise WireError otherwise."""
-    if len(data) > MAX_FRAME_BYTES:
-        raise WireError("too_large", f"frame of {len(data)} bytes exceeds {MAX_FRAME_BYTES}")
+    size = frame_size(data)
+    if size > MAX_FRAME_BYTES:
+        raise WireError("too_large", f"frame of {size} bytes exceeds {MAX_FRAME_BYTES}")
     if fmt == "msgpack":
         if isinstance(data, str):
             raise WireError("bad_encoding", "text frame on a msgpack connection")
         try:
             body = msgpack.unpackb(data, raw=False, strict_map_key=True)
+        except msgpack.StackError:
+            raise WireError("bad_message", TOO_DEEP) from None
         except (ValueError, msgpack.UnpackException, TypeError) as exc:
             raise WireError("bad_encoding", f"not a valid msgpack frame: {exc}") from None
-        _check_finite(body)
     elif fmt == "json":
         if isinstance(data, (bytes, bytearray)):
             raise WireError("bad_encoding", "binary frame on a JSON connection")
         try:
-            body = json.loads(data, parse_constant=_reject_constant)
-        except json.JSONDecodeError as exc:
+            body = json.loads(data, parse_constant=_reject_constant, parse_int=_json_int)
+        except RecursionError:
+            raise WireError("bad_message", TOO_DEEP) from None
+        except ValueError as exc:  # JSONDecodeError, and a lone surrogate's UnicodeEncodeError
             raise WireError("bad_encoding", f"not valid JSON: {exc}") from None
     else:
         raise ValueError(f"unknown wire format {fmt!r}; expected one of {FORMATS}")
+    if body.__class__ is dict or body.__class__ is list:
+        _check_body(body)
     if not isinstance(body, dict):
         raise WireError("bad_message", "a message must be a map")
     kind = body.get("type")

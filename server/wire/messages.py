@@ -100,6 +100,27 @@ _STATE_EMPTY: dict[str, Any] = {"visible": dict, "events": list, "scales": dict,
                                 "haptic": dict, "driver": lambda: None}
 assert set(_STATE_EMPTY) == {f.name for f in STATE.fields if not f.required}
 _STATE_FIELDS = tuple(f.name for f in STATE.fields[1:])
+# Events per state frame on the wire: all of them normally (a few a second); a flood (many
+# clients' inputs, a runaway scenario) keeps the newest, dropping `input` events first, so no
+# client can grow every viewer's frames without bound. The recorder reads the loop's record, which
+# keeps every event (docs/protocol.md "Input budget").
+MAX_WIRE_EVENTS = 32
+
+
+def wire_events(events: list) -> list:
+    """At most MAX_WIRE_EVENTS of `events`, in their order: the oldest `input` events go first,
+    then the oldest others. `events` itself is not changed."""
+    excess = len(events) - MAX_WIRE_EVENTS
+    if excess <= 0:
+        return events
+    drop = set()
+    for i, event in enumerate(events):
+        if len(drop) == excess:
+            break
+        if isinstance(event, Mapping) and event.get("name") == "input":
+            drop.add(i)
+    kept = [e for i, e in enumerate(events) if i not in drop]
+    return kept[len(kept) - MAX_WIRE_EVENTS:]
 
 
 def state_message(record: Mapping[str, Any], telemetry: dict) -> dict:
@@ -110,6 +131,8 @@ def state_message(record: Mapping[str, Any], telemetry: dict) -> dict:
     for name in _STATE_FIELDS:
         if name == "telemetry":
             msg[name] = telemetry
+        elif name == "events" and name in record:
+            msg[name] = wire_events(record[name])
         elif name in record:
             msg[name] = record[name]
         elif name in _STATE_EMPTY:

@@ -8,12 +8,15 @@ data drives the JavaScript checker (clients/web/src/protocol.js):
 
 - `{"kind": "int", "min", "max"}`: an integral number within +-(2**53 - 1); an integral float
   (3.0) counts as the integer 3, a non-integral one is refused;
-- `{"kind": "number", "min", "max", "min_exclusive", "decimals"}`: any finite number; `decimals`
-  says to how many decimal places the server rounds it (documentation only);
+- `{"kind": "number", "min", "max", "min_exclusive", "max_abs", "decimals"}`: any finite number;
+  `decimals` says to how many decimal places the server rounds it (documentation only);
 - `{"kind": "bool"}`, `{"kind": "null"}`, `{"kind": "any"}`;
 - `{"kind": "string", "min_len", "max_len"}`: lengths in Unicode code points;
 - `{"kind": "enum", "values"}`, `{"kind": "const", "value"}`;
-- `{"kind": "vec", "size", "min", "decimals"}`: an array of `size` numbers;
+- `{"kind": "vec", "size", "min", "max_abs", "decimals"}`: an array of `size` numbers;
+
+`min`/`max` are a field's own range (outside: `bad_message`); `max_abs` is a protocol bound on a
+finite number's magnitude (outside: `out_of_range`), as is ±(2**53 - 1) for every int.
 - `{"kind": "quat", "norm", "decimals"}`: `[w, x, y, z]` whose norm lies in `norm`; a receiver
   divides it by its norm;
 - `{"kind": "array", "items"}`, `{"kind": "tuple", "items": [...]}` (fixed length, one type per
@@ -28,6 +31,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from server.core.workspace import WORKSPACE_HALF_EXTENT_M
+
 PROTOCOL_VERSION = 1  # the major version: hello.v and welcome.v
 PROTOCOL_MINOR = 1    # additions since v1.0: welcome.minor
 SCENE_FORMAT_VERSION = 1
@@ -35,6 +40,7 @@ ROLES = ("participant", "operator", "observer")
 INPUT_ACTIONS = ("down", "up", "press")
 FORMATS = ("msgpack", "json")
 MAX_SAFE_INT = 2**53 - 1
+MAX_T_MS = float(MAX_SAFE_INT)  # a sender's timestamp in ms: epoch ms are ~1.7e12
 QUAT_NORM = (0.5, 2.0)  # a tracker quaternion's norm must lie here; it is then normalised
 DIRECTIONS = ("client_to_server", "server_to_client")
 
@@ -58,8 +64,9 @@ def integer(min: int | None = None, max: int | None = None, doc: str | None = No
 
 
 def number(min: float | None = None, max: float | None = None, *, min_exclusive: bool = False,
-           decimals: int | None = None, doc: str | None = None) -> dict:
-    return _drop_none(kind="number", min=min, max=max, min_exclusive=min_exclusive or None, decimals=decimals,
+           max_abs: float | None = None, decimals: int | None = None, doc: str | None = None) -> dict:
+    return _drop_none(kind="number", min=min, max=max, min_exclusive=min_exclusive or None, max_abs=max_abs,
+                      decimals=decimals,
                       doc=doc or "number" + _range(min, max, min_exclusive))
 
 
@@ -91,9 +98,9 @@ def const(value: str) -> dict:
 
 
 def vec(size: int, doc: str, *, min: float | None = None, min_exclusive: bool = False,
-        decimals: int | None = None) -> dict:
-    return _drop_none(kind="vec", size=size, min=min, min_exclusive=min_exclusive or None, decimals=decimals,
-                      doc=doc)
+        max_abs: float | None = None, decimals: int | None = None) -> dict:
+    return _drop_none(kind="vec", size=size, min=min, min_exclusive=min_exclusive or None, max_abs=max_abs,
+                      decimals=decimals, doc=doc)
 
 
 def quat(doc: str = "`[w, x, y, z]`", decimals: int | None = None) -> dict:
@@ -170,9 +177,11 @@ HELLO = Message("hello", "client_to_server", "first message; optional for observ
 TRACKER = Message("tracker", "client_to_server", "the HIP, any rate; the server keeps the latest per client", (
     _type("tracker"),
     Field("seq", integer(min=0), "sender's sample counter"),
-    Field("t", number(), "sender's timestamp in ms on its own clock (the web client sends epoch ms: "
+    Field("t", number(max_abs=MAX_T_MS, doc="number, \\|t\\| ≤ 2^53 − 1"), "sender's timestamp in ms on its own "
+          "clock (the web client sends epoch ms: "
           "`performance.timeOrigin + performance.now()`); used for latency, never for ordering"),
-    Field("pos", V3, "HIP position, scene frame, scene units"),
+    Field("pos", vec(3, f"{POS}, each \\|·\\| ≤ {WORKSPACE_HALF_EXTENT_M:g}", max_abs=WORKSPACE_HALF_EXTENT_M),
+          "HIP position, scene frame, scene units, inside the workspace (\"Bounds\" below; outside: `out_of_range`)"),
     Field("quat", quat(), "HIP orientation; its norm must lie in [0.5, 2] and the server divides it by its norm "
           "(zero and other norms: `bad_message`)", required=False),
 ))
@@ -297,6 +306,10 @@ ERROR_CODES: dict[str, str] = {
     "forbidden": "the role may not send this message",
     "unsupported_version": "`hello.v` is not 1 (the connection then closes)",
     "busy": "the loop's input mailbox is full; the message was dropped",
+    "out_of_range": "a finite number beyond the protocol's bounds: an integer outside ±(2^53 − 1), a tracker "
+                    "`pos` outside the workspace, a `t` beyond ±(2^53 − 1) ms (\"Bounds\")",
+    "rate_limited": "the client sent `input` faster than its budget (\"Input budget\"); the message was dropped "
+                    "(at most one such error a second)",
 }
 
 # One line per cue kind for the docs (fields, units and ranges come from server/core/cues.py).

@@ -256,6 +256,13 @@ NAN = f64(math.nan)
 INF = f64(math.inf)
 
 
+def _nested(depth: int) -> list:
+    value: list = []
+    for _ in range(depth - 1):
+        value = [value]
+    return value
+
+
 def tracker_with(pos_bytes: bytes) -> bytes:
     head = msgpack.packb({"type": "tracker", "seq": 1, "t": 0})[1:]  # drop the fixmap header
     return bytes([0x84]) + head + msgpack.packb("pos") + bytes([0x93]) + pos_bytes
@@ -288,7 +295,7 @@ INVALID = [
     bad("hello-client-65-code-points", {"type": "hello", "v": 1, "role": "operator", "client": "😀" * 65},
         "bad_message"),
     bad("tracker-seq-fraction", {"type": "tracker", "seq": 2.5, "t": 0, "pos": [0, 0, 0]}, "bad_message"),
-    bad("tracker-seq-beyond-2^53", {"type": "tracker", "seq": 2**53, "t": 0, "pos": [0, 0, 0]}, "bad_message"),
+    bad("tracker-seq-beyond-2^53", {"type": "tracker", "seq": 2**53, "t": 0, "pos": [0, 0, 0]}, "out_of_range"),
     bad("tracker-t-missing", {"type": "tracker", "seq": 1, "pos": [0, 0, 0]}, "bad_message"),
     bad("tracker-t-string", {"type": "tracker", "seq": 1, "t": "now", "pos": [0, 0, 0]}, "bad_message"),
     bad("tracker-quat-zero", {"type": "tracker", "seq": 1, "t": 0, "pos": [0, 0, 0], "quat": [0, 0, 0, 0]},
@@ -304,6 +311,15 @@ INVALID = [
     bad("input-action-missing", {"type": "input", "key": "r"}, "bad_message"),
     bad("input-value-201", {"type": "input", "key": "note", "action": "press", "value": "x" * 201}, "bad_message"),
     bad("input-value-array", {"type": "input", "key": "tap_angle", "action": "press", "value": [30]}, "bad_message"),
+    # Issue 18: bounds (docs/protocol.md "Bounds"), non-finite numbers anywhere, nesting.
+    bad("tracker-pos-1e154", {"type": "tracker", "seq": 1, "t": 0, "pos": [0, 1e154, 0.5]}, "out_of_range"),
+    bad("tracker-pos-outside-workspace", {"type": "tracker", "seq": 1, "t": 0, "pos": [0, 0, -10.001]},
+        "out_of_range"),
+    bad("tracker-seq-2^64-1", {"type": "tracker", "seq": 2**64 - 1, "t": 0, "pos": [0, 0, 0]}, "out_of_range"),
+    bad("tracker-t-2^60", {"type": "tracker", "seq": 1, "t": 2**60, "pos": [0, 0, 0]}, "out_of_range"),
+    ("unknown-field-infinity", packed({"type": "tracker", "seq": 1, "t": 0, "pos": [0, 0, 0], "x": math.inf}),
+     '{"type":"tracker","seq":1,"t":0,"pos":[0,0,0],"x":1e999}', "non_finite"),
+    bad("tracker-pos-nested-40-deep", {"type": "tracker", "seq": 1, "t": 0, "pos": _nested(40)}, "bad_message"),
 ]
 
 SERVER_STATE = {"type": "state", "frame": 1, "tick": 16, "t": 0.016, "scene": HASH_MINIMAL, "hip": [0, 0, 1],

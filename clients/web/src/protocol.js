@@ -218,6 +218,20 @@ const KINDS = {
   any_of: (x, t) => t.types.some((option) => fits(x, option)),
 };
 
+/**
+ * A finite number beyond the protocol's bounds, as server/wire/check.py answers `out_of_range`:
+ * an integral number outside ±(2^53 − 1) in an int field, or a number (a vector's component)
+ * beyond the type's `max_abs` (a tracker position outside the workspace). Checked at the top level
+ * of a field; a value of the wrong shape is left to `fits` (bad_message).
+ */
+function outOfRange(x, t) {
+  if (t.kind === 'int') return Number.isInteger(x) && !Number.isSafeInteger(x);
+  if (t.max_abs === undefined) return false;
+  if (t.kind === 'number') return isNum(x) && Math.abs(x) > t.max_abs;
+  if (t.kind === 'vec') return isVec(t.size)(x) && x.some((v) => Math.abs(v) > t.max_abs);
+  return false;
+}
+
 /** Does `value` fit the declared type `type` (server/wire/schema.py)? */
 export function fits(value, type) {
   const kind = KINDS[type.kind];
@@ -260,6 +274,9 @@ export function validate(msg) {
     if (value === undefined || (value === null && !required)) {
       if (!required) continue;
       return new ProtocolError('bad_message', `${msg.type}.${name} is missing (expected ${plain(type.doc)})`);
+    }
+    if (outOfRange(value, type)) {
+      return new ProtocolError('out_of_range', `${msg.type}.${name} is beyond the protocol's bounds, got ${describe(value)}`);
     }
     if (!fits(value, type)) {
       return new ProtocolError('bad_message', `${msg.type}.${name} must be ${plain(type.doc)}, got ${describe(value)}`);

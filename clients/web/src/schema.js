@@ -91,7 +91,8 @@ export const SCHEMA = {
      "name": "t",
      "type": {
       "kind": "number",
-      "doc": "number"
+      "max_abs": 9007199254740991.0,
+      "doc": "number, \\|t\\| ≤ 2^53 − 1"
      },
      "required": true,
      "since": 0,
@@ -102,11 +103,12 @@ export const SCHEMA = {
      "type": {
       "kind": "vec",
       "size": 3,
-      "doc": "`[x, y, z]`"
+      "max_abs": 10.0,
+      "doc": "`[x, y, z]`, each \\|·\\| ≤ 10"
      },
      "required": true,
      "since": 0,
-     "meaning": "HIP position, scene frame, scene units"
+     "meaning": "HIP position, scene frame, scene units, inside the workspace (\"Bounds\" below; outside: `out_of_range`)"
     },
     {
      "name": "quat",
@@ -782,6 +784,8 @@ export const SCHEMA = {
   "too_large",
   "forbidden",
   "unsupported_version",
-  "busy"
+  "busy",
+  "out_of_range",
+  "rate_limited"
  ]
 };

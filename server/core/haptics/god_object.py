@@ -74,6 +74,10 @@ class ProxyStep:
     iterations: int
 
 
+def _sq(v: float) -> float:
+    return v * v  # not v ** 2, which raises OverflowError past ~1e154 instead of giving inf
+
+
 def _plane(ev, x):
     return (ev[1], ev[2], ev[3], ev[1] * x[0] + ev[2] * x[1] + ev[3] * x[2])
 
@@ -84,8 +88,11 @@ def _first_hit(bodies, phi0, start, a, b, radius, known=None, ki=-1, kev=None, s
     (phi0[i] = sd_i(start) - radius): the ground is skipped while stroking a dome. Evals at a:
     ``known`` (list, all bodies) or ``kev`` for body ``ki``; body ``skip`` is not tested."""
     sx, sy, sz = start
-    ra = (a[0] - sx) ** 2 + (a[1] - sy) ** 2 + (a[2] - sz) ** 2
-    rb = (b[0] - sx) ** 2 + (b[1] - sy) ** 2 + (b[2] - sz) ** 2
+    # Squares as products: float ** 2 raises OverflowError past ~1e154 where x * x gives inf.
+    ax, ay, az = a[0] - sx, a[1] - sy, a[2] - sz
+    bx, by, bz = b[0] - sx, b[1] - sy, b[2] - sz
+    ra = ax * ax + ay * ay + az * az
+    rb = bx * bx + by * by + bz * bz
     reach = sqrt(ra if ra > rb else rb) + CULL_MARGIN
     idx = [i for i, f in enumerate(phi0) if f <= reach and i != skip]
     if not idx:
@@ -150,7 +157,7 @@ def _push_out(x, bodies, radius):
     best, best_d = x, inf
     for u in [ev[1:] for ev in evs] + list(_AXES):
         y = _exit_along(x, u, bodies, radius)
-        if y is not None and (d := sum((y[k] - x[k]) ** 2 for k in range(3))) < best_d:
+        if y is not None and (d := sum((y[k] - x[k]) * (y[k] - x[k]) for k in range(3))) < best_d:
             best, best_d = y, d
     return best, [b._eval(best) for b in bodies]
 
@@ -217,6 +224,12 @@ class GodObject:
         self._friction_body = None
         self._sticking = False
 
+    def forget(self) -> None:
+        """Drop the proxy and the friction state: the next ``step`` starts from its HIP."""
+        self._proxy = None
+        self._friction_body = None
+        self._sticking = False
+
     def step(self, bodies: Sequence[Body], hip: Vec3) -> ProxyStep:
         hip = (float(hip[0]), float(hip[1]), float(hip[2]))
         r = self.radius
@@ -249,8 +262,8 @@ class GodObject:
             converged, slid = False, None
             while True:
                 target = project_halfspaces(hip, planes)
-                if target is None or ((target[0] - x[0]) ** 2 + (target[1] - x[1]) ** 2
-                                      + (target[2] - x[2]) ** 2) <= tol2:
+                if target is None or ((target[0] - x[0]) * (target[0] - x[0]) + (target[1] - x[1])
+                                      * (target[1] - x[1]) + (target[2] - x[2]) * (target[2] - x[2])) <= tol2:
                     converged = True  # x is the constrained minimum, on the surface
                     break
                 h2 = _first_hit(bodies, phi0, start, x, target, r, None, hit_i, hit_ev)
@@ -270,7 +283,8 @@ class GodObject:
             x = last_hit  # cap reached: end ON the surface, never at a slid point in the air
 
         # separation: exact sd(hip) only for bodies whose Lipschitz bound can be the minimum
-        dh = sqrt((hip[0] - start[0]) ** 2 + (hip[1] - start[1]) ** 2 + (hip[2] - start[2]) ** 2)
+        hx, hy, hz = hip[0] - start[0], hip[1] - start[1], hip[2] - start[2]
+        dh = sqrt(hx * hx + hy * hy + hz * hz)
         sep = min((ev[0] for ev in hip_evs.values()), default=inf) - r
         for i, f in enumerate(phi0):
             if f - dh < sep and i not in hip_evs:
@@ -279,7 +293,8 @@ class GodObject:
             self._proxy, self._friction_body, self._sticking = x, None, False
             return ProxyStep(x, ZERO, (), sep, iterations)
 
-        dx = sqrt((x[0] - start[0]) ** 2 + (x[1] - start[1]) ** 2 + (x[2] - start[2]) ** 2)
+        gx, gy, gz = x[0] - start[0], x[1] - start[1], x[2] - start[2]
+        dx = sqrt(gx * gx + gy * gy + gz * gz)
         near = [i for i, f in enumerate(phi0) if f - dx <= CONTACT_TOL + CULL_MARGIN]
         touched = self._touching(bodies, near, {hit_i: hit_ev} if x is last_hit else {}, x, hip)
         if not touched:  # numerically off every surface (should not happen): last hit body
@@ -353,8 +368,8 @@ class GodObject:
             ev = known.get(i) or bodies[i]._eval(x)
             if abs(ev[0] - r) <= CONTACT_TOL:
                 on.append((i, ev))
-        if r == 0.0 and on and not (len(on) == 1 and (on[0][1][1] * ex + on[0][1][2] * ey + on[
-                0][1][3] * ez) ** 2 >= (ex * ex + ey * ey + ez * ez) * PARALLEL):
+        if r == 0.0 and on and not (len(on) == 1 and _sq(on[0][1][1] * ex + on[0][1][2] * ey + on[
+                0][1][3] * ez) >= (ex * ex + ey * ey + ez * ez) * PARALLEL):
             # A point proxy can rest on an edge, apex or crease: per body, report the (unglued)
             # feature normal the HIP pushes into most, or the body's own normal if better.
             fs, feats = _unglued_features(bodies, [i for i, _ in on], x, -ex, -ey, -ez)
@@ -379,7 +394,7 @@ class GodObject:
             ft2 = fx * fx + fy * fy + fz * fz - fn * fn
             # hysteresis: once slipping, re-stick only inside the (narrower) dynamic cone
             mu = body.static_friction if self._sticking else body.dynamic_friction
-            if fn > 0.0 and ft2 <= (mu * fn) ** 2:
+            if fn > 0.0 and ft2 <= _sq(mu * fn):
                 self._sticking = True
                 return start
         self._sticking = False

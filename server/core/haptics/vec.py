@@ -116,9 +116,14 @@ def project_halfspaces(h: Vec3, planes: list[HalfSpace]) -> Vec3 | None:
                 best, best_d2 = t, d2
             for k in range(j + 1, m):
                 t = _three_planes(planes[i], planes[j], planes[k])
-                if t is not None and (d2 := dist(t, h) ** 2) < best_d2 and feasible(t):
+                if t is not None and (d2 := _dist2(t, h)) < best_d2 and feasible(t):
                     best, best_d2 = t, d2
     return best
+
+
+def _dist2(a: Vec3, b: Vec3) -> float:
+    dx, dy, dz = a[0] - b[0], a[1] - b[1], a[2] - b[2]
+    return dx * dx + dy * dy + dz * dz  # products, not ** 2: no OverflowError for huge values
 
 
 def _three_planes(p1: HalfSpace, p2: HalfSpace, p3: HalfSpace) -> Vec3 | None:
