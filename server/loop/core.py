@@ -56,6 +56,7 @@ from server.loop.simulation import Simulation, TickResult
 MAX_REPORTED_FAILURES = 10  # a failing scenario fails every tick: report the first ones, then every 1000th
 FAULT_REPORT_EVERY = 100  # ticks: a `fault` record at a streak's first failure, then at most this often
 MAX_FAULT_TEXT = 300  # characters of the exception in a `fault` record
+MAX_CARRIED_TIMING = 4000  # (period, cost) pairs an unsent state record passes on; rows and events all go
 IGNORED_NOTICE_EVERY = 1000  # a source that is not the driver: one log line at its first ignored sample, then every Nth
 
 
@@ -103,6 +104,7 @@ class LoopCore:
         self._publish_slot = -1      # index of the last cadence slot published
         self.samples = array("q")    # (period_ns, cost_ns) pairs since the last state record
         self.tracker_applied: list[list] = []  # [client_id, seq, t_ms, recv_ns, applied_ns]
+        self.states_unsent = 0       # state records the driver could not send; their contents went out later
         self.frames = 0
         self.failures = 0            # ticks that failed since start
         self._failing = False        # the last tick failed (a `recovered` record follows the next good one)
@@ -319,6 +321,21 @@ class LoopCore:
         pose = self.sim.moved.get(held) if held else None
         self.trajectory.append([r.tick, *_round(r.hip), *_round(r.proxy), int(r.contact), held,
                                 *(_round(pose.pos) if pose else (None, None, None))])
+
+    def unsent(self, state: dict) -> None:
+        """The driver could not hand `state` over (the hub's end of the mailbox is full): what it
+        alone carries (trajectory rows, events, trial ends, applied tracker samples, timing
+        samples) goes out with the next state record instead of being lost."""
+        self.states_unsent += 1
+        self.trajectory[:0] = state["trajectory"]
+        self.tracker_applied[:0] = state["trackers"]
+        sim = self.sim
+        sim.events[:0] = state["events"]
+        sim.finished[:0] = state["finished"]
+        samples = array("q")
+        samples.frombytes(state["samples"])
+        samples.extend(self.samples)
+        self.samples = samples[-2 * MAX_CARRIED_TIMING:]  # timing is telemetry: the newest suffice
 
     def record_sample(self, period_ns: int, cost_ns: int) -> None:
         self.samples.append(period_ns)

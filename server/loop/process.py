@@ -24,6 +24,7 @@ import gc
 import json
 import os
 import socket
+from collections import deque
 import sys
 from dataclasses import asdict, dataclass, field
 
@@ -37,6 +38,8 @@ from server.loop.scheduler import DeadlineScheduler
 from server.loop.simulation import Simulation
 from server.loop.tracker_udp import TrackerPort
 from server.core.scene import Scene
+
+MAX_BACKLOG = 10_000  # records waiting for the hub (~5 MB); beyond that the oldest go, with a log line
 
 
 @dataclass(frozen=True)
@@ -117,6 +120,7 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
     gc.collect()
     gc.freeze()
     scheduler = DeadlineScheduler(clock, 1_000_000_000 // config.tick_hz)
+    backlog: deque[list] = deque()  # records for the hub not sent yet (its end was full), in order
     while True:
         start, period = scheduler.wait_next()
         try:
@@ -134,10 +138,10 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
                     ipc.send_record(sock, ["log", "warning", text])
                 tracker_port.notices.clear()
         out = core.tick(records, start)
-        for record in out.records:
-            ipc.send_record(sock, record)
-        for record in out.faults:  # fault / recovered: the hub's health
-            ipc.send_record(sock, record)
+        if out.records or out.faults or backlog:  # announcements, logs, fault / recovered (the hub's health)
+            backlog.extend(out.records)
+            backlog.extend(out.faults)
+            _send_in_order(sock, backlog)
         if out.cues is not None and cue_sock is not None:  # first: the device command leaves before the frame
             try:
                 if not ipc.send_record(cue_sock, ["cues", out.tick, clock.now_ns(), out.cues]):
@@ -147,12 +151,25 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
                 ipc.send_record(sock, ["log", "error", f"cue channel closed ({exc}); device cues stop"])
         if out.state is not None:
             out.state["resyncs"] = scheduler.resyncs
-            ipc.send_record(sock, ["state", out.state])
+            if backlog or not ipc.send_record(sock, ["state", out.state]):
+                core.unsent(out.state)  # the hub is behind: its rows and events ride with the next one
         core.record_sample(period, clock.now_ns() - start)
         if core.pending_switch is not None or builder.busy:
             builder.between_ticks()  # off the tick: install a built switch, build the next
         if core.sim.tick % 1000 == 0 and os.getppid() != parent:
             return  # the hub died without closing the mailbox
+
+
+def _send_in_order(sock: socket.socket, backlog: deque) -> None:
+    """Send the waiting records, oldest first, until the mailbox is full; the rest wait for the
+    next tick. A scene announcement or a trial's end must not be lost because the hub was busy."""
+    while backlog and ipc.send_record(sock, backlog[0]):
+        backlog.popleft()
+    if len(backlog) > MAX_BACKLOG:  # the hub has not read for seconds: keep the newest, say so
+        lost = len(backlog) - MAX_BACKLOG
+        for _ in range(lost):
+            backlog.popleft()
+        backlog.append(["log", "error", f"the hub did not read the loop's records: {lost} dropped"])
 
 
 def main(argv: list[str] | None = None) -> int:
