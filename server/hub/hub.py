@@ -91,6 +91,7 @@ class Hub:
         self.scenario_cls = None
         self.on_scenario = lambda state: None  # wired by the app: a restarted loop resumes this
         self.record_every = 0  # trajectory sampling asked of the loop (experiment recorder); 0 = off
+        self.undelivered: deque[list] = deque(maxlen=1024)  # records for the loop that must not be lost (retried)
         self.listeners: list = []  # called with every loop record after the hub handled it (the recorder)
 
     # ---- records from the loop process -------------------------------------------------
@@ -256,8 +257,11 @@ class Hub:
         """What a client's session asks of the loop; refusals go back to the client as errors."""
         for event in events:
             if isinstance(event, ToLoop):
-                if not self.send_to_loop(event.record) and event.busy:
-                    c.session.reply_error("busy", event.busy)
+                if not self.send_to_loop(event.record):
+                    if event.busy:
+                        c.session.reply_error("busy", event.busy)
+                    else:  # nobody to tell (a client left: tracker_gone): it must still arrive
+                        self.undelivered.append(event.record)
                 continue
             try:
                 self.command(event.key, event.action, event.value, role=event.role, client_id=event.client_id)
@@ -316,8 +320,15 @@ class Hub:
                     if proc is not None:
                         self.on_child_start(what)
                     seen[what] = proc
+            self.retry_undelivered()
             self.check_health()
             await asyncio.sleep(HEALTH_EVERY_S)
+
+    def retry_undelivered(self) -> None:
+        """Records the loop's full mailbox refused and nobody could be told of, in order."""
+        self.owner.check()
+        while self.undelivered and self.send_to_loop(self.undelivered[0]):
+            self.undelivered.popleft()
 
     def check_health(self) -> HealthReport:
         """Evaluate health now; clients are sent a `health` message when the status or the set of

@@ -89,6 +89,29 @@ def test_trackers_reach_the_loop_and_their_client_leaving_is_announced():
     asyncio.run(go())
 
 
+def test_tracker_gone_refused_by_a_full_mailbox_is_retried_until_it_arrives():
+    async def go():
+        hub, to_loop = new_hub()
+        accept = [True]
+        hub.send_to_loop = lambda record: (to_loop.append(record) if accept[0] else None) or accept[0]
+        driver = FakeSocket()
+        serving = asyncio.create_task(hub.serve(driver))
+        driver.send({"type": "hello", "v": 1, "role": "participant", "client": "t"})
+        driver.send({"type": "tracker", "seq": 3, "t": 1.0, "pos": [0, 0.1, 0.2]})
+        await settle()
+        driver_id = driver.got[0]["client_id"]
+        accept[0] = False  # the loop's mailbox is full when the driver leaves
+        driver.leave()
+        await serving
+        hub.retry_undelivered()
+        assert [r[0] for r in to_loop] == ["tracker"] and list(hub.undelivered) == [["tracker_gone", driver_id]]
+        accept[0] = True
+        hub.retry_undelivered()
+        assert to_loop[-1] == ["tracker_gone", driver_id] and not hub.undelivered
+
+    asyncio.run(go())
+
+
 def test_a_full_mailbox_is_reported_to_the_client():
     async def go():
         hub, _ = new_hub(accept=False)
