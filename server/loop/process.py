@@ -27,6 +27,7 @@ import socket
 import sys
 from dataclasses import asdict, dataclass, field
 
+from devices.feed import CUE_HEARTBEAT_MS
 from scenarios import registry
 from server.core.haptics.contact_gate import ContactGate
 from server import ipc
@@ -110,6 +111,7 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
     gc.collect()
     gc.freeze()
     scheduler = DeadlineScheduler(clock, 1_000_000_000 // config.tick_hz)
+    cue_sent_ns = 0  # the last record on the cue channel (the heartbeat below)
     while True:
         start, period = scheduler.wait_next()
         try:
@@ -136,6 +138,15 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
             except OSError as exc:  # the device host's end is gone for good: nobody drives the devices now
                 cue_sock = None
                 ipc.send_record(sock, ["log", "error", f"cue channel closed ({exc}); device cues stop"])
+        if cue_sock is not None:  # heartbeat: the device host turns every actuator off when this goes quiet
+            if out.cues is not None:
+                cue_sent_ns = start
+            elif start - cue_sent_ns >= CUE_HEARTBEAT_MS * 1_000_000:
+                try:
+                    if ipc.send_record(cue_sock, ["alive", out.tick, clock.now_ns()]):
+                        cue_sent_ns = start
+                except OSError:
+                    pass  # the next cue send finds the channel gone and says so
         if out.state is not None:
             out.state["resyncs"] = scheduler.resyncs
             ipc.send_record(sock, ["state", out.state])
