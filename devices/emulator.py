@@ -51,7 +51,8 @@ def edge_row(e: Edge) -> tuple:
 
 class Emulator:
     def __init__(self, model: str, *, link: str | os.PathLike | None = None, timeline: str | os.PathLike | None = None,
-                 wire: bool = True, history: int = 2_000_000, clock_ns=time.monotonic_ns, realtime: bool = False):
+                 wire: bool = True, history: int = 2_000_000, clock_ns=time.monotonic_ns, realtime: bool = False,
+                 append_timeline: bool = False):
         self.core = FirmwareCore(model)
         # A device has a CPU of its own: as a measuring instrument (bench latency) the emulator's
         # thread asks for SCHED_FIFO, so its read stamps do not include waiting for a shared core.
@@ -60,6 +61,7 @@ class Emulator:
         self.model = model
         self.link = Path(link) if link else None
         self.timeline_path = Path(timeline) if timeline else None
+        self.append_timeline = append_timeline  # a restarted emulator goes on in the same file
         self.wire = wire
         self.edges: deque[Edge] = deque(maxlen=history)
         self.received: deque[tuple[int, int]] = deque(maxlen=history)  # (arrival t_us, frame bytes) on the wire
@@ -94,9 +96,11 @@ class Emulator:
     def start(self) -> str:
         if self.timeline_path:
             self.timeline_path.parent.mkdir(parents=True, exist_ok=True)
-            self._csv_file = open(self.timeline_path, "w", newline="")
+            fresh = not (self.append_timeline and self.timeline_path.exists() and self.timeline_path.stat().st_size)
+            self._csv_file = open(self.timeline_path, "w" if fresh else "a", newline="")
             self._csv = csv.writer(self._csv_file)
-            self._csv.writerow(TIMELINE_COLUMNS)
+            if fresh:
+                self._csv.writerow(TIMELINE_COLUMNS)
         self._open_pty()
         self._thread = threading.Thread(target=self._run, name=f"emulator-{self.model}", daemon=True)
         self._thread.start()
@@ -271,6 +275,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("model", choices=MODELS)
     parser.add_argument("--link", help="also reachable at this path (a symlink that survives unplug/replug)")
     parser.add_argument("--timeline", help="write the actuator timeline to this CSV file")
+    parser.add_argument("--append-timeline", action="store_true",
+                        help="append to an existing timeline file (a restarted emulator) instead of starting it afresh")
     parser.add_argument("--no-wire", action="store_true", help="do not model the 115200-baud wire time")
     parser.add_argument("--exit-with-parent", action="store_true", help="stop when the parent process goes away")
     args = parser.parse_args(argv)
@@ -281,7 +287,8 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(sig, lambda *_: stop.set())
     # Nothing reads the in-memory history of a separate emulator process (its timeline is the CSV
     # file): keep only a little, or a long session (the simulated rig) grows by ~400 B per frame.
-    emulator = Emulator(args.model, link=args.link, timeline=args.timeline, wire=not args.no_wire, history=1000)
+    emulator = Emulator(args.model, link=args.link, timeline=args.timeline, wire=not args.no_wire, history=1000,
+                        append_timeline=args.append_timeline)
     path = emulator.start()
     print(f"{args.model} emulator on {emulator.pty_path}" + (f" (link {path})" if args.link else ""), flush=True)
     print(path, flush=True)

@@ -67,6 +67,8 @@ class FakeDevice:
                 self._send(self.identity, now_s)
         elif isinstance(message, m.Ping):
             self._send(m.Pong(message.token), now_s)
+        elif isinstance(message, m.SetWatchdog):  # like a firmware older than the watchdog (§6)
+            self._send(m.Error(seq, m.ErrorCode.UNKNOWN_TYPE), now_s)
         else:
             code = self._check(message)
             if code is not None:

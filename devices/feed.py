@@ -9,6 +9,14 @@ runs at SCHED_FIFO below the loop when allowed (devices/realtime.py), and hands 
 the DeviceManager with `write_now`: it writes a device's first frame itself only when the link
 budget allows and the port's output queue is empty, so the write cannot block, and leaves the
 rest to the device's writer thread; a dead or slow device cannot hold the feed up.
+
+Fail safe (docs/devices.md "Faults"): the loop also sends `["alive", tick, sent_ns]` whenever it
+sent nothing on the channel for CUE_HEARTBEAT_MS, so a channel that stays quiet for
+`quiet_ms` (CUE_QUIET_MS) means the loop died or stalls: the feed turns every actuator off
+itself, without waiting for anyone to notice the dead process, and re-applies the last cue set
+when records resume (a restarted loop sends its own cues at its first tick). The decisions are
+sans-I/O (`handle`, `check` with the time as an argument); the thread only waits in `recv` with a
+timeout up to the next deadline.
 """
 
 from __future__ import annotations
@@ -27,32 +35,75 @@ from server import ipc
 
 log = logging.getLogger("viestac.devices")
 
+CUE_HEARTBEAT_MS = 10  # the loop sends "alive" when it sent nothing on the cue channel for this long
+CUE_QUIET_MS = 30      # nothing at all for this long: every actuator off (3 heartbeats missed)
+
 
 class DeviceFeed:
-    def __init__(self, manager):
+    def __init__(self, manager, *, quiet_ms: float = CUE_QUIET_MS):
+        if not quiet_ms > CUE_HEARTBEAT_MS:
+            raise ValueError(f"quiet_ms must exceed the loop's heartbeat ({CUE_HEARTBEAT_MS} ms), got {quiet_ms!r}")
         self.manager = manager
+        self.quiet_ns = int(quiet_ms * 1_000_000)
         self.records = 0
+        self.alive = 0
         self.bad_records = 0
+        self.quiet_offs = 0  # times the channel went quiet and the feed turned everything off
+        self.quiet = False   # off because the channel is quiet; the next record re-applies `cues`
+        self.cues: tuple = ()  # the last cue set the loop sent
+        self._last_rx_ns: int | None = None  # None until the first record: the devices start off
         self.last_tick: int | None = None
         self.rt = False
         self.stopped = False  # set when the host stops: later records are dropped (everything stays off)
         self.delays_ns: deque[tuple[int, int]] = deque(maxlen=1000)  # loop send → (received, handed over)
         self.thread: threading.Thread | None = None
+        self.on_closed = None  # called on the feed thread when the cue channel breaks for good
 
     def handle(self, record: list, received_ns: int | None = None) -> None:
-        """One cue record: decode and hand it to the devices; ValueError names what is wrong.
-        With `received_ns`, the hop from the loop's send to the hand-over is kept (info())."""
+        """One record (cues or alive): decode and hand the cues to the devices; ValueError names
+        what is wrong. `received_ns` (time.monotonic_ns) restarts the quiet timer and keeps the hop
+        from the loop's send to the hand-over (info()); without it the record still counts as a
+        sign of life at the current time."""
+        now_ns = time.monotonic_ns() if received_ns is None else received_ns
+        if isinstance(record, list) and len(record) == 3 and record[0] == "alive" and isinstance(record[1], int) \
+                and isinstance(record[2], int):
+            self.alive += 1
+            self.last_tick = record[1]
+            self._last_rx_ns = now_ns
+            if self.quiet and not self.stopped:  # the loop is back (or never died, only stalled)
+                self.quiet = False
+                self.manager.submit(self.cues, write_now=True)
+            return
         if not (isinstance(record, list) and len(record) == 4 and record[0] == "cues" and isinstance(record[3], list)
                 and isinstance(record[2], int)):
             raise ValueError(f"not a cue record: {record!r:.120}")
         cues = tuple(cue_from_wire(c) for c in record[3])
+        self._last_rx_ns = now_ns
         if self.stopped:
             return
+        self.cues, self.quiet = cues, False
         self.manager.submit(cues, write_now=True)
         self.records += 1
         self.last_tick = record[1]
         if received_ns is not None:
             self.delays_ns.append((received_ns - record[2], time.monotonic_ns() - record[2]))
+
+    def check(self, now_ns: int) -> int | None:
+        """The quiet rule at `now_ns`: every actuator off once nothing arrived for quiet_ms.
+        Returns when to check again (ns), None while there is nothing to wait for (no record yet,
+        already off, or stopped)."""
+        if self._last_rx_ns is None or self.quiet or self.stopped:
+            return None
+        deadline = self._last_rx_ns + self.quiet_ns
+        if now_ns < deadline:
+            return deadline
+        self.quiet = True
+        self.quiet_offs += 1
+        self.manager.submit((), write_now=True)
+        if self.quiet_offs <= 10 or self.quiet_offs % 100 == 0:
+            log.warning("device feed: no record from the loop for %.0f ms: every actuator off (%d so far)",
+                        (now_ns - self._last_rx_ns) / 1e6, self.quiet_offs)
+        return None
 
     def attach(self, sock: socket.socket) -> None:
         """Serve the cue channel on a thread of its own until every holder of its other end closed it."""
@@ -69,20 +120,26 @@ class DeviceFeed:
             hop[name] = ({"p50_us": round(values[len(values) // 2] / 1000, 1),
                           "p99_us": round(values[min(len(values) - 1, int(len(values) * 0.99))] / 1000, 1),
                           "max_us": round(values[-1] / 1000, 1)} if values else None)
-        return {"records": self.records, "bad_records": self.bad_records, "last_tick": self.last_tick, "rt": self.rt,
-                "delay": hop}
+        return {"records": self.records, "alive": self.alive, "bad_records": self.bad_records,
+                "last_tick": self.last_tick, "rt": self.rt, "quiet": self.quiet, "quiet_offs": self.quiet_offs,
+                "quiet_ms": self.quiet_ns / 1e6, "delay": hop}
 
     def _run(self, sock: socket.socket) -> None:
         self.rt = fifo_this_thread()
-        sock.setblocking(True)
         with sock:
             while True:
+                deadline = self.check(time.monotonic_ns())
+                # a timeout makes the socket non-blocking underneath and waits in poll(): recv
+                # returns at the quiet deadline even when the loop is gone for good
+                sock.settimeout(None if deadline is None else max(0.0, (deadline - time.monotonic_ns()) / 1e9))
                 try:
                     data = sock.recv(ipc.MAX_RECORD_BYTES)
+                except TimeoutError:
+                    continue
                 except OSError:
-                    return
+                    break
                 if not data:
-                    return  # nobody can send any more
+                    break  # nobody can send any more
                 received_ns = time.monotonic_ns()
                 try:
                     self.handle(msgpack.unpackb(data, raw=False), received_ns)
@@ -90,3 +147,5 @@ class DeviceFeed:
                     self.bad_records += 1
                     if self.bad_records <= 10 or self.bad_records % 1000 == 0:
                         log.exception("device feed: bad cue record (%d so far)", self.bad_records)
+        if self.on_closed is not None:  # the channel is gone: nobody will drive the devices again
+            self.on_closed()

@@ -43,7 +43,7 @@ MODELS = ("fingertac", "ferrovibe", "devkit")
 MAX_PAYLOAD = 58
 MAX_CHANNELS = 4
 NEVER = 2**64 - 1
-CAUSES = {0: "state", 1: "command", 2: "schedule"}
+CAUSES = {0: "state", 1: "command", 2: "schedule", 3: "watchdog"}
 DECODE_ERRORS = {2: "framing", 3: "too_long", 4: "bad_length", 5: "bad_crc"}
 CHECK_ERRORS = {0: None, 3: "bad_length", 4: "unknown_type"}
 
@@ -190,6 +190,8 @@ def _load(path: Path) -> ctypes.CDLL:
         "vt_device_take_output": (sz, [vp, u8p, sz]),
         "vt_device_advance": (sz, [vp, u64, ctypes.POINTER(_Edge), sz]),
         "vt_device_next_edge_us": (u64, [vp]),
+        "vt_device_set_watchdog": (ctypes.c_int, [vp, ctypes.c_uint32]),
+        "vt_device_watchdog_deadline_us": (u64, [vp]),
         "vt_device_channel": (ctypes.POINTER(_Channel), [vp, ctypes.c_uint8]),
         "vt_device_counter": (ctypes.c_uint32, [vp, ctypes.c_int]),
         "vt_counter_name": (ctypes.c_char_p, [ctypes.c_int]),
@@ -291,7 +293,7 @@ class Edge:
     carrier_hz: int       # effective carrier; 0 for texture and off
     direction_cdeg: int
     magnitude: int        # tilt %, 0 = flat
-    cause: str            # "command" or "schedule" ("state" only from FirmwareCore.output)
+    cause: str            # "command", "schedule" or "watchdog" ("state" only from FirmwareCore.output)
     temperature_c: float | None = None   # temperature layer, None = off
     friction: float | None = None        # friction coefficient, None = off
 
@@ -410,6 +412,17 @@ class FirmwareCore:
         t = self._lib.vt_device_next_edge_us(self._dev)
         return None if t == NEVER else t
 
+    def set_watchdog(self, timeout_ms: int) -> None:
+        """The watchdog's timeout as a sketch sets its power-up default (0 = off); it arms at the
+        next valid frame. A host sets it with SET_WATCHDOG (docs/device-protocol.md §2)."""
+        if self._lib.vt_device_set_watchdog(self._dev, int(timeout_ms)) != 0:
+            raise ValueError(f"watchdog timeout must be 0 or 10..60000 ms, got {timeout_ms!r}")
+
+    def watchdog_deadline_us(self) -> int | None:
+        """When the watchdog trips unless a valid frame comes first; None while disarmed."""
+        t = self._lib.vt_device_watchdog_deadline_us(self._dev)
+        return None if t == NEVER else t
+
     def output(self, channel: int) -> Edge:
         """The channel's current output state (as of the last reported edge; cause "state")."""
         return Edge._from_c(self._channel(channel).last, "state")
@@ -429,7 +442,7 @@ class FirmwareCore:
 
     def counters(self) -> dict[str, int]:
         """frames_ok, bad_crc, framing, too_long, bad_length, unknown_type, bad_value,
-        unsupported, bad_channel, bad_version, ignored, replies_dropped, edges_dropped."""
+        unsupported, bad_channel, bad_version, ignored, replies_dropped, edges_dropped, watchdog_trips."""
         result = {}
         i = 0
         while (name := self._lib.vt_counter_name(i)) is not None:

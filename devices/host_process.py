@@ -13,7 +13,9 @@ stdin. Control records (msgpack arrays on a SEQPACKET socket):
   hub → here: ["snapshot", request_id, writes], ["stop"]
   here → hub: ["hello", {"pid"}], ["report", {"refusals", "status"}],
               ["profiles", {name: profile table}], ["snapshot", request_id, snapshot]
-A closed control socket (the hub died) is a stop. Stopping turns every actuator off first.
+A closed control socket (the hub died) is a stop. Stopping turns every actuator off first; so does
+a cue channel that breaks (nobody can drive the devices any more) or goes quiet (devices/feed.py).
+`--cue-quiet-ms` sets the feed's quiet time (default devices.feed.CUE_QUIET_MS).
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ import threading
 
 import msgpack
 
-from devices.feed import DeviceFeed
+from devices.feed import CUE_QUIET_MS, DeviceFeed
 from devices.manager import DeviceManager
 from server import ipc
 
@@ -38,10 +40,11 @@ log = logging.getLogger("viestac.devices")
 class DeviceHost:
     """The child's side: a DeviceManager, the cue feed, and the hub's control channel."""
 
-    def __init__(self, manager: DeviceManager, control: socket.socket):
+    def __init__(self, manager: DeviceManager, control: socket.socket, *, cue_quiet_ms: float = CUE_QUIET_MS):
         self.manager = manager
         self.control = control
-        self.feed = DeviceFeed(manager)
+        self.feed = DeviceFeed(manager, quiet_ms=cue_quiet_ms)
+        self.feed.on_closed = self.all_off
         self._send_lock = threading.Lock()  # reports come from device threads, replies from the control thread
         self._report: dict | None = None
         self._profiles: dict | None = None
@@ -65,6 +68,11 @@ class DeviceHost:
             self._profiles = profiles
             self.send(["profiles", profiles])
 
+    def all_off(self) -> None:
+        """Every actuator off for good: later cue records are dropped."""
+        self.feed.stopped = True  # a cue still in the channel must not turn anything back on
+        self.manager.submit((), write_now=True)
+
     def run(self, cues: socket.socket) -> None:
         self.manager.start()
         self.feed.attach(cues)
@@ -73,8 +81,7 @@ class DeviceHost:
         try:
             self._serve_control()
         finally:
-            self.feed.stopped = True  # a cue still in the channel must not turn anything back on
-            self.manager.submit(())
+            self.all_off()  # first: the drain in stop() sends these before the ports close
             self.manager.stop()
 
     def _serve_control(self) -> None:
@@ -103,12 +110,14 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="viestac-devices")
     parser.add_argument("--control-fd", type=int, required=True)
     parser.add_argument("--cues-fd", type=int, required=True)
+    parser.add_argument("--cue-quiet-ms", type=float, default=CUE_QUIET_MS,
+                        help="every actuator off when the cue channel is quiet this long (the loop died or stalls)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     configs = pickle.loads(sys.stdin.buffer.read())  # from the hub, our parent: trusted
     control = socket.socket(fileno=args.control_fd)
     cues = socket.socket(fileno=args.cues_fd)
-    DeviceHost(DeviceManager(configs), control).run(cues)
+    DeviceHost(DeviceManager(configs), control, cue_quiet_ms=args.cue_quiet_ms).run(cues)
     return 0
 
 

@@ -32,7 +32,8 @@ from devices.link import BYTE_TIME_S
 from devices.ports import PortSpec
 from devices.messages import cap_names
 from devices.profiles import DeviceProfile, ProfileError, profile_by_model
-from devices.protocol import DeviceErrorReported, FrameRejected, HostProtocol, Identified, StatusChanged
+from devices.protocol import (WATCHDOG_MS, DeviceErrorReported, FrameRejected, HostProtocol, Identified, StatusChanged,
+                              WatchdogReported)
 from devices.serial_port import SerialDevice
 
 log = logging.getLogger("viestac.devices")
@@ -50,6 +51,7 @@ class DeviceConfig:
     port: PortSpec
     baud: int = 115200
     link_share: float = 0.5
+    watchdog_ms: int = WATCHDOG_MS  # the firmware's own fail-safe (docs/device-protocol.md §2); 0 = off
 
     def __post_init__(self) -> None:
         if not _NAME.match(self.name):
@@ -58,6 +60,8 @@ class DeviceConfig:
             raise DeviceConfigError(f"device {self.name}: baud {self.baud} out of range")
         if not 0 < self.link_share <= 1:
             raise DeviceConfigError(f"device {self.name}: link_share must be in (0, 1], got {self.link_share}")
+        if not (self.watchdog_ms == 0 or 20 <= self.watchdog_ms <= 60_000):  # 20: room for keepalives
+            raise DeviceConfigError(f"device {self.name}: watchdog_ms must be 0 (off) or 20..60000, got {self.watchdog_ms}")
 
     @classmethod
     def parse(cls, text: str) -> DeviceConfig:
@@ -73,7 +77,7 @@ class DeviceConfig:
 
     @classmethod
     def from_dict(cls, data: Mapping, where: str) -> DeviceConfig:
-        allowed = {"name", "profile", "port", "usb", "baud", "link_share"}
+        allowed = {"name", "profile", "port", "usb", "baud", "link_share", "watchdog_ms"}
         unknown = set(data) - allowed
         if unknown:
             raise DeviceConfigError(f"{where}: unknown key(s) {sorted(unknown)}; allowed: {', '.join(sorted(allowed))}")
@@ -83,7 +87,8 @@ class DeviceConfig:
             raw = data["profile"]
             profile = profile_by_model(raw) if isinstance(raw, str) else DeviceProfile.from_dict(raw, where=f"{where}.profile")
             return cls(name=str(data.get("name", profile.model)), profile=profile, port=PortSpec.from_dict(data),
-                       baud=int(data.get("baud", 115200)), link_share=float(data.get("link_share", 0.5)))
+                       baud=int(data.get("baud", 115200)), link_share=float(data.get("link_share", 0.5)),
+                       watchdog_ms=int(data.get("watchdog_ms", WATCHDOG_MS)))
         except (DeviceConfigError, ProfileError) as exc:  # already name where they come from
             raise DeviceConfigError(str(exc)) from None
         except (ValueError, TypeError) as exc:
@@ -121,11 +126,13 @@ def check_unique(configs: list[DeviceConfig]) -> None:
                                 "(give each one a name: NAME=MODEL@PORT)")
 
 
-def make_protocol(profile: DeviceProfile, link_share: float, baud: int):
+def make_protocol(profile: DeviceProfile, link_share: float, baud: int, watchdog_ms: int = WATCHDOG_MS):
     byte_time_s = BYTE_TIME_S * 115_200 / baud  # 8N1 at this baud rate
     if profile.protocol == "line":
         return LineProtocol(dict(profile.line), share=link_share, byte_time_s=byte_time_s)
-    return HostProtocol(share=link_share, byte_time_s=byte_time_s)
+    # keepalives at a quarter of the watchdog, never more often than every 5 ms
+    return HostProtocol(share=link_share, byte_time_s=byte_time_s, watchdog_ms=watchdog_ms,
+                        keepalive_interval_s=max(0.005, watchdog_ms / 4000))
 
 
 class _Managed:
@@ -148,7 +155,8 @@ class DeviceManager:
         self.devices: dict[str, _Managed] = {}
         self._rejected: dict[str, tuple[int, float]] = {}  # name → (not yet logged, last log time)
         for config in configs:
-            driver = SerialDevice(config.name, config.port, make_protocol(config.profile, config.link_share, config.baud),
+            driver = SerialDevice(config.name, config.port, make_protocol(config.profile, config.link_share, config.baud,
+                                                                                config.watchdog_ms),
                                   baud=config.baud, reopen_interval_s=reopen_interval_s, on_event=self._on_event,
                                   clock=clock, serial_factory=serial_factory)
             self.devices[config.name] = _Managed(config, driver)
@@ -208,6 +216,9 @@ class DeviceManager:
             log.warning("%s: the device answered ERROR %s to %s", name, event.code, event.message_repr)
         elif isinstance(event, CommandRefused):
             log.warning("%s: no line template for %s (%s)", name, event.message, event.reason)
+        elif isinstance(event, WatchdogReported):
+            log.warning("%s: the device's watchdog turned every actuator off (trip %d): the host was silent "
+                        "too long; every layer is sent again", name, event.trips)
         elif isinstance(event, DeviceLine):
             log.debug("%s says: %s", name, event.text)
         if isinstance(event, StatusChanged):

@@ -136,6 +136,26 @@ class Ping(_Message):
     token: int  # echoed in PONG
 
 
+WATCHDOG_MIN_MS, WATCHDOG_MAX_MS = 10, 60_000
+
+
+@dataclass(frozen=True)
+class SetWatchdog(_Message):
+    """Every actuator off when no valid frame arrives for timeout_ms (0 = off); answered by ACK,
+    by ERROR unknown_type from a firmware that predates it (§2, §6)."""
+    TYPE: ClassVar = 0x03
+    FORMAT: ClassVar = "<H"
+    RANGES: ClassVar = {"timeout_ms": (0, WATCHDOG_MAX_MS)}
+    FROM_HOST: ClassVar = True
+    timeout_ms: int
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if 0 < self.timeout_ms < WATCHDOG_MIN_MS:
+            raise MessageError("bad_value", f"SetWatchdog.timeout_ms must be 0 or {WATCHDOG_MIN_MS}.."
+                               f"{WATCHDOG_MAX_MS}, got {self.timeout_ms}", "timeout_ms")
+
+
 @dataclass(frozen=True)
 class SetPattern(_Message):
     """The pattern layer: off, pulse train, continuous vibration or texture (§2 mode)."""
@@ -366,11 +386,25 @@ class Error(_Message):
         return self.code.name.lower() if isinstance(self.code, ErrorCode) else f"code_{self.code}"
 
 
-Message = Hello | Ping | SetPattern | SetTilt | SetTemperature | SetFriction | Stop | Identify | Pong | Ack | Error
+@dataclass(frozen=True)
+class WatchdogTripped(_Message):
+    """The watchdog turned every actuator off since the last report; sent before the reply to the
+    next frame, only to a host that sent SET_WATCHDOG (§3)."""
+    TYPE: ClassVar = 0x85
+    FORMAT: ClassVar = "<HH"
+    RANGES: ClassVar = {"timeout_ms": U16, "trips": U16}
+    FROM_HOST: ClassVar = False
+    timeout_ms: int  # the timeout that expired
+    trips: int       # since power-up (saturates at 65535)
+
+
+Message = (Hello | Ping | SetWatchdog | SetPattern | SetTilt | SetTemperature | SetFriction | Stop | Identify | Pong
+           | Ack | Error | WatchdogTripped)
 SetMessage = SetPattern | SetTilt | SetTemperature | SetFriction | Stop
 SET_MESSAGES = (SetPattern, SetTilt, SetTemperature, SetFriction, Stop)
-MESSAGE_TYPES: dict[int, type] = {cls.TYPE: cls for cls in (Hello, Ping, SetPattern, SetTilt, SetTemperature,
-                                                            SetFriction, Stop, Identify, Pong, Ack, Error)}
+MESSAGE_TYPES: dict[int, type] = {cls.TYPE: cls for cls in (Hello, Ping, SetWatchdog, SetPattern, SetTilt,
+                                                            SetTemperature, SetFriction, Stop, Identify, Pong, Ack,
+                                                            Error, WatchdogTripped)}
 
 
 def unpack(type: int, payload: bytes) -> Message:

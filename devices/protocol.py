@@ -27,6 +27,14 @@ again); the error is reported with the command it refers to.
 
 STOP is a command with the layer_key (channel, "stop"): it replaces the waiting values of every
 layer of its channel(s), and a later SET on one of them goes after it (devices.messages.overrides).
+
+Watchdog (§2 SET_WATCHDOG, §4.3): with `watchdog_ms` > 0 the host sends SET_WATCHDOG right after
+IDENTIFY (and after unresponsive → connected, the device may have been power-cycled) and then
+never lets `keepalive_interval_s` pass without a frame: when nothing else went out, a PING does.
+A device that then hears nothing for watchdog_ms turns every actuator off by itself. `watchdog`
+says how it stands: off | pending (sent, not acknowledged) | on | unsupported (the firmware
+predates it: ERROR unknown_type; no keepalives then). A WATCHDOG report from the device (it
+tripped: every layer is off) makes every layer pending again.
 """
 
 from __future__ import annotations
@@ -41,6 +49,12 @@ DISCONNECTED, HANDSHAKING, CONNECTED, UNRESPONSIVE, BAD_VERSION = (
     "disconnected", "handshaking", "connected", "unresponsive", "bad_version")
 REJECT_KINDS = ("framing", "too_long", "bad_length", "bad_crc", "unknown_type", "bad_value")
 _PING_TOKENS_KEPT = 8
+# The production defaults (devices.manager.make_protocol): the device is off at most 100 ms after
+# the host's last frame, and a keepalive at least every 25 ms leaves 3 of them to be lost or late
+# (a writer thread that stalls 75 ms) before a healthy host trips it; 10 bytes per 25 ms are
+# 3.5 % of a 115200-baud link (docs/device-protocol.md §5).
+WATCHDOG_MS = 100
+KEEPALIVE_INTERVAL_S = 0.025
 
 
 # ---- events: facts, in the order they happened ----------------------------------------------
@@ -77,13 +91,27 @@ class FrameRejected:
 
 
 @dataclass(frozen=True)
+class WatchdogReported:
+    trips: int  # the device's watchdog turned every actuator off (trips since its power-up)
+
+
+@dataclass(frozen=True)
 class Pong:
     rtt_s: float  # PING write → PONG receipt
 
 
 class HostProtocol:
     def __init__(self, *, share: float = 0.5, byte_time_s: float = BYTE_TIME_S, hello_interval_s: float = 0.25,
-                 ping_interval_s: float = 0.5, silence_timeout_s: float = 1.5, ack_timeout_s: float = 0.5):
+                 ping_interval_s: float = 0.5, silence_timeout_s: float = 1.5, ack_timeout_s: float = 0.5,
+                 watchdog_ms: int = 0, keepalive_interval_s: float = KEEPALIVE_INTERVAL_S):
+        if watchdog_ms:
+            m.SetWatchdog(watchdog_ms)  # a range check, with the message's own error
+            if not 0 < keepalive_interval_s * 1000 < watchdog_ms:
+                raise ValueError(f"keepalive_interval_s ({keepalive_interval_s}) must be shorter than the watchdog "
+                                 f"({watchdog_ms} ms)")
+        self.watchdog_ms = watchdog_ms
+        self.keepalive_interval_s = keepalive_interval_s
+        self.watchdog = "off"  # off | pending | on | unsupported
         self.hello_interval_s = hello_interval_s
         self.ping_interval_s = ping_interval_s
         self.silence_timeout_s = silence_timeout_s
@@ -92,7 +120,8 @@ class HostProtocol:
         self.identity: m.Identify | None = None  # the last version-1 IDENTIFY
         self.rtt_s: float | None = None
         self.counters: dict[str, int] = dict.fromkeys(
-            ("frames_in", "frames_out", "bytes_out", "acks", "device_errors", "resent", *REJECT_KINDS), 0)
+            ("frames_in", "frames_out", "bytes_out", "acks", "device_errors", "resent", "watchdog_trips", *REJECT_KINDS),
+            0)
         self.budget = LinkBudget(share, byte_time_s)
         self.book = CommandBook()
         self._decoder = FrameDecoder()
@@ -105,6 +134,9 @@ class HostProtocol:
         self._ping_tokens: dict[int, float] = {}  # token -> written at
         self._next_token = 1
         self._last_rx = 0.0
+        self._last_tx = 0.0
+        self._watchdog_due: float | None = None
+        self._watchdog_sent: tuple[int, float] | None = None  # (seq, written at) of the last SET_WATCHDOG
 
     # ---- connection ------------------------------------------------------------------------
 
@@ -115,6 +147,8 @@ class HostProtocol:
         self._flush = True  # §4.1: one 0x00 flushes the device's partial frame, then HELLO
         self._hello_due = self._ping_due = None
         self._last_rx = now_s
+        self._watchdog_due = self._watchdog_sent = None
+        self.watchdog = "off"
         self.book.requeue_all()  # §4.4: after a (re)connect every layer is sent again
         self._set_status(HANDSHAKING, "port opened")
 
@@ -140,6 +174,7 @@ class HostProtocol:
         if self.status == UNRESPONSIVE:
             # it may have been power-cycled behind an open port: resend every layer (§4.4)
             self.counters["resent"] += self.book.requeue_all()
+            self._arm_watchdog(now_s)
             self._set_status(CONNECTED, "device answers again")
         if frame.type == m.Identify.TYPE and frame.payload and frame.payload[0] != m.PROTOCOL_VERSION:
             # checked before parsing: another version's IDENTIFY may have another layout (§6)
@@ -162,13 +197,22 @@ class HostProtocol:
                 self._events.append(Identified(message))
             if self.status in (HANDSHAKING, BAD_VERSION):
                 self._ping_due = now_s  # first PING at once: an RTT right away
+                self._arm_watchdog(now_s)
                 self._set_status(CONNECTED, f"{message.model} firmware {message.firmware}")
         elif isinstance(message, m.Pong):
             sent_at = self._ping_tokens.pop(message.token, None)
             if sent_at is not None:
                 self.rtt_s = now_s - sent_at
                 self._events.append(Pong(self.rtt_s))
+        elif isinstance(message, m.WatchdogTripped):
+            # every layer went off behind our back (we were silent too long): show them again
+            self.counters["watchdog_trips"] += 1
+            self.counters["resent"] += self.book.requeue_all()
+            self._events.append(WatchdogReported(message.trips))
         elif isinstance(message, m.Ack):
+            if self._watchdog_sent is not None and message.ref_seq == self._watchdog_sent[0]:
+                self._watchdog_sent = None
+                self.watchdog = "on"
             self.counters["acks"] += 1
             self.book.mark_acked(message.ref_seq)
             sent = self._frames.get(message.ref_seq)
@@ -178,6 +222,12 @@ class HostProtocol:
             self._device_error(message)
 
     def _device_error(self, error: m.Error) -> None:
+        if self._watchdog_sent is not None and error.ref_seq == self._watchdog_sent[0]:
+            # a firmware older than SET_WATCHDOG (§6): it works as before, without keepalives
+            self._watchdog_sent = None
+            self.watchdog = "unsupported" if error.code == m.ErrorCode.UNKNOWN_TYPE else "off"
+            self._events.append(DeviceErrorReported(error.ref_seq, error.code, repr(m.SetWatchdog(self.watchdog_ms))))
+            return
         self.counters["device_errors"] += 1
         if error.code in m.UNTRUSTED_SEQ_CODES:
             # the device could not read a frame, so some command may be lost: resend what is
@@ -214,7 +264,20 @@ class HostProtocol:
         events, self._events = self._events, []
         return events
 
+    def _arm_watchdog(self, now_s: float) -> None:
+        if self.watchdog_ms and self.watchdog != "unsupported":
+            self._watchdog_due = now_s
+            self.watchdog = "pending"
+
+    def _keepalive_due(self) -> float | None:
+        """When the next frame must leave so the device's watchdog stays fed; None if it need not."""
+        if self.watchdog in ("pending", "on") and self.status in (CONNECTED, UNRESPONSIVE):
+            return self._last_tx + self.keepalive_interval_s
+        return None
+
     def _check_timers(self, now_s: float) -> None:
+        if self._watchdog_sent is not None and now_s - self._watchdog_sent[1] >= self.ack_timeout_s:
+            self._watchdog_sent, self._watchdog_due = None, now_s  # no answer: send it again
         if self.status == CONNECTED and now_s - self._last_rx >= self.silence_timeout_s:
             self._set_status(UNRESPONSIVE, f"no frame from the device for {self.silence_timeout_s:g} s")
         if self.status == CONNECTED:
@@ -231,6 +294,9 @@ class HostProtocol:
             due.append(self._hello_due)
         if self._ping_due is not None:
             due.append(self._ping_due)
+        for t in (self._watchdog_due, self._keepalive_due()):
+            if t is not None:
+                due.append(t)
         if self.book.pending:
             due.append(-float("inf"))
         return due
@@ -243,8 +309,15 @@ class HostProtocol:
         if self._hello_due is not None and self._hello_due <= now_s:
             self._hello_due = now_s + self.hello_interval_s  # §4.2: again, for ever, ≤ 4/s
             return self._frame(m.Hello(), now_s)
-        if self._ping_due is not None and self._ping_due <= now_s:
-            self._ping_due = now_s + self.ping_interval_s
+        if self._watchdog_due is not None and self._watchdog_due <= now_s:
+            self._watchdog_due = None
+            self._watchdog_sent = (self._seq, now_s)
+            return self._frame(m.SetWatchdog(self.watchdog_ms), now_s)
+        keepalive = self._keepalive_due()
+        if (self._ping_due is not None and self._ping_due <= now_s) or (
+                keepalive is not None and keepalive <= now_s and not self.book.pending):
+            if self._ping_due is not None and self._ping_due <= now_s:
+                self._ping_due = now_s + self.ping_interval_s
             token, self._next_token = self._next_token, (self._next_token + 1) & 0xFFFF_FFFF
             self._ping_tokens[token] = now_s
             while len(self._ping_tokens) > _PING_TOKENS_KEPT:
@@ -263,6 +336,7 @@ class HostProtocol:
         seq, self._seq = self._seq, (self._seq + 1) & 0xFF
         self._frames[seq] = (message, now_s)  # seq wraps at 256, so this keeps the last 256
         self.counters["frames_out"] += 1
+        self._last_tx = now_s
         return encode_frame(message.TYPE, seq, message.pack())
 
     def _wake_at(self, now_s: float) -> float | None:
@@ -272,6 +346,8 @@ class HostProtocol:
             oldest = self.book.oldest_unacked_at()
             if oldest is not None:
                 times.append(oldest + self.ack_timeout_s)
+        if self._watchdog_sent is not None:
+            times.append(self._watchdog_sent[1] + self.ack_timeout_s)
         return max(min(times), now_s) if times else None
 
     def _set_status(self, new: str, reason: str) -> None:

@@ -3,6 +3,13 @@ path, so `viestac serve` without hardware exercises exactly the byte path a lab'
 
 Each emulator is `python -m devices.emulator MODEL --link DIR/MODEL --timeline DIR/MODEL-timeline.csv`;
 the server opens DIR/MODEL like any serial port. The timelines record every actuator change.
+
+A dead emulator is not restarted by the rig: a device that died must show as missing (status
+`disconnected`, `alive: false` in `info()`), as a real one would. Whoever killed it (the fault
+bench, a test, a person) starts it again with `restart(model)` or `emulator_command(...)`; the
+host's reader reopens the same link path within its reopen interval (0.5 s) and handshakes
+(docs/device-protocol.md §4.5). The timeline file is appended to, not truncated, so one CSV
+covers the emulator before and after the restart.
 """
 
 from __future__ import annotations
@@ -44,11 +51,7 @@ class SimulatedRig:
         ensure_library()  # build the firmware core once, before several emulators race to do it
         for model in self.models:
             self.link(model).unlink(missing_ok=True)
-            self.procs[model] = subprocess.Popen(
-                [sys.executable, "-m", "devices.emulator", model, "--link", str(self.link(model)),
-                 "--timeline", str(self.timeline(model)), "--exit-with-parent"],
-                stdout=subprocess.DEVNULL, cwd=Path(__file__).resolve().parents[1],
-                start_new_session=True)  # a terminal's Ctrl-C reaches the server, which stops us in order
+            self.procs[model] = self._spawn(model)
         deadline = time.monotonic() + timeout_s
         for model, proc in self.procs.items():
             while not self.link(model).exists():
@@ -59,6 +62,31 @@ class SimulatedRig:
         log.info("simulated rig: %s in %s", ", ".join(self.models), self.directory)
         return [DeviceConfig(name=model, profile=profile_by_model(model), port=PortSpec.parse(str(self.link(model))))
                 for model in self.models]
+
+    def _spawn(self, model: str, *, append: bool = False) -> subprocess.Popen:
+        return subprocess.Popen(
+            emulator_command(model, self.link(model), self.timeline(model), append_timeline=append),
+            stdout=subprocess.DEVNULL, cwd=Path(__file__).resolve().parents[1],
+            start_new_session=True)  # a terminal's Ctrl-C reaches the server, which stops us in order
+
+    def restart(self, model: str, timeout_s: float = 10.0) -> subprocess.Popen:
+        """Start `model`'s emulator again at the same link (after it died or was killed); returns
+        once the link points at the new pty. A running one is stopped first (a power cycle)."""
+        if model not in self.models or self.directory is None:
+            raise ValueError(f"{model!r} is not an emulator of this rig ({', '.join(self.models)})")
+        old = self.procs.get(model)
+        if old is not None and old.poll() is None:
+            old.terminate()
+            old.wait(timeout=3)
+        before = _link_id(self.link(model))
+        proc = self.procs[model] = self._spawn(model, append=True)
+        deadline = time.monotonic() + timeout_s
+        while _link_id(self.link(model)) in (None, before):  # the new emulator replaced the link
+            if proc.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError(f"the {model} emulator did not restart (exit code {proc.poll()})")
+            time.sleep(0.005)
+        log.info("simulated rig: %s emulator restarted (pid %d)", model, proc.pid)
+        return proc
 
     def stop(self) -> None:
         for proc in self.procs.values():
@@ -75,6 +103,23 @@ class SimulatedRig:
         return {"directory": str(self.directory), "emulators": {
             model: {"pid": proc.pid, "alive": proc.poll() is None, "link": str(self.link(model)),
                     "timeline": str(self.timeline(model))} for model, proc in self.procs.items()}}
+
+
+def emulator_command(model: str, link: Path, timeline: Path, *, append_timeline: bool = False,
+                     exit_with_parent: bool = True) -> list[str]:
+    """The command line of one rig emulator (run with the repository root as working directory).
+    A restart appends to the timeline, so one file covers the emulator before and after it."""
+    return [sys.executable, "-m", "devices.emulator", model, "--link", str(link), "--timeline", str(timeline),
+            *(["--append-timeline"] if append_timeline else []), *(["--exit-with-parent"] if exit_with_parent else [])]
+
+
+def _link_id(link: Path) -> tuple[int, int] | None:
+    """Which symlink is at `link` now (inode, mtime), None if none: the pty number may repeat."""
+    try:
+        st = os.lstat(link)
+    except FileNotFoundError:
+        return None
+    return st.st_ino, st.st_mtime_ns
 
 
 def default_rig_dir() -> Path | None:

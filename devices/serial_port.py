@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import os
 import threading
 import time
 from collections import deque
@@ -43,6 +44,8 @@ class SerialDevice:
         self.clock = clock
         self.serial_factory = serial_factory
         self.path: str | None = None
+        self._target: str | None = None  # what self.path led to when it was opened (a link's target)
+        self._target_checked = 0.0
         self.warning: str | None = None
         self.last_error = ""
         self.connects = 0
@@ -161,6 +164,8 @@ class SerialDevice:
                     with self._cond:
                         self._cond.wait(self.reopen_interval_s)
                 continue
+            if self._moved():
+                continue
             try:
                 data = port.read(max(1, port.in_waiting))
             except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
@@ -194,6 +199,21 @@ class SerialDevice:
                         timeout = 0.25 if wake_at is None else min(0.25, max(0.0, wake_at - self.clock()))
                         self._cond.wait(timeout)
 
+    def _moved(self) -> bool:
+        """A configured link (a by-id path, an emulator's link) that now leads somewhere else: the
+        device came back on another node while we hold the old one, which may even be somebody
+        else's port by now (a dead emulator's pty number is reused). Drop it and reopen the link.
+        Checked once per reopen interval, from the reader thread."""
+        now = self.clock()
+        if self.spec.path is None or self._target is None or now - self._target_checked < self.reopen_interval_s:
+            return False
+        self._target_checked = now
+        target = os.path.realpath(self.spec.path)
+        if target == self._target:
+            return False
+        self._drop(f"{self.spec.path} now leads to {target}, not {self._target}")
+        return True
+
     def _open(self) -> bool:
         path = resolve(self.spec, on_warning=self._warn)
         if path is None:
@@ -205,6 +225,7 @@ class SerialDevice:
             self.last_error = f"cannot open {path}: {exc}"
             return False
         self.path = path
+        self._target, self._target_checked = os.path.realpath(path), self.clock()
         self.warning = latency_warning(path)
         if self.warning:
             log.warning("%s: %s", self.name, self.warning)

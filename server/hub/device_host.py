@@ -20,6 +20,7 @@ import subprocess
 import sys
 from typing import Callable
 
+from devices.feed import CUE_QUIET_MS
 from devices.manager import DeviceConfig
 from devices.profiles import DeviceProfile
 from server.hub.child import ChildProcess
@@ -36,9 +37,10 @@ class DeviceHost(ChildProcess):
     what = "device host process"
 
     def __init__(self, configs: list[DeviceConfig], *, on_report: Callable[[dict], None],
-                 on_profiles: Callable[[dict], None] = lambda profiles: None):
+                 on_profiles: Callable[[dict], None] = lambda profiles: None, cue_quiet_ms: float = CUE_QUIET_MS):
         super().__init__()
         self.configs = list(configs)
+        self.cue_quiet_ms = cue_quiet_ms  # the feed turns every actuator off when the loop is quiet this long
         self.on_report = on_report
         self.on_profiles = on_profiles
         self.device_end, self.loop_end = ipc.channel_pair()
@@ -49,7 +51,7 @@ class DeviceHost(ChildProcess):
     def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
         proc = subprocess.Popen(
             [sys.executable, "-m", "devices.host_process", "--control-fd", str(theirs.fileno()),
-             "--cues-fd", str(self.device_end.fileno())],
+             "--cues-fd", str(self.device_end.fileno()), "--cue-quiet-ms", repr(float(self.cue_quiet_ms))],
             stdin=subprocess.PIPE, pass_fds=(theirs.fileno(), self.device_end.fileno()), cwd=os.getcwd(),
             start_new_session=True)  # Ctrl-C stops the hub, which stops the devices in order (all off first)
         proc.stdin.write(pickle.dumps(self.configs))

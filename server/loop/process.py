@@ -28,6 +28,7 @@ from collections import deque
 import sys
 from dataclasses import asdict, dataclass, field
 
+from devices.feed import CUE_HEARTBEAT_MS
 from scenarios import registry
 from server.core.haptics.contact_gate import ContactGate
 from server import ipc
@@ -121,6 +122,7 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
     gc.freeze()
     scheduler = DeadlineScheduler(clock, 1_000_000_000 // config.tick_hz)
     backlog: deque[list] = deque()  # records for the hub not sent yet (its end was full), in order
+    cue_sent_ns = 0  # the last record on the cue channel (the heartbeat below)
     while True:
         start, period = scheduler.wait_next()
         try:
@@ -149,6 +151,15 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
             except OSError as exc:  # the device host's end is gone for good: nobody drives the devices now
                 cue_sock = None
                 ipc.send_record(sock, ["log", "error", f"cue channel closed ({exc}); device cues stop"])
+        if cue_sock is not None:  # heartbeat: the device host turns every actuator off when this goes quiet
+            if out.cues is not None:
+                cue_sent_ns = start
+            elif start - cue_sent_ns >= CUE_HEARTBEAT_MS * 1_000_000:
+                try:
+                    if ipc.send_record(cue_sock, ["alive", out.tick, clock.now_ns()]):
+                        cue_sent_ns = start
+                except OSError:
+                    pass  # the next cue send finds the channel gone and says so
         if out.state is not None:
             out.state["resyncs"] = scheduler.resyncs
             if backlog or not ipc.send_record(sock, ["state", out.state]):

@@ -27,6 +27,7 @@ VECTORS = ROOT / "tests" / "vectors" / "device_frames.json"
 
 HELLO, PING, SET_PATTERN, SET_TILT, SET_TEMPERATURE, SET_FRICTION, STOP = 0x01, 0x02, 0x10, 0x11, 0x12, 0x13, 0x1F
 IDENTIFY, PONG, ACK, ERROR = 0x81, 0x82, 0x83, 0x84
+SET_WATCHDOG, WATCHDOG = 0x03, 0x85
 OFF, PULSE, CONTINUOUS, TEXTURE = 0, 1, 2, 3
 ERROR_CODES = {"bad_crc": 1, "framing": 2, "too_long": 3, "bad_length": 3, "unknown_type": 4, "bad_value": 5,
                "unsupported": 6, "bad_channel": 7, "bad_version": 8}
@@ -153,6 +154,10 @@ def _check_host_frame(v: dict) -> None:
         assert out == [Frame(PONG, 0, struct.pack("<I", fields["token"]))], name
         return
     assert_ack(out, seq)
+    if type_ == SET_WATCHDOG:
+        want = None if fields["timeout_ms"] == 0 else 1000 + fields["timeout_ms"] * 1000
+        assert core.watchdog_deadline_us() == want, name
+        return
     channels = range(core.channels) if fields["channel"] == 0xFF else [fields["channel"]]
     for ch in channels:
         layers = core.layers(ch)
@@ -197,6 +202,16 @@ def _device_frame_from_core(v: dict) -> bytes:
         core, trigger = FirmwareCore("fingertac"), encode_frame(PING, 0, struct.pack("<I", fields["token"]))
     elif type_ == ACK:
         core, trigger = FirmwareCore("fingertac"), encode_frame(STOP, fields["ref_seq"], b"\xff")
+    elif type_ == WATCHDOG:  # armed, then silent for the timeout: reported before the next reply
+        assert fields["trips"] == 1, f"{v['name']}: one trip is what this helper makes"
+        core, timeout_us = FirmwareCore("fingertac"), fields["timeout_ms"] * 1000
+        _set_tx_seq(core, v["seq"] - 1)  # the SET_WATCHDOG's ACK takes seq - 1
+        core.receive(encode_frame(SET_WATCHDOG, 0, struct.pack("<H", fields["timeout_ms"])), 0)
+        core.advance(timeout_us)
+        core.take_output()
+        core.receive(encode_frame(PING, 1, b"\0\0\0\0"), timeout_us + 1)
+        out = core.take_output()
+        return out[:out.index(0) + 1]  # the report; the PONG follows it
     elif type_ == ERROR:
         ref, code = fields["ref_seq"], fields["code"]
         core = FirmwareCore("fingertac")

@@ -47,7 +47,8 @@ def test_cues_from_the_loop_end_reach_the_device_and_stopping_turns_it_off(emula
     async def go():
         reports, profiles = [], []
         config = DeviceConfig("ferro", profile_by_model("ferrovibe"), PortSpec.parse(emulator.path))
-        host = DeviceHost([config], on_report=reports.append, on_profiles=profiles.append)
+        # no loop sends heartbeats here: a quiet time far beyond the test keeps the cues on
+        host = DeviceHost([config], on_report=reports.append, on_profiles=profiles.append, cue_quiet_ms=600_000)
         host.start()
         try:
             await until(lambda: reports and reports[-1]["status"] == {"ferro": "connected"}, 5.0, "never connected")

@@ -66,6 +66,7 @@ def with_crc(body: bytes) -> bytes:
 LAYOUTS = {
     "HELLO": (0x01, [("version", "B")]),
     "PING": (0x02, [("token", "I")]),
+    "SET_WATCHDOG": (0x03, [("timeout_ms", "H")]),
     "SET_PATTERN": (0x10, [("channel", "B"), ("mode", "B"), ("intensity", "B"), ("carrier_hz", "H"),
                            ("on_us", "I"), ("off_us", "I")]),
     "SET_TILT": (0x11, [("channel", "B"), ("direction_cdeg", "H"), ("magnitude", "B")]),
@@ -77,6 +78,7 @@ LAYOUTS = {
     "PONG": (0x82, [("token", "I")]),
     "ACK": (0x83, [("ref_seq", "B")]),
     "ERROR": (0x84, [("ref_seq", "B"), ("code", "B")]),
+    "WATCHDOG": (0x85, [("timeout_ms", "H"), ("trips", "H")]),
 }
 
 
@@ -122,6 +124,9 @@ FRAMES = [
     ("error_unsupported", "device", "ERROR", 5, {"ref_seq": 3, "code": 6}),
     ("error_bad_crc", "device", "ERROR", 6, {"ref_seq": 0xFF, "code": 1}),
     ("error_bad_version", "device", "ERROR", 7, {"ref_seq": 0, "code": 8}),
+    ("set_watchdog_100ms", "host", "SET_WATCHDOG", 15, {"timeout_ms": 100}),
+    ("set_watchdog_off", "host", "SET_WATCHDOG", 16, {"timeout_ms": 0}),
+    ("watchdog_tripped", "device", "WATCHDOG", 8, {"timeout_ms": 100, "trips": 1}),
 ]
 
 
@@ -161,6 +166,7 @@ INVALID = [
     ("set_temperature_negative", wire(frame_raw("SET_TEMPERATURE", 12, {"channel": 0, "centi_celsius": -100})),
      "bad_value"),
     ("set_friction_5001", wire(frame_raw("SET_FRICTION", 13, {"channel": 0, "milli": 5001})), "bad_value"),
+    ("set_watchdog_9ms", wire(frame_raw("SET_WATCHDOG", 14, {"timeout_ms": 9})), "bad_value"),
 ]
 
 COBS = [

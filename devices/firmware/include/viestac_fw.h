@@ -11,6 +11,11 @@
  *         vt_device_take_output(d, buf, cap)             -- IDENTIFY / PONG / ACK / ERROR bytes
  *         vt_device_advance(d, now, edges, max)          -- every output change with t <= now
  *         vt_device_next_edge_us(d)                      -- when to wake up next
+ *
+ * Watchdog (§2 SET_WATCHDOG): once armed, a device that gets no valid frame for its timeout
+ * turns every actuator off by itself (edges with cause VT_CAUSE_WATCHDOG at the exact expiry
+ * time) and tells the host with a WATCHDOG frame before its reply to the next frame. A host
+ * that dies, hangs or loses the link cannot leave a vibration or a tilt running.
  */
 #ifndef VIESTAC_FW_H
 #define VIESTAC_FW_H
@@ -32,12 +37,21 @@ extern "C" {
 #define VT_EDGE_QUEUE 32u     /* command edges waiting for vt_device_advance */
 #define VT_MAX_ON_OFF_US 60000000u
 #define VT_NEVER UINT64_MAX   /* "no edge scheduled" */
+#define VT_WATCHDOG_MIN_MS 10u
+#define VT_WATCHDOG_MAX_MS 60000u
+/* The watchdog at power-up, before any SET_WATCHDOG: 0 = off until a host arms it (a host that
+ * predates SET_WATCHDOG keeps working unchanged). A rig whose hosts all speak it may build its
+ * firmware with e.g. -DVT_WATCHDOG_BOOT_MS=1500 (3 of the host's 0.5 s PINGs) to be covered
+ * from the first frame on. */
+#ifndef VT_WATCHDOG_BOOT_MS
+#define VT_WATCHDOG_BOOT_MS 0u
+#endif
 
 /* Message types (§2, §3). */
 enum {
-    VT_HELLO = 0x01, VT_PING = 0x02, VT_SET_PATTERN = 0x10, VT_SET_TILT = 0x11,
+    VT_HELLO = 0x01, VT_PING = 0x02, VT_SET_WATCHDOG = 0x03, VT_SET_PATTERN = 0x10, VT_SET_TILT = 0x11,
     VT_SET_TEMPERATURE = 0x12, VT_SET_FRICTION = 0x13, VT_STOP = 0x1F,
-    VT_IDENTIFY = 0x81, VT_PONG = 0x82, VT_ACK = 0x83, VT_ERROR = 0x84
+    VT_IDENTIFY = 0x81, VT_PONG = 0x82, VT_ACK = 0x83, VT_ERROR = 0x84, VT_WATCHDOG = 0x85
 };
 
 /* ERROR codes (§3). too_long is reported with code 3, like bad_length (§1 table). */
@@ -54,7 +68,7 @@ enum {
 };
 
 enum { VT_MODE_OFF = 0, VT_MODE_PULSE = 1, VT_MODE_CONTINUOUS = 2, VT_MODE_TEXTURE = 3 };
-enum { VT_CAUSE_STATE = 0, VT_CAUSE_COMMAND = 1, VT_CAUSE_SCHEDULE = 2 };
+enum { VT_CAUSE_STATE = 0, VT_CAUSE_COMMAND = 1, VT_CAUSE_SCHEDULE = 2, VT_CAUSE_WATCHDOG = 3 };
 #define VT_CHANNEL_ALL 0xFFu
 
 /* ---- frames (vt_frame.c, §1) ------------------------------------------------------------ */
@@ -141,6 +155,7 @@ enum {
     VT_CNT_FRAMES_OK, VT_CNT_BAD_CRC, VT_CNT_FRAMING, VT_CNT_TOO_LONG, VT_CNT_BAD_LENGTH,
     VT_CNT_UNKNOWN_TYPE, VT_CNT_BAD_VALUE, VT_CNT_UNSUPPORTED, VT_CNT_BAD_CHANNEL,
     VT_CNT_BAD_VERSION, VT_CNT_IGNORED, VT_CNT_REPLIES_DROPPED, VT_CNT_EDGES_DROPPED,
+    VT_CNT_WATCHDOG_TRIPS,
     VT_CNT_COUNT
 };
 
@@ -154,6 +169,10 @@ typedef struct {
     uint8_t out[VT_OUT_SIZE];
     uint8_t q_head, q_len;
     vt_edge q[VT_EDGE_QUEUE];
+    uint32_t wd_ms;                        /* watchdog timeout, 0 = off */
+    uint64_t wd_deadline_us;               /* when it trips, VT_NEVER while disarmed */
+    uint8_t wd_host;                       /* a host set it: it understands WATCHDOG reports */
+    uint8_t wd_report;                     /* tripped since the last report: tell the host */
 } vt_device;
 
 size_t vt_device_sizeof(void);
@@ -171,7 +190,12 @@ size_t vt_device_take_output(vt_device *d, uint8_t *dst, size_t cap);
 size_t vt_device_output_pending(const vt_device *d);
 /* Write up to max edges with t <= now_us, in time order; call again while it returns max. */
 size_t vt_device_advance(vt_device *d, uint64_t now_us, vt_edge *edges, size_t max);
-uint64_t vt_device_next_edge_us(const vt_device *d);         /* VT_NEVER if none */
+uint64_t vt_device_next_edge_us(const vt_device *d);         /* VT_NEVER if none; includes the watchdog */
+/* The watchdog timeout in ms (0 = off; else VT_WATCHDOG_MIN_MS..VT_WATCHDOG_MAX_MS), e.g. a
+ * sketch's own power-up default; it arms at the next valid frame. Returns 0, or -1 (unchanged)
+ * if out of range. */
+int vt_device_set_watchdog(vt_device *d, uint32_t timeout_ms);
+uint64_t vt_device_watchdog_deadline_us(const vt_device *d); /* VT_NEVER while disarmed */
 const vt_channel *vt_device_channel(const vt_device *d, uint8_t channel);  /* NULL if out of range */
 uint32_t vt_device_counter(const vt_device *d, int which);
 const char *vt_counter_name(int which);                      /* NULL past the last */
@@ -181,8 +205,10 @@ void vt_sched_init(vt_device *d);
 /* Fire every scheduled toggle with t <= now_us into the edge queue (before a command applies). */
 void vt_sched_catch_up(vt_device *d, uint64_t now_us);
 /* After a command changed channel i's layers at now_us: restart its pattern if asked, and queue
- * a command edge if its output changed. */
-void vt_sched_commit(vt_device *d, uint8_t i, int restart, uint64_t now_us);
+ * an edge (cause VT_CAUSE_COMMAND or VT_CAUSE_WATCHDOG) if its output changed. */
+void vt_sched_commit(vt_device *d, uint8_t i, int restart, uint64_t now_us, uint8_t cause);
+/* Trip the watchdog if it expired at or before now_us (vt_device.c). */
+void vt_watchdog_check(vt_device *d, uint64_t now_us);
 
 #ifdef __cplusplus
 }

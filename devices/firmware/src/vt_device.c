@@ -30,7 +30,41 @@ int vt_device_init(vt_device *d, const vt_model *m)
     d->model = m;
     vt_decoder_init(&d->dec);
     vt_sched_init(d);
+    d->wd_ms = VT_WATCHDOG_BOOT_MS;
+    d->wd_deadline_us = VT_NEVER;
     return 0;
+}
+
+int vt_device_set_watchdog(vt_device *d, uint32_t timeout_ms)
+{
+    if (timeout_ms != 0 && (timeout_ms < VT_WATCHDOG_MIN_MS || timeout_ms > VT_WATCHDOG_MAX_MS))
+        return -1;
+    d->wd_ms = timeout_ms;
+    if (timeout_ms == 0)
+        d->wd_deadline_us = VT_NEVER;
+    return 0;
+}
+
+uint64_t vt_device_watchdog_deadline_us(const vt_device *d) { return d->wd_deadline_us; }
+
+/* Every layer of every channel off at the expiry time itself, as STOP 0xFF would (§2), then
+ * disarmed until the next valid frame: one trip per silence. */
+void vt_watchdog_check(vt_device *d, uint64_t now_us)
+{
+    uint64_t t = d->wd_deadline_us;
+    if (t > now_us)
+        return;
+    d->wd_deadline_us = VT_NEVER;
+    vt_sched_catch_up(d, t);                   /* toggles before the expiry come first */
+    for (uint8_t i = 0; i < d->model->channels; i++) {
+        vt_channel *c = &d->ch[i];
+        c->mode = VT_MODE_OFF; c->intensity = 0; c->carrier_hz = 0; c->on_us = 0; c->off_us = 0;
+        c->magnitude = 0;
+        c->temperature_on = 0; c->friction_on = 0;
+        vt_sched_commit(d, i, 1, t, VT_CAUSE_WATCHDOG);
+    }
+    d->counters[VT_CNT_WATCHDOG_TRIPS]++;
+    d->wd_report = d->wd_host;
 }
 
 /* Queue one frame for the host. A full buffer drops the whole reply (never half a frame) and
@@ -109,7 +143,7 @@ static int apply(vt_device *d, uint8_t type, const uint8_t *p, uint64_t now)
                 continue;                      /* the same pattern: its phase goes on (§2) */
             c->mode = mode; c->intensity = intensity; c->carrier_hz = carrier;
             c->on_us = on; c->off_us = off;
-            vt_sched_commit(d, i, 1, now);
+            vt_sched_commit(d, i, 1, now, VT_CAUSE_COMMAND);
         }
         return 0;
     }
@@ -121,7 +155,7 @@ static int apply(vt_device *d, uint8_t type, const uint8_t *p, uint64_t now)
         for (uint8_t i = first; i < end; i++) {
             d->ch[i].direction_cdeg = direction;
             d->ch[i].magnitude = p[3];
-            vt_sched_commit(d, i, 0, now);     /* tilt never touches the pattern's phase */
+            vt_sched_commit(d, i, 0, now, VT_CAUSE_COMMAND);     /* tilt never touches the pattern's phase */
         }
         return 0;
     }
@@ -139,7 +173,7 @@ static int apply(vt_device *d, uint8_t type, const uint8_t *p, uint64_t now)
                 d->ch[i].friction_on = 1;
                 d->ch[i].friction_milli = v;
             }
-            vt_sched_commit(d, i, 0, now);     /* like tilt: the pattern's phase goes on */
+            vt_sched_commit(d, i, 0, now, VT_CAUSE_COMMAND);     /* like tilt: the pattern's phase goes on */
         }
         return 0;
     }
@@ -150,7 +184,7 @@ static int apply(vt_device *d, uint8_t type, const uint8_t *p, uint64_t now)
             c->mode = VT_MODE_OFF; c->intensity = 0; c->carrier_hz = 0; c->on_us = 0; c->off_us = 0;
             c->magnitude = 0;
             c->temperature_on = 0; c->friction_on = 0;
-            vt_sched_commit(d, i, 1, now);
+            vt_sched_commit(d, i, 1, now, VT_CAUSE_COMMAND);
         }
         return 0;
     }
@@ -174,6 +208,18 @@ static void dispatch(vt_device *d, const vt_frame *f, uint64_t now)
         d->counters[VT_CNT_IGNORED]++;
         return;
     }
+    /* a valid host frame: the host is alive. The trip it may come after is reported first, so
+     * the host knows every layer went off and sends them again (§4.4). */
+    vt_watchdog_check(d, now);
+    if (d->wd_ms)
+        d->wd_deadline_us = now + (uint64_t)d->wd_ms * 1000u;
+    if (d->wd_report) {
+        uint32_t trips = d->counters[VT_CNT_WATCHDOG_TRIPS];
+        uint8_t p[4] = { (uint8_t)(d->wd_ms & 0xFF), (uint8_t)(d->wd_ms >> 8),
+                         (uint8_t)(trips > 0xFFFF ? 0xFF : trips & 0xFF), (uint8_t)(trips > 0xFFFF ? 0xFF : trips >> 8) };
+        d->wd_report = 0;
+        send(d, VT_WATCHDOG, p, sizeof p);
+    }
     switch (f->type) {
     case VT_HELLO:
         if (f->payload[0] != VT_PROTOCOL_VERSION)   /* §6: keep serving version 1 */
@@ -183,6 +229,15 @@ static void dispatch(vt_device *d, const vt_frame *f, uint64_t now)
         return;
     case VT_PING:
         send(d, VT_PONG, f->payload, 4);
+        return;
+    case VT_SET_WATCHDOG:
+        if (vt_device_set_watchdog(d, rd16(f->payload)) != 0) {
+            reject(d, VT_CNT_BAD_VALUE, f->seq, VT_ERR_BAD_VALUE);
+            return;
+        }
+        d->wd_host = 1;
+        d->wd_deadline_us = d->wd_ms ? now + (uint64_t)d->wd_ms * 1000u : VT_NEVER;
+        send(d, VT_ACK, &f->seq, 1);
         return;
     default:
         err = apply(d, f->type, f->payload, now);
@@ -236,7 +291,8 @@ const char *vt_counter_name(int which)
 {
     static const char *const names[VT_CNT_COUNT] = {
         "frames_ok", "bad_crc", "framing", "too_long", "bad_length", "unknown_type", "bad_value",
-        "unsupported", "bad_channel", "bad_version", "ignored", "replies_dropped", "edges_dropped"
+        "unsupported", "bad_channel", "bad_version", "ignored", "replies_dropped", "edges_dropped",
+        "watchdog_trips"
     };
     return which >= 0 && which < VT_CNT_COUNT ? names[which] : NULL;
 }

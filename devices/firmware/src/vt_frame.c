@@ -129,6 +129,7 @@ int vt_message_check(uint8_t type, const uint8_t *payload, size_t len)
     switch (type) {
     case VT_HELLO: want = 1; break;
     case VT_PING: want = 4; break;
+    case VT_SET_WATCHDOG: want = 2; break;
     case VT_SET_PATTERN: want = 13; break;
     case VT_SET_TILT: want = 4; break;
     case VT_SET_TEMPERATURE: want = 3; break;
@@ -137,6 +138,7 @@ int vt_message_check(uint8_t type, const uint8_t *payload, size_t len)
     case VT_PONG: want = 4; break;
     case VT_ACK: want = 1; break;
     case VT_ERROR: want = 2; break;
+    case VT_WATCHDOG: want = 4; break;
     case VT_IDENTIFY:                          /* 9 fixed bytes + model_len (1..32) characters */
         if (len < 10 || payload[8] < 1 || payload[8] > 32)
             return VT_ERR_BAD_LENGTH;

@@ -107,14 +107,14 @@ void vt_sched_catch_up(vt_device *d, uint64_t now_us)
     }
 }
 
-void vt_sched_commit(vt_device *d, uint8_t i, int restart, uint64_t now_us)
+void vt_sched_commit(vt_device *d, uint8_t i, int restart, uint64_t now_us, uint8_t cause)
 {
     vt_channel *c = &d->ch[i];
     if (restart) {                            /* "restarts the pattern with its on-phase" (§2) */
         c->phase_on = 1;
         c->next_us = timed(c) ? now_us + c->on_us : VT_NEVER;
     }
-    vt_edge e = output_of(d, i, now_us, VT_CAUSE_COMMAND);
+    vt_edge e = output_of(d, i, now_us, cause);
     if (!same_output(&e, &c->last)) {
         c->last = e;
         queue_push(d, &e);
@@ -124,6 +124,7 @@ void vt_sched_commit(vt_device *d, uint8_t i, int restart, uint64_t now_us)
 size_t vt_device_advance(vt_device *d, uint64_t now_us, vt_edge *edges, size_t max)
 {
     size_t n = 0;
+    vt_watchdog_check(d, now_us);              /* its edges join the queue, in time order */
     /* queued edges are all at or before the last receive, so they come first */
     while (n < max && d->q_len) {
         edges[n++] = d->q[d->q_head];
@@ -141,5 +142,6 @@ uint64_t vt_device_next_edge_us(const vt_device *d)
     if (d->q_len)
         return d->q[d->q_head].t_us;
     int i = earliest(d);
-    return i < 0 ? VT_NEVER : d->ch[i].next_us;
+    uint64_t t = i < 0 ? VT_NEVER : d->ch[i].next_us;
+    return d->wd_deadline_us < t ? d->wd_deadline_us : t;
 }

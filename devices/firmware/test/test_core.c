@@ -512,6 +512,91 @@ static void test_garbage(void)
     CHECK(replies(&d, f, 4) == 1 && f[0].type == VT_PONG && memcmp(f[0].payload, "\xAA\xBB\xCC\xDD", 4) == 0);
 }
 
+static void set_watchdog(vt_device *d, uint8_t seq, uint16_t ms, uint64_t now)
+{
+    uint8_t p[2];
+    put16(p, ms);
+    cmd(d, VT_SET_WATCHDOG, seq, p, sizeof p, now);
+}
+
+/* §2 SET_WATCHDOG: no valid frame for the timeout -> every layer off at the expiry time itself,
+ * reported before the reply to the next frame; any valid host frame feeds it. */
+static void test_watchdog(void)
+{
+    vt_device d;
+    vt_edge e[64];
+    vt_frame f[4];
+    vt_device_init(&d, &vt_model_ferrovibe);
+    set_tilt(&d, 0, 0, 9000, 100, 1000);
+    replies(&d, f, 4);
+    CHECK(vt_device_watchdog_deadline_us(&d) == VT_NEVER);   /* off until a host arms it */
+    CHECK(vt_device_advance(&d, 10000000, e, 64) == 1 && e[0].cause == VT_CAUSE_COMMAND);
+    CHECK(vt_device_advance(&d, 20000000, e, 64) == 0);         /* the tilt stays: no watchdog yet */
+
+    set_watchdog(&d, 1, 50, 20000000);
+    CHECK(replies(&d, f, 4) == 1 && f[0].type == VT_ACK && f[0].payload[0] == 1);
+    CHECK(vt_device_watchdog_deadline_us(&d) == 20050000 && vt_device_next_edge_us(&d) == 20050000);
+    cmd(&d, VT_PING, 2, (const uint8_t *)"\1\2\3\4", 4, 20040000);   /* any valid frame feeds it */
+    CHECK(vt_device_watchdog_deadline_us(&d) == 20090000);
+    vt_device_receive(&d, (const uint8_t *)"\x05\x11\x00", 3, 20080000); /* a bad frame does not */
+    CHECK(vt_device_watchdog_deadline_us(&d) == 20090000);
+    uint8_t looped[VT_MAX_WIRE];
+    size_t n = vt_frame_encode(VT_ACK, 0, (const uint8_t *)"\0", 1, looped, sizeof looped);
+    vt_device_receive(&d, looped, n, 20085000);                  /* nor a device frame looped back */
+    CHECK(vt_device_watchdog_deadline_us(&d) == 20090000);
+    replies(&d, f, 4);
+    CHECK(vt_device_advance(&d, 20089999, e, 64) == 0);
+    CHECK(vt_device_advance(&d, 20100000, e, 64) == 1);
+    CHECK(e[0].t_us == 20090000 && e[0].cause == VT_CAUSE_WATCHDOG && e[0].magnitude == 0 && e[0].gate == 0);
+    CHECK(e[0].direction_cdeg == 9000);                          /* like STOP: flat, direction kept */
+    CHECK(vt_device_counter(&d, VT_CNT_WATCHDOG_TRIPS) == 1 && vt_device_watchdog_deadline_us(&d) == VT_NEVER);
+    CHECK(vt_device_advance(&d, 30000000, e, 64) == 0);         /* one trip per silence */
+    CHECK(replies(&d, f, 4) == 0);                               /* the device speaks only when spoken to */
+
+    cmd(&d, VT_PING, 3, (const uint8_t *)"\1\2\3\4", 4, 30000000);
+    CHECK(replies(&d, f, 4) == 2 && f[0].type == VT_WATCHDOG && f[1].type == VT_PONG);
+    CHECK(f[0].len == 4 && f[0].payload[0] == 50 && f[0].payload[1] == 0 && f[0].payload[2] == 1 && f[0].payload[3] == 0);
+    cmd(&d, VT_PING, 4, (const uint8_t *)"\1\2\3\4", 4, 30001000);
+    CHECK(replies(&d, f, 4) == 1 && f[0].type == VT_PONG);      /* reported once */
+
+    /* a running pulse train: its toggles before the expiry come first, then everything off */
+    vt_device_init(&d, &vt_model_fingertac);
+    set_watchdog(&d, 0, 10, 0);
+    set_pattern(&d, 1, 0, VT_MODE_PULSE, 100, 0, 3000, 2500, 0);
+    replies(&d, f, 4);
+    size_t k = vt_device_advance(&d, 50000, e, 64);
+    CHECK(k == 5);                                               /* on@0, off@3000, on@5500, off@8500, wd@10000 */
+    CHECK(e[k - 1].t_us == 10000 && e[k - 1].cause == VT_CAUSE_WATCHDOG && e[k - 1].mode == VT_MODE_OFF);
+    CHECK(e[k - 2].t_us == 8500 && e[k - 2].cause == VT_CAUSE_SCHEDULE);
+    CHECK(vt_device_next_edge_us(&d) == VT_NEVER);
+    /* a frame that arrives after the expiry: the trip happened first, then the frame acts */
+    set_tilt(&d, 2, 0, 9000, 100, 60000);                        /* unsupported on a FingerTac: ERROR */
+    CHECK(replies(&d, f, 4) == 2 && f[0].type == VT_WATCHDOG && f[1].type == VT_ERROR);
+
+    /* ranges: below 10 ms or above 60 s is bad_value and changes nothing; 0 turns it off */
+    vt_device_init(&d, &vt_model_ferrovibe);
+    set_watchdog(&d, 5, 9, 0);
+    CHECK(replies(&d, f, 4) == 1 && f[0].type == VT_ERROR && f[0].payload[1] == VT_ERR_BAD_VALUE);
+    CHECK(vt_device_watchdog_deadline_us(&d) == VT_NEVER);
+    set_watchdog(&d, 6, 60001, 0);
+    CHECK(replies(&d, f, 4) == 1 && f[0].type == VT_ERROR);
+    set_watchdog(&d, 7, 100, 0);
+    set_watchdog(&d, 8, 0, 1000);
+    CHECK(replies(&d, f, 4) == 2 && f[1].type == VT_ACK && vt_device_watchdog_deadline_us(&d) == VT_NEVER);
+
+    /* a sketch's power-up default arms at the first valid frame; its trips are not reported to a
+     * host that never set the watchdog (an older host would not know the message) */
+    vt_device_init(&d, &vt_model_ferrovibe);
+    CHECK(vt_device_set_watchdog(&d, 5) == -1 && vt_device_set_watchdog(&d, 100) == 0);
+    CHECK(vt_device_watchdog_deadline_us(&d) == VT_NEVER);
+    set_tilt(&d, 0, 0, 4500, 80, 1000);
+    CHECK(vt_device_watchdog_deadline_us(&d) == 101000);
+    CHECK(vt_device_advance(&d, 200000, e, 64) == 2 && e[1].cause == VT_CAUSE_WATCHDOG && e[1].magnitude == 0);
+    replies(&d, f, 4);
+    cmd(&d, VT_PING, 1, (const uint8_t *)"\1\2\3\4", 4, 300000);
+    CHECK(replies(&d, f, 4) == 1 && f[0].type == VT_PONG);
+}
+
 int main(void)
 {
     test_crc();
@@ -528,6 +613,7 @@ int main(void)
     test_edge_layout();
     test_output_overflow();
     test_garbage();
+    test_watchdog();
     printf("test_core: %d checks, %d failed\n", checks, failures);
     return failures ? 1 : 0;
 }
