@@ -313,6 +313,13 @@ def _bench_stability(args: argparse.Namespace) -> int:
     return _print_bench(result, args.json)
 
 
+def _bench_switch(args: argparse.Namespace) -> int:
+    from server.bench.switch_bench import run_switch_bench
+
+    result = run_switch_bench(args.switches, args.every_ms / 1e3, start=args.start)
+    return _print_bench(result, args.json)
+
+
 def _bench_faults(args: argparse.Namespace) -> int:
     from server.bench.faults import FAULTS, run_fault_bench
     from server.bench.faults_measure import table
@@ -456,6 +463,13 @@ def build_parser() -> argparse.ArgumentParser:
                                 "participants first either way")
     roundtrip.add_argument("--json", action="store_true", help="print one JSON object")
     roundtrip.set_defaults(func=_bench_roundtrip)
+    switch = bench_sub.add_parser("switch", help="a burst of scenario switches (the largest scenes) against the "
+                                                 "loop's deadlines: overruns, period p99/max, tick cost max")
+    switch.add_argument("--switches", type=int, default=100)
+    switch.add_argument("--every-ms", type=float, default=24.0, help="spacing of the switches (default 24 ms)")
+    switch.add_argument("--start", default="contact-angle", help="the scenario the server starts with")
+    switch.add_argument("--json", action="store_true", help="print one JSON object")
+    switch.set_defaults(func=_bench_switch)
     faults = bench_sub.add_parser("faults", help="kill -9 of each process, device unplug, tracker loss, floods, huge "
                                                  "and non-finite values, bad frames, slow readers: recovery times, "
                                                  "overruns, frames and samples lost (docs/reliability.md)")
