@@ -54,6 +54,7 @@ class Forbidden(ExperimentError):
 class HubPort(Protocol):
     """What the engine needs of the hub (server/hub/hub.py)."""
     scenario_state: dict | None
+    scenario_target: dict | None  # what runs once the switches sent land (the loop builds them off the tick)
     listeners: list
 
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict: ...
@@ -253,7 +254,7 @@ class Experiment:
         return started.to_dict()
 
     def _prepare_loop(self, trial: TrialRow, force: bool = False) -> None:
-        state = self.hub.scenario_state or {}
+        state = self.hub.scenario_target or {}
         if state.get("id") != trial.scenario or state.get("params") != trial.scenario_params:
             self.hub.switch_scenario(trial.scenario, dict(trial.scenario_params), self._seed(trial),
                                      force=self.force_scenarios or force)

@@ -57,10 +57,33 @@ class ScenarioControl:
         self.profiles = profiles
         self.statuses = statuses
         self.scenario_cls = None  # the scenario the loop runs (or was last told to run)
+        self._in_flight: list[str] = []  # ids of switches sent that the loop has not announced yet
+        self._asked: dict | None = None  # the last switch sent: {"id", "params", "seed"}
+
+    def target(self, announced: Mapping[str, Any] | None) -> Mapping[str, Any] | None:
+        """What the loop runs once the switches in flight land: the last switch sent, or what it
+        `announced` when none is in flight (the engine decides from this whether a trial needs a
+        switch; the loop builds a switch off the tick, so its announcement comes later)."""
+        return self._asked if self._in_flight else announced
 
     def announced(self, state: Mapping[str, Any]) -> None:
-        """The loop announced what it runs (its `scenario` record)."""
-        self.scenario_cls = registry.resolve(state["id"]).factory
+        """The loop announced what it runs (its `scenario` record). While switches are in flight,
+        an announcement of the scenario before them (a trial's end, written before the loop read
+        the switch) must not undo `scenario_cls`: a trial sent next is for the scenario asked for.
+        The loop announces every switch it installs, and one whose build failed as `failed`; a
+        switch superseded before its build is covered by the announcement of the later one."""
+        failed = state.get("failed")
+        if failed in self._in_flight:
+            self._in_flight.remove(failed)
+        running = state["id"]
+        if running in self._in_flight:
+            del self._in_flight[:self._in_flight.index(running) + 1]
+        if not self._in_flight:
+            self.scenario_cls = registry.resolve(running).factory
+
+    def loop_restarted(self) -> None:
+        """A new loop process runs what it was started with: nothing it was asked is in flight."""
+        self._in_flight.clear()
 
     def command(self, key: str, action: str, value=None, *, role: str = "operator", client_id: int | str = 0) -> None:
         """A key or experimenter command for the running scenario, checked against its CONTROLS:
@@ -110,6 +133,8 @@ class ScenarioControl:
             raise BusyError("the loop's input mailbox is full; try again")
         # the mailbox is ordered: a trial or command sent next is for the new scenario
         self.scenario_cls = spec.factory
+        self._in_flight.append(spec.id)
+        self._asked = {"id": spec.id, "params": checked, "seed": seed}
         return {"id": spec.id, "params": checked, "seed": seed, "capability": report.to_dict()}
 
     def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0,

@@ -28,7 +28,6 @@ from itertools import count
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from devices.capability import CapabilityReport, showing
-from scenarios import registry
 from server.core.scenario import ParamError
 from server.hub.control import BusyError, ScenarioControl
 from server.hub.health import HOST_DOWN, Health, HealthReport
@@ -110,6 +109,7 @@ class Hub:
             self._on_scene(record[1], record[2])
         elif kind == "hello":
             self.loop_info = record[1]
+            self.control.loop_restarted()
             self.telemetry.rt = bool(record[1].get("rt"))
             if self._device_report is not None:  # a (re)started loop learns the refusals again
                 self.send_to_loop(["devices", self._device_report])
@@ -117,7 +117,7 @@ class Hub:
                 self.send_to_loop(["record", self.record_every])
         elif kind == "scenario":
             self.scenario_state = record[1]
-            self.scenario_cls = registry.resolve(record[1]["id"]).factory
+            self.control.announced(record[1])
             self._update_needs()
             self.on_scenario(record[1])
         elif kind == "log":
@@ -376,6 +376,11 @@ class Hub:
     def require_devices(self, scenario: str | None = None, force: bool = False) -> None:
         """DeviceMissing when a device `scenario` (default: the running one) needs is not connected."""
         self.control.require_devices(scenario, force)
+
+    @property
+    def scenario_target(self) -> dict | None:
+        """What the loop runs once the switches sent to it land (ScenarioControl.target)."""
+        return self.control.target(self.scenario_state)
 
     def scenario_info(self) -> dict:
         # the scene hash names the scene this scenario announced (the loop sends the scene first)

@@ -78,6 +78,10 @@ class HubForWorkers:
         return self._owner.call(getattr, self._hub, "scenario_state")
 
     @property
+    def scenario_target(self) -> dict | None:
+        return self._owner.call(getattr, self._hub, "scenario_target")
+
+    @property
     def last_state(self) -> dict | None:
         return self._owner.call(getattr, self._hub, "last_state")
 

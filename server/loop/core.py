@@ -257,6 +257,10 @@ class LoopCore:
                 self.outbox.append(["log", "error", f"{len(self._waiting)} trial record(s) for {switch.name} dropped: "
                                                     "its scenario could not be built"])
                 self._waiting = []
+            # the hub counts this switch as in flight until it hears of it: say what runs instead
+            record = self.scenario_record()
+            record[1]["failed"] = switch.name
+            self.outbox.append(record)
 
     def _take_over(self, sim: Simulation, params: dict, seed: int) -> None:
         """`sim` replaces the running simulation; announces the new scene."""

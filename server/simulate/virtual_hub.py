@@ -10,7 +10,7 @@ Nothing sleeps and nothing reads a clock: `advance()` runs ticks as fast as the 
 study takes as long as its computation, not as long as its trials.
 
 It offers what the engine needs of a hub (server/experiment/engine.HubPort): switch_scenario,
-set_trial, set_recording, scenario_state, last_state, listeners; plus set_hip and command for
+set_trial, set_recording, scenario_state, scenario_target, last_state, listeners; plus set_hip and command for
 the synthetic participant.
 """
 
@@ -48,6 +48,11 @@ class VirtualHub:
         self._settle_devices()
 
     # -- what the engine asks (checked as the hub checks them) ------------------------------------
+    @property
+    def scenario_target(self) -> dict | None:
+        """What runs once the switches sent land: here a switch is built at once (LoopCore)."""
+        return self.scenario_state
+
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
         return self.control.switch_scenario(name, params, seed, force)
 

@@ -86,3 +86,40 @@ def test_what_the_loop_announces_is_the_running_scenario():
     info = ctl.info(state, "abc")
     assert info["id"] == "stiffness-v1" and info["scene"] == "abc" and info["info"]["id"] == "stiffness-v1"
     assert "capability" in info
+
+
+def test_an_announcement_written_before_the_loop_read_a_switch_does_not_undo_it():
+    ctl, sent = control(profiles=("ferrovibe", "fingertac"))
+    ctl.announced({"id": "stiffness-v1"})
+    ctl.switch_scenario("contact-angle")
+    ctl.announced({"id": "stiffness-v1", "trial": None})  # the end of the last trial, written before the switch
+    assert ctl.set_trial("main", {"angle_deg": 10})["params"]["angle_deg"] == 10, "the trial is for contact-angle"
+    ctl.announced({"id": "contact-angle-v1"})
+    assert ctl.scenario_cls is ContactAngle
+
+    ctl.switch_scenario("stiffness")
+    ctl.switch_scenario("texture")  # supersedes stiffness before its build: the loop announces texture only
+    ctl.announced({"id": "contact-angle-v1"})
+    assert ctl.scenario_cls.id == "texture-v1"
+    ctl.announced({"id": "texture-v1"})
+    ctl.announced({"id": "texture-v1", "trial": None})
+    assert ctl.scenario_cls.id == "texture-v1"
+
+    ctl.switch_scenario("stiffness")
+    ctl.announced({"id": "texture-v1", "failed": "stiffness-v1"})  # its build failed: texture goes on
+    assert ctl.scenario_cls.id == "texture-v1"
+    ctl.switch_scenario("stiffness")
+    ctl.loop_restarted()  # the new loop runs what it was started with
+    ctl.announced({"id": "texture-v1"})
+    assert ctl.scenario_cls.id == "texture-v1"
+
+
+def test_the_target_is_the_last_switch_sent_until_the_loop_announces_it():
+    ctl, _ = control()
+    announced = {"id": "contact-angle-v1", "params": {}, "seed": 0}
+    assert ctl.target(announced) is announced
+    ctl.switch_scenario("stiffness", {"middle_level": 3}, seed=4)
+    assert ctl.target(announced) == {"id": "stiffness-v1", "params": {"middle_level": 3, "labels": True}, "seed": 4}
+    ctl.announced({"id": "stiffness-v1"})
+    later = {"id": "stiffness-v1", "params": {"middle_level": 3, "labels": True}, "seed": 4}
+    assert ctl.target(later) is later

@@ -89,6 +89,9 @@ def test_a_failed_build_is_reported_and_the_running_scenario_goes_on():
     assert core.pending_switch is None and core.sim.scenario.id == "contact-angle-v1"
     texts = [r[2] for r in out.records if r[0] == "log"]
     assert any("record scenario failed" in t for t in texts) and any("trial record" in t for t in texts)
+    announced = [r[1] for r in out.records if r[0] == "scenario"]
+    assert [(a["id"], a["failed"]) for a in announced] == [("contact-angle-v1", "stiffness")], \
+        "the hub hears that the switch it sent will not come, and what runs instead"
 
 
 def test_without_build_off_tick_apply_builds_and_installs_at_once():
