@@ -49,12 +49,13 @@ DISCONNECTED, HANDSHAKING, CONNECTED, UNRESPONSIVE, BAD_VERSION = (
     "disconnected", "handshaking", "connected", "unresponsive", "bad_version")
 REJECT_KINDS = ("framing", "too_long", "bad_length", "bad_crc", "unknown_type", "bad_value")
 _PING_TOKENS_KEPT = 8
-# The production defaults (devices.manager.make_protocol): the device is off at most 100 ms after
-# the host's last frame, and a keepalive at least every 25 ms leaves 3 of them to be lost or late
-# (a writer thread that stalls 75 ms) before a healthy host trips it; 10 bytes per 25 ms are
-# 3.5 % of a 115200-baud link (docs/device-protocol.md §5).
-WATCHDOG_MS = 100
-KEEPALIVE_INTERVAL_S = 0.025
+# The production defaults (devices.manager.make_protocol): the device is off at most 45 ms after
+# the host's last frame, so within 50 ms of the host dying, as the device host's own quiet rule
+# does for a dead loop; a keepalive at least every 11.25 ms leaves 3 of them to be lost or late (a
+# writer thread that stalls ~34 ms) before a healthy host trips it; 10 bytes per 11.25 ms are 7.7 %
+# of a 115200-baud link (docs/device-protocol.md §5). Slower links (Bluetooth) set more per device.
+WATCHDOG_MS = 45
+KEEPALIVE_INTERVAL_S = WATCHDOG_MS / 4000
 
 
 # ---- events: facts, in the order they happened ----------------------------------------------

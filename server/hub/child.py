@@ -25,7 +25,7 @@ from server.hub.owner import Owner
 
 log = logging.getLogger("viestac.hub")
 
-HEALTHY_S = 10.0      # up this long: the next death is a first death again (no wait)
+HEALTHY_S = 3.0       # up this long: the next death is a first death again (a crash loop dies in start-up, ~1 s)
 BACKOFF_FIRST_S = 0.5  # the wait before restarting after a second death in a row, doubling
 BACKOFF_MAX_S = 10.0
 POLL_S = 0.2          # the backstop: a child whose socket somehow stays open is still seen dead

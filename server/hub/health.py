@@ -20,7 +20,7 @@ long the condition has held, seconds); the codes (docs/protocol.md `health`):
 - `device_host_down`: the device host process is not running;
 - `device_host_restarted`: for `restart_hold_s` after the device host came back;
 - `overruns`: more than `overrun_threshold` loop periods over 1.5 ms within the last
-  `overrun_window_s`.
+  `overrun_window_s`, not counting the first `startup_grace_s` of a loop process.
 
 Notes (`notes`, never a reason for `degraded`): a device that is not connected but that the
 running scenario does not need (another connected device shows what it would show, or the
@@ -69,6 +69,9 @@ class Health:
     restart_hold_s: float = 2.0
     overrun_threshold: int = 10
     overrun_window_s: float = 10.0
+    # A new loop process's first ticks run late (page faults, caches, imports); its death and
+    # restart are reported already (loop_down), so its start-up does not count as overruns.
+    startup_grace_s: float = 1.0
     loop: _Child = field(default_factory=_Child)
     device_host: _Child = field(default_factory=_Child)
 
@@ -109,7 +112,8 @@ class Health:
         if failures > self._failures:
             self._fault_s = now_s
         self._failures = failures
-        if overruns:
+        started = self.loop.started_s
+        if overruns and (started is None or now_s - started >= self.startup_grace_s):
             self._overruns.append((now_s, overruns))
             self._overrun_sum += overruns
 

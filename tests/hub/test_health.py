@@ -158,3 +158,14 @@ def test_every_code_is_reachable_and_declared():
     health.loop_exited(0.11)
     seen |= health.evaluate(0.12).codes
     assert seen == set(CODES)
+
+
+def test_a_new_loops_start_up_ticks_are_not_counted_as_overruns():
+    health = ticking(overrun_threshold=10)
+    health.loop_exited(5.0, -9)
+    health.loop_started(5.1)
+    health.state(5.3, overruns=40)  # the new process's first ticks: late, and already reported as loop_down
+    health.state(5.5)
+    assert "overruns" not in health.evaluate(5.5).codes
+    health.state(6.2, overruns=11)  # past the grace: counted
+    assert "overruns" in health.evaluate(6.2).codes
