@@ -332,8 +332,11 @@ class Experiment:
         self.hub.set_recording(0)
         self.hub.set_trial(None)
         mine = recorded is not None and recorded.trial_id == trial.id
+        # the trial ends at the last tick it recorded: state records go on arriving while this
+        # thread ends it, and a later tick would claim rows the recording never took
+        last_tick = recorded.last_tick if mine and recorded.last_tick is not None else self._last_tick()
         ended = self.store.transition(trial.id, status, expect="running", metrics=recorded.metrics if mine else {},
-                                      reason=reason, tick=self._last_tick(),
+                                      reason=reason, tick=last_tick,
                                       first_tick=recorded.first_tick if mine else None)
         if self.store.next_pending(trial.session_id) is None:
             self.store.set_session_status(trial.session_id, "completed")
