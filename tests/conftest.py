@@ -24,10 +24,21 @@ class LiveServer:
         return get_json(self.http_url + path, "DELETE")
 
 
-@pytest.fixture(scope="session")
-def live_server():
+def _serve():
     proc, base = start_server("contact-angle")
     try:
         yield LiveServer(base, base.replace("http://", "ws://") + "/ws")
     finally:
         stop_server(proc)
+
+
+@pytest.fixture(scope="session")
+def live_server():
+    """The shared server: tests must leave it as they found it (its scenario, its processes)."""
+    yield from _serve()
+
+
+@pytest.fixture(scope="module")
+def own_server():
+    """A server of the test module's own, for tests that kill, stall or flood it."""
+    yield from _serve()

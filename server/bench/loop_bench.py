@@ -67,15 +67,18 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
             raise RuntimeError("server did not print its URL in time")
     # Keep draining the server's output so it never blocks on a full pipe.
     threading.Thread(target=lambda: [None for _ in proc.stdout], daemon=True).start()
+    health: dict | str = "no answer"
     while True:
         try:
-            if get_json(base + "/api/health")["status"] == "ok":
+            health = get_json(base + "/api/health")
+            if health["status"] == "ok":
                 return proc, base
-        except OSError:
-            pass
+        except OSError as exc:
+            health = f"no answer: {exc}"
         if time.monotonic() > deadline:
             proc.kill()
-            raise RuntimeError("server did not become healthy in time")
+            reasons = health.get("reasons") if isinstance(health, dict) else health
+            raise RuntimeError(f"server did not become healthy in time; health says {reasons!r:.600}")
         time.sleep(0.1)
 
 

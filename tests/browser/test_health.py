@@ -11,11 +11,9 @@ import signal
 
 import pytest
 
-from server.bench.loop_bench import start_server, stop_server
 from tests.browser.conftest import ARTIFACTS, require_web_deps
 from tests.browser.test_console import CONSOLE_VIEWPORT, Console
 from tests.browser.test_web_client import VIEWPORT, Client
-from tests.conftest import LiveServer
 
 pytestmark = pytest.mark.browser
 
@@ -24,12 +22,8 @@ LINE = "#health"
 
 
 @pytest.fixture(scope="module")
-def server():
-    proc, base = start_server("contact-angle")
-    try:
-        yield LiveServer(base, base.replace("http://", "ws://") + "/ws")
-    finally:
-        stop_server(proc)
+def server(own_server):
+    return own_server
 
 
 def visible(page, selector: str) -> bool:

@@ -14,7 +14,7 @@ import time
 import msgpack
 import pytest
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from server.bench.loop_bench import get_json
 from tests.integration.test_server_ws import Client, run
 
 DOME_R = 0.66
@@ -23,12 +23,8 @@ SANE = [0.1, 0.1, 0.5]  # inside the dome: the proxy must sit on its surface
 
 
 @pytest.fixture(scope="module")
-def server():
-    proc, base = start_server("contact-angle")
-    try:
-        yield base
-    finally:
-        stop_server(proc)
+def server(own_server):
+    return own_server.http_url
 
 
 def _ws(base: str) -> str:

@@ -15,19 +15,15 @@ import urllib.error
 
 import pytest
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from server.bench.loop_bench import get_json
 from tests.integration.test_experiment_live import Api, new_session
 
 POLL_S = 0.005
 
 
 @pytest.fixture(scope="module")
-def base():
-    proc, url = start_server("contact-angle")
-    try:
-        yield url
-    finally:
-        stop_server(proc)
+def base(own_server):
+    return own_server.http_url
 
 
 def health(base: str) -> dict:
