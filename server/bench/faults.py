@@ -35,6 +35,7 @@ from server.bench import faults_measure as fm
 from server.bench.faults_clients import (CONTACT_POS, Participant, Poller, WsClient, health_status, reason_codes,
                                          slow_readers, udp_tracker)
 from server.bench.loop_bench import get_json, start_server, stop_server
+from server.hub.child import HEALTHY_S
 
 FAULTS = ("loop_kill", "device_host_kill", "emulator_restart", "device_unplug", "tracker_loss", "key_flood",
           "tracker_flood", "slow_readers", "bad_frames", "huge_values_ws", "huge_values_udp")
@@ -101,6 +102,7 @@ class FaultBench:
         self.ws_url = base.replace("http://", "ws://") + "/ws"
         self.api = Api(base)
         self.participant = Participant(self.ws_url)
+        self.loop_seen_ns = time.monotonic_ns()  # when the running loop process was first seen
         self.viewer = WsClient(self.ws_url, "observer", name="bench-faults-viewer")
         self.health: Poller | None = None
         self.session_id = ""
@@ -234,6 +236,11 @@ class FaultBench:
     # ---- the faults: each returns its measurements with fault_ns and end_ns ----------------------
 
     async def fault_loop_kill(self) -> dict:
+        # A loop that dies within HEALTHY_S of its start is a crash loop and waits before its
+        # restart (server/hub/child.py RestartBackoff): kill a loop that has been up that long.
+        up_s = (time.monotonic_ns() - self.loop_seen_ns) / 1e9
+        if up_s < HEALTHY_S + 0.2:
+            await asyncio.sleep(HEALTHY_S + 0.2 - up_s)
         pid = self.latest_health().get("loop", {}).get("pid")
         t0 = time.monotonic_ns()
         os.kill(pid, signal.SIGKILL)
@@ -241,6 +248,7 @@ class FaultBench:
         first_ns = next((s[0] for s in self.participant.states if s[2] > t0), None) if first else None
         await self.until(lambda: self.latest_health().get("loop", {}).get("pid") not in (pid, None))
         new_pid = self.latest_health().get("loop", {}).get("pid")
+        self.loop_seen_ns = time.monotonic_ns()
         await asyncio.sleep(0.35)  # the emulators flush their timelines every 0.2 s
         held, off_us = fm.all_off_after(self.read_timelines(), t0 // 1000)
         return {"fault_ns": t0, "end_ns": first_ns or time.monotonic_ns(), "first_state_ms": ms_since(t0, first_ns),

@@ -72,6 +72,14 @@ class DeviceHost(ChildProcess):
         elif kind == "hello":
             self.info = record[1]
 
+    def _closed(self) -> None:
+        """The process is gone: a snapshot it was asked for will never come; say so now, not
+        after SNAPSHOT_TIMEOUT_S (the console polls /api/devices while devices come back)."""
+        requests, self._requests = self._requests, {}
+        for future in requests.values():
+            if not future.done():
+                future.set_exception(DeviceHostUnavailable("the device host process exited (restarting)"))
+
     async def snapshot(self, writes: int = 0) -> dict:
         """The devices as the console shows them (DeviceManager.snapshot plus the feed's info)."""
         request = next(self._ids)

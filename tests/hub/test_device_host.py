@@ -86,3 +86,21 @@ def test_a_snapshot_of_a_host_that_is_gone_says_so():
         host.loop_end.close()
 
     asyncio.run(go())
+
+
+def test_a_snapshot_asked_of_a_host_that_died_fails_at_once_not_after_the_timeout():
+    from server.hub.device_host import DeviceHostUnavailable
+
+    async def go():
+        host = DeviceHost([], on_report=lambda report: None)
+        try:
+            waiting = asyncio.get_running_loop().create_future()
+            host._requests[1] = waiting  # asked; the process dies before it answers
+            host._closed()
+            with pytest.raises(DeviceHostUnavailable, match="exited"):
+                await asyncio.wait_for(waiting, 0.1)
+        finally:
+            host.device_end.close()
+            host.loop_end.close()
+
+    asyncio.run(go())
