@@ -102,7 +102,7 @@ class FaultBench:
         self.ws_url = base.replace("http://", "ws://") + "/ws"
         self.api = Api(base)
         self.participant = Participant(self.ws_url)
-        self.loop_seen_ns = time.monotonic_ns()  # when the running loop process was first seen
+        self.loop_seen_ns = self.host_seen_ns = time.monotonic_ns()  # when the running processes were first seen
         self.viewer = WsClient(self.ws_url, "observer", name="bench-faults-viewer")
         self.health: Poller | None = None
         self.session_id = ""
@@ -235,12 +235,16 @@ class FaultBench:
 
     # ---- the faults: each returns its measurements with fault_ns and end_ns ----------------------
 
+    @staticmethod
+    async def _up_past_crash_window(seen_ns: int) -> None:
+        up_s = (time.monotonic_ns() - seen_ns) / 1e9
+        if up_s < HEALTHY_S + 0.2:
+            await asyncio.sleep(HEALTHY_S + 0.2 - up_s)
+
     async def fault_loop_kill(self) -> dict:
         # A loop that dies within HEALTHY_S of its start is a crash loop and waits before its
         # restart (server/hub/child.py RestartBackoff): kill a loop that has been up that long.
-        up_s = (time.monotonic_ns() - self.loop_seen_ns) / 1e9
-        if up_s < HEALTHY_S + 0.2:
-            await asyncio.sleep(HEALTHY_S + 0.2 - up_s)
+        await self._up_past_crash_window(self.loop_seen_ns)
         pid = self.latest_health().get("loop", {}).get("pid")
         t0 = time.monotonic_ns()
         os.kill(pid, signal.SIGKILL)
@@ -256,12 +260,14 @@ class FaultBench:
                 "loop_pid_changed": new_pid not in (pid, None)}
 
     async def fault_device_host_kill(self) -> dict:
+        await self._up_past_crash_window(self.host_seen_ns)  # as for the loop (fault_loop_kill)
         before = get_json(self.base + "/api/devices")
         pid = before["host"]["pid"]
         with Poller(self.base, "/api/devices", 0.01) as devices:
             t0 = time.monotonic_ns()
             os.kill(pid, signal.SIGKILL)
             back = await self.until(lambda: _all_connected(devices.samples, t0, lambda a: a["host"]["pid"] != pid))
+        self.host_seen_ns = time.monotonic_ns()
         await asyncio.sleep(0.35)
         held, off_us = fm.all_off_after(self.read_timelines(), t0 // 1000)
         return {"fault_ns": t0, "end_ns": back or time.monotonic_ns(), "reconnect_ms": ms_since(t0, back),

@@ -149,7 +149,9 @@ class Health:
             reasons.append({"code": code, "message": message, "since_s": round(max(0.0, now_s - since), 3)})
 
         loop = self.loop
-        if loop.exited_s is not None and not loop.alive:
+        restarting = (loop.alive and loop.exited_s is not None and loop.started_s is not None
+                      and (self._last_state_s is None or self._last_state_s < loop.started_s))
+        if loop.exited_s is not None and (not loop.alive or restarting):  # down until the new one ticks
             add("loop_down", loop.exited_s, f"the haptic loop process exited{_code(loop.returncode)}; the server "
                 "is restarting it, and tactile output is off until it is back")
         elif loop.alive and self._last_state_s is not None:

@@ -42,8 +42,8 @@ def test_a_dead_loop_is_loop_down_until_it_runs_again():
     assert report.status == "degraded" and report.codes == {"loop_down"}
     assert "killed by signal 9" in report.reasons[0]["message"] and report.reasons[0]["since_s"] == 0.01
     health.loop_started(0.03)
-    assert codes(health, 0.05) == [], "just started: not yet late"
-    assert codes(health, 0.2) == ["loop_stalled"], "restarted but not ticking"
+    assert codes(health, 0.035) == ["loop_down"], "restarted, not ticking yet: still down, no gap of 'ok'"
+    assert codes(health, 0.2) == ["loop_down"]
     health.state(0.25)
     assert health.evaluate(0.26).status == "ok"
 
