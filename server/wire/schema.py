@@ -1,4 +1,4 @@
-"""Protocol v1.1: every message declared once, as data (docs/protocol.md).
+"""Protocol v1.2: every message declared once, as data (docs/protocol.md).
 
 Everything else follows from this module: the Python parsers and builders (messages.py, through
 the checker in check.py), the message tables of docs/protocol.md and the browser client's schema
@@ -34,7 +34,7 @@ from typing import Any
 from server.core.workspace import WORKSPACE_HALF_EXTENT_M
 
 PROTOCOL_VERSION = 1  # the major version: hello.v and welcome.v
-PROTOCOL_MINOR = 1    # additions since v1.0: welcome.minor
+PROTOCOL_MINOR = 2    # v1.1: welcome.minor, state.stiffness/haptic/driver; v1.2: health, bounds, input budget
 SCENE_FORMAT_VERSION = 1
 ROLES = ("participant", "operator", "observer")
 INPUT_ACTIONS = ("down", "up", "press")
@@ -199,7 +199,7 @@ INPUT = Message("input", "client_to_server", "keys and commands", (
 WELCOME = Message("welcome", "server_to_client", "reply to `hello`, or sent on connect to clients without one", (
     _type("welcome"),
     Field("v", integer(), "server's protocol major version (1)"),
-    Field("minor", integer(min=0), "server's protocol minor version (1 for this document; absent from v1.0 "
+    Field("minor", integer(min=0), "server's protocol minor version (2 for this document; absent from v1.0 "
           "servers)", required=False, since=1),
     Field("client_id", integer(min=1), "this connection's id (`driver` in `state` names a /ws client by it)"),
     Field("role", enum(ROLES), "the role the server assigned (may differ from the one asked for; clients follow "
@@ -285,13 +285,13 @@ HEALTH = Message("health", "server_to_client", "after `welcome` and the first `s
     _type("health"),
     Field("status", enum(HEALTH_STATUSES), "`ok`; `degraded` while any reason holds (clients tell the user: the "
           "console a banner, the participant's HUD that tactile feedback is paused); `starting` before the haptic "
-          "loop's first tick", since=1),
+          "loop's first tick", since=2),
     Field("reasons", array(mapping(string(), "map `{code, message}`"), "array of `{code, message}`"),
           "why it is not `ok`: `code` is one of `loop_down`, `loop_stalled`, `tick_failures`, `device_missing`, "
           "`device_host_down`, `device_host_restarted`, `overruns` (a client treats a code it does not know like "
           "any other); `message` is a sentence for a person, e.g. \"device 'ferrovibe' is disconnected: check its "
           "cable and power; the running scenario 'contact-angle' needs it for macro-roughness (tilt)\". "
-          "`GET /api/health` lists the same reasons", since=1),
+          "`GET /api/health` lists the same reasons", since=2),
 ))
 
 MESSAGES: dict[str, Message] = {m.name: m for m in (HELLO, TRACKER, INPUT, WELCOME, SCENE, STATE, ERROR, HEALTH)}

@@ -136,10 +136,10 @@ MESSAGES = [
     ("input-command-text", "client_to_server",
      {"type": "input", "key": "note", "action": "press", "value": "Größe ≈ 3 cm"}),
     ("welcome", "server_to_client",
-     {"type": "welcome", "v": 1, "minor": 1, "client_id": 7, "role": "participant", "server": "viestac/0.1.0",
+     {"type": "welcome", "v": 1, "minor": 2, "client_id": 7, "role": "participant", "server": "viestac/0.1.0",
       "tick_hz": 1000, "state_hz": 60, "format": "msgpack"}),
     ("welcome-json-observer", "server_to_client",
-     {"type": "welcome", "v": 1, "minor": 1, "client_id": 12, "role": "observer", "server": "viestac/0.1.0",
+     {"type": "welcome", "v": 1, "minor": 2, "client_id": 12, "role": "observer", "server": "viestac/0.1.0",
       "tick_hz": 1000, "state_hz": 62.5, "format": "json"}),
     ("scene-minimal", "server_to_client", {"type": "scene", "v": 1, "hash": HASH_MINIMAL, "scene": SCENE_MINIMAL}),
     ("scene-overlays-skin", "server_to_client", {"type": "scene", "v": 1, "hash": HASH_AIDS, "scene": SCENE_AIDS}),
@@ -421,7 +421,7 @@ POINTS = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, -0.6, 0.3], [-2, 3.2
 ROTATIONS = [[1, 0, 0, 0], [H, 0, 0, H], [H, H, 0, 0], [H, 0, H, 0], [0.5, 0.5, 0.5, 0.5]]
 
 ABOUT_MESSAGES = {
-    "what": "ViESTac wire protocol v1.1 (docs/protocol.md): valid messages of every type, both directions, "
+    "what": "ViESTac wire protocol v1.2 (docs/protocol.md): valid messages of every type, both directions, "
             "both encodings.",
     "vectors": "Canonical messages. `message`: the decoded map (field order = the order encoders write); "
                "`msgpack_hex`: the exact msgpack bytes every encoder writes for it (canonical numbers: integral "
@@ -463,12 +463,12 @@ def main() -> None:
                 for n, d, b, j, e in RECEIVED]
     for r in received:  # the JSON text and the bytes say the same thing
         assert json.loads(r["json"]) == msgpack.unpackb(bytes.fromhex(r["msgpack_hex"]))
-    dump("messages.json", {"version": 1, "protocol": "1.1", "about": ABOUT_MESSAGES, "vectors": vectors,
+    dump("messages.json", {"version": 1, "protocol": "1.2", "about": ABOUT_MESSAGES, "vectors": vectors,
                            "received": received})
 
     def frames(rows):
         return [{"name": n, "msgpack_hex": b.hex(), "json": j, "code": c} for n, b, j, c in rows]
-    dump("invalid.json", {"version": 1, "protocol": "1.1", "about": ABOUT_INVALID, "frames": frames(INVALID),
+    dump("invalid.json", {"version": 1, "protocol": "1.2", "about": ABOUT_INVALID, "frames": frames(INVALID),
                           "server_frames": frames(INVALID_SERVER)})
     cases = []
     for name, value, canonical in SCENE_HASH_CASES:

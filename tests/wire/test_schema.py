@@ -74,7 +74,7 @@ def test_builders_write_the_declared_fields_in_order_and_pass_the_checks():
     for name, message in built.items():
         assert list(message) == _order(name)
         check_message(message)
-    assert built["welcome"]["minor"] == 1
+    assert built["welcome"]["minor"] == 2
 
 
 def _record(**extra):
