@@ -7,6 +7,7 @@ from server.core.workspace import WORKSPACE_HALF_EXTENT_M
 from server.loop import core as core_module
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
+from tests.loop.test_tick import Flaky
 
 MS = 1_000_000
 DOME_TOP = (0.0, 0.0, 0.66)  # the dome is 0.6 high, the proxy 0.06 in radius
@@ -47,14 +48,9 @@ def test_a_tool_clamps_what_it_is_offered_and_placed_at():
     assert tool.tracked == (0.0, WORKSPACE_HALF_EXTENT_M, 0.3)
 
 
-class Exploding(ContactAngle):
-    """Fails while `failing` is set, in the god-object's place (any exception in a step)."""
-    failing = False
-
-    def step(self, ctx):
-        if self.failing:
-            raise OverflowError("(34, 'Numerical result out of range')")
-        return super().step(ctx)
+class Exploding(Flaky):
+    """Fails while `failing` is set, as the god-object did (any exception in a step)."""
+    error = (OverflowError, "(34, 'Numerical result out of range')")
 
 
 def test_a_failing_tick_is_counted_reported_and_recovered_from(monkeypatch):

@@ -10,6 +10,7 @@ from scenarios.stiffness import SPHERE_RADIUS, SPACING, StiffnessScenario
 from server.core.tool import DEFAULT_PROXY_RADIUS, DRIVER_QUIET_S
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation, home_position
+from tests.experiment.test_recorder import recording  # noqa: F401 - the fixture
 
 MS = 1_000_000
 TILT = [{"kind": "tilt", "direction_deg": 0.0, "magnitude_pct": 100.0}]
@@ -20,10 +21,11 @@ FREE = [0.0, 0.0, 1.2]
 class Flaky(ContactAngle):
     """The contact-angle task with a bug that can be switched on."""
     failing = False
+    error = (RuntimeError, "scenario bug")  # what a failing step raises
 
     def step(self, ctx):
         if self.failing:
-            raise RuntimeError("scenario bug")
+            raise self.error[0](self.error[1])
         return super().step(ctx)
 
 
@@ -224,16 +226,8 @@ def test_a_trial_end_rides_with_the_next_state_record_as_finished_and_as_an_even
     assert all(s["finished"] == [] for s in states if s is not states[1]), "each trial end is published once"
 
 
-def test_the_recorder_takes_a_trials_metrics_from_the_loops_finished_entries(tmp_path):
-    from server.experiment.recorder import Recorder
-    from server.experiment.store import Store
-    from tests.experiment.test_store import clock, open_session
-
-    store = Store(tmp_path / "db.sqlite", clock())
-    open_session(store)
-    trial = store.transition(store.next_pending("s1").id, "running")
-    recorder = Recorder(store)
-    recorder.begin("s1", trial.id, trial.attempt, "main", 0)
+def test_the_recorder_takes_a_trials_metrics_from_the_loops_finished_entries(recording):  # noqa: F811
+    _, recorder, _ = recording
     scenario = Finishing()
     scenario.at = 30
     core = LoopCore(Simulation(scenario))
@@ -245,4 +239,3 @@ def test_the_recorder_takes_a_trials_metrics_from_the_loops_finished_entries(tmp
             recorder.on_record(["state", out.state])
         out = core.tick((), core.sim.tick * MS)
     assert recorder.end().metrics == {"completion_s": 1.5}
-    store.close()
