@@ -125,19 +125,21 @@ def test_contact_angle_tap_reaches_the_ferrovibe_and_participants_cannot_tap(ser
             if state["values"].get("tap_deg") == -30 and state["cues"]:
                 tapped = state
                 break
+        # hold the tap until the device shows it: released at once, the tilt toward 30° can be
+        # superseded by "off" before the link carries it (the device gets the newest cue set)
+        rows = await asyncio.to_thread(server.timeline, "ferrovibe", t0, lambda rs: any(
+            float(r["magnitude_pct"]) == 100 and float(r["direction_deg"]) == 30.0 for r in rs))
         await op.send({"type": "input", "key": "release", "action": "press"})
         await part.close()
         await op.close()
-        return forbidden, out_of_range, no_value, tapped, t0
+        return forbidden, out_of_range, no_value, tapped, rows
 
-    forbidden, out_of_range, no_value, tapped, t0 = asyncio.run(go())
+    forbidden, out_of_range, no_value, tapped, rows = asyncio.run(go())
     assert forbidden["code"] == "forbidden" and "experimenter command" in forbidden["message"]
     assert out_of_range["code"] == "bad_message" and "[-90.0, 90.0]" in out_of_range["message"]
     assert no_value["code"] == "bad_message" and "needs a value" in no_value["message"]
     assert tapped is not None and tapped["values"]["angle_deg"] == pytest.approx(-30.0, abs=1e-6)
     assert [e["name"] for e in tapped["events"] if e["name"] != "input"] in ([], ["tap"])
-    rows = server.timeline("ferrovibe", t0, lambda rs: any(float(r["magnitude_pct"]) == 100 and
-                                                             float(r["direction_deg"]) == 30.0 for r in rs))
     tilted = [(r["t_us"], float(r["direction_deg"])) for r in rows if float(r["magnitude_pct"]) == 100]
     assert any(d == 30.0 for _, d in tilted), f"no tilt toward 30° in the FerroVibe's timeline: {tilted}"
 
