@@ -34,6 +34,7 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
+from server.auth import Unauthorized
 from server.auth.identity import Identity
 from server.auth.policy import POLICY, decide
 from server.wire import codec, messages
@@ -55,17 +56,13 @@ MAX_WIRE_ROLE = {"admin": "operator", "experimenter": "operator", "participant":
                  "observer": "observer"}
 
 
-class Unauthorized(Exception):
-    """No valid token (what `Gate.authenticate` raises; server.auth.Unauthorized is one)."""
-
-
 @dataclass(frozen=True)
 class Gate:
     """What a session asks of access control (server/auth, through the hub): injected, so the
     session makes every decision without doing I/O itself.
 
-    authenticate(secret) -> Identity, or raises an exception with a `message` (server.auth's
-    Unauthorized: unknown, expired, revoked or missing token; throttled);
+    authenticate(secret) -> Identity, or raises server.auth.Unauthorized (unknown, expired, revoked
+    or missing token; a peer throttled after failed attempts);
     lease() -> the current control lease (server.auth.lease.Lease);
     admit(identity) -> None, or why this token may not open another connection."""
     authenticate: Callable[[str | None], Identity]
@@ -278,8 +275,8 @@ class Session:
             return
         try:
             who = self.gate.authenticate(hello.token or None)
-        except Exception as exc:  # server.auth.Unauthorized (and a store that failed: fail closed)
-            self._refuse("unauthorized", getattr(exc, "message", None) or str(exc) or "no valid token")
+        except Unauthorized as exc:
+            self._refuse("unauthorized", exc.message)
             return
         verdict = decide(POLICY["ws:hello"], who, self.gate.lease())
         if verdict is not None:

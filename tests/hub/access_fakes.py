@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from server.auth.identity import Identity
 from server.auth.lease import Lease
-from server.hub.session import Gate, Unauthorized
+from server.auth import Unauthorized
+from server.hub.session import Gate
 
 NOW = 1_767_225_600.0  # UTC seconds; the lease's clock in these tests
 
