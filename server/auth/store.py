@@ -79,7 +79,7 @@ def load_key(path: str | Path) -> bytes:
         data = path.read_bytes()
         if len(data) != KEY_BYTES:
             raise ValueError(f"{path}: a server key is {KEY_BYTES} bytes, this file has {len(data)} "
-                             f"(remove it to make a new one; every token then becomes invalid)")
+                             f"(remove it to make a new one; every token then becomes invalid)") from None
         if os.stat(path).st_mode & 0o077:
             os.chmod(path, 0o600)
         return data

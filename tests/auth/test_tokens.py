@@ -8,7 +8,7 @@ import stat
 import pytest
 
 from server.auth import AccessControl, open_book
-from server.auth.store import AccessStore, load_key
+from server.auth.store import load_key
 from server.auth.tokens import TokenBook
 
 
