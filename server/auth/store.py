@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Iterator
 
 KEY_BYTES = 32
+MAX_AUDIT_ROWS = 10_000  # one read of the audit log at most
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS tokens (
@@ -210,7 +211,7 @@ class AccessStore:
             args.append(session_id)
         sql = "SELECT * FROM audit" + (" WHERE " + " AND ".join(where) if where else "") + " ORDER BY id DESC LIMIT ?"
         with self._lock:
-            rows = [dict(r) for r in self.db.execute(sql, (*args, max(0, int(limit))))]
+            rows = [dict(r) for r in self.db.execute(sql, (*args, min(MAX_AUDIT_ROWS, max(0, int(limit)))))]
         for r in rows:
             r["detail"] = None if r["detail"] is None else json.loads(r["detail"])
         rows.reverse()
