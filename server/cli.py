@@ -484,8 +484,7 @@ def build_parser() -> argparse.ArgumentParser:
     study.set_defaults(func=_study)
 
     data_default = os.environ.get("VIESTAC_DATA", "data")
-    token = sub.add_parser("token", help="access tokens (roles admin, experimenter, participant, observer; "
-                                         "docs/security.md)")
+    token = sub.add_parser("token", help="access tokens (roles admin, experimenter, participant, observer)")
     token_sub = token.add_subparsers(dest="token", required=True)
     t_create = token_sub.add_parser("create", help="a new token; prints its secret once")
     t_create.add_argument("--role", required=True, choices=("admin", "experimenter", "participant", "observer"))
