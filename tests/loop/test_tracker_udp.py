@@ -86,3 +86,28 @@ def test_binding_a_port_in_use_says_which_and_what_to_do(port):
     _, address = port
     with pytest.raises(OSError, match=r"tracker UDP port 127\.0\.0\.1:\d+.*--tracker-udp"):
         tracker_udp.bind(address)
+
+
+# ---- issue 19: loopback only (the port has no authentication) -------------------------------------
+@pytest.mark.parametrize("setting, host, expected", [
+    ("auto", "127.0.0.1", ("127.0.0.1", 8001)),
+    ("auto", "0.0.0.0", ("127.0.0.1", 8001)),      # serving on the LAN does not open the tracker port to it
+    ("auto", "192.168.1.20", ("127.0.0.1", 8001)),
+    ("9000", "0.0.0.0", ("127.0.0.1", 9000)),
+    ("[::1]:9000", "127.0.0.1", ("::1", 9000)),
+    ("localhost:9000", "127.0.0.1", ("localhost", 9000)),
+    ("127.0.0.2:9000", "127.0.0.1", ("127.0.0.2", 9000)),
+    ("off", "0.0.0.0", None),
+])
+def test_the_tracker_port_binds_to_loopback_whatever_the_http_host(setting, host, expected):
+    from server.config import Settings
+    assert Settings(host=host, port=8000, tracker_udp=setting).tracker_address() == expected
+
+
+@pytest.mark.parametrize("setting", ["0.0.0.0:9000", "192.168.1.20:9000", "[::]:9000", "rig.local:9000"])
+def test_a_non_loopback_tracker_address_is_refused_at_start(setting):
+    from server.config import Settings
+    with pytest.raises(ValueError, match="loopback only"):
+        Settings(tracker_udp=setting)
+    with pytest.raises(ValueError, match="loopback only"):
+        tracker_udp.bind((setting.rpartition(":")[0].strip("[]"), 0))
