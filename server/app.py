@@ -143,7 +143,7 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     app.state.experiment = experiment
     app.state.access = access
     app.state.tracker_udp = None  # "HOST:PORT" once bound
-    # every /api operation passes the access guard first (server/api/guard.py; docs/security.md)
+    # every /api operation passes the access guard first (server/api/guard.py)
     for api in (router, experiment_router, access_router):
         app.include_router(api, dependencies=[Depends(guard)], responses=GUARD_ERRORS)  # each router says /api
     app.add_middleware(AuditTrail)

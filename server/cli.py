@@ -106,6 +106,8 @@ def _devices(args: argparse.Namespace) -> int:
     """Serial ports the OS reports, devices configured in a file, and a running server's devices."""
     from devices.manager import DeviceConfigError, load_device_file
     from devices.ports import list_ports, resolve
+    import urllib.error
+
     from server.bench.loop_bench import get_json
 
     report: dict = {"ports": list_ports(), "configured": [], "server": None}
@@ -119,6 +121,9 @@ def _devices(args: argparse.Namespace) -> int:
                                  "resolves_to": resolve(c.port), "table_2_2": c.profile.table_row()} for c in configs]
     try:
         report["server"] = get_json(f"{args.server.rstrip('/')}/api/devices", timeout=2.0, token=args.token)
+    except urllib.error.HTTPError as exc:
+        hint = " (give --token or $VIESTAC_TOKEN)" if exc.code in (401, 403) else ""
+        report["server_error"] = f"the server at {args.server} refused: {exc.code} {exc.reason}{hint}"
     except OSError as exc:
         report["server_error"] = f"no server at {args.server} ({exc})"
     if args.json:
@@ -438,7 +443,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="/api/health is degraded above N loop overruns (periods > 1.5 ms) in 10 s (default 10)")
     serve.add_argument("--lease-ttl", type=float, default=60.0, metavar="SECONDS",
                        help="the control lease goes to the next in the queue when its holder has not renewed it for "
-                            "this long (default 60; docs/security.md)")
+                            "this long (default 60)")
     serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     serve.set_defaults(func=_serve)
 

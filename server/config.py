@@ -40,7 +40,7 @@ class Settings:
     force: bool = False             # run scenarios no configured device can show (serve --force; studies too)
     tracker_udp: str = "auto"       # the loop's tracker UDP port: "auto" (HTTP host, HTTP port + 1), HOST:PORT, PORT, "off"
     overrun_threshold: int = 10     # health is degraded above this many loop overruns (> 1.5 ms) per 10 s
-    lease_ttl_s: float = 60.0       # the control lease goes when its holder has been quiet this long (docs/security.md)
+    lease_ttl_s: float = 60.0       # the control lease goes when its holder has been quiet this long (server/auth/lease.py)
 
     def __post_init__(self) -> None:
         if not 0 <= self.port <= 65535:

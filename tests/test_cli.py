@@ -1,11 +1,13 @@
 """`viestac serve` refuses bad settings up front with a clear message (no half-started server)."""
 
 import json
+import os
 import subprocess
 import sys
 
 import pytest
 
+from server.bench.loop_bench import admin_token
 from server.config import Settings
 
 
@@ -52,7 +54,8 @@ def test_viestac_devices_lists_ports_configured_devices_and_a_running_servers_st
     config = tmp_path / "rig.toml"
     config.write_text(f"[[device]]\nname = 'tac'\nprofile = 'fingertac'\nport = '{tmp_path / 'absent'}'\n")
     result = subprocess.run([sys.executable, "-m", "server.cli", "devices", "--devices", str(config),
-                             "--server", live_server.http_url], capture_output=True, text=True, timeout=60)
+                             "--server", live_server.http_url], capture_output=True, text=True, timeout=60,
+                            env={**os.environ, "VIESTAC_TOKEN": admin_token(live_server.http_url)})
     assert result.returncode == 0, result.stderr
     assert "Serial ports" in result.stdout
     assert f"Configured tac (fingertac) on {tmp_path / 'absent'}: not present" in result.stdout

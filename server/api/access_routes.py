@@ -83,13 +83,13 @@ def _redeem(access: AccessControl, request: Request, kind: str, code: str, token
     return {"token": token, "identity": ident.to_dict()}
 
 
-@router.post("/auth/login", responses=errors(401, 422, 429), summary="Exchange a login link's code (printed by the "
+@router.post("/auth/login", responses=errors(400, 401, 422, 429), summary="Exchange a login link's code (printed by the "
                                                                       "server at start) for an admin token")
 async def login(body: CodeRequest, request: Request, access: AccessDep) -> dict:
     return _redeem(access, request, "login", body.code, LOGIN_TOKEN_TTL_S)
 
 
-@router.post("/auth/join", responses=errors(401, 422, 429), summary="Exchange a participant join link's code for the "
+@router.post("/auth/join", responses=errors(400, 401, 422, 429), summary="Exchange a participant join link's code for the "
                                                                      "participant's token of that session")
 async def join(body: CodeRequest, request: Request, access: AccessDep) -> dict:
     return _redeem(access, request, "join", body.code, JOIN_TOKEN_TTL_S)
@@ -139,7 +139,7 @@ async def release_lease(who: CallerDep, access: AccessDep) -> dict:
     return {"lease": _lease_view(access, who)}
 
 
-@router.post("/lease/handover", responses=errors(409, 422), summary="Hand the lease to a token in the queue")
+@router.post("/lease/handover", responses=errors(400, 409, 422), summary="Hand the lease to a token in the queue")
 async def hand_over(body: HandOver, who: CallerDep, access: AccessDep) -> dict:
     try:
         access.lease.hand_over(who, body.token_id)
@@ -169,7 +169,7 @@ def qr_svg(text: str) -> str:
     return out.getvalue().decode()
 
 
-@router.post("/join-links", status_code=201, responses=errors(404, 409, 422), summary=
+@router.post("/join-links", status_code=201, responses=errors(400, 404, 409, 422), summary=
              "A single-use participant join link (and its QR code) for a study session of your site, or for free "
              "exploration; the lease holder opens that session for participants")
 async def join_link(body: JoinLinkRequest, request: Request, who: CallerDep, access: AccessDep) -> dict:
@@ -209,7 +209,7 @@ async def tokens(access: AccessDep) -> list[dict]:
     return await asyncio.to_thread(access.book.list)
 
 
-@router.post("/tokens", status_code=201, responses=errors(422), summary="A new token; its secret is shown only in "
+@router.post("/tokens", status_code=201, responses=errors(400, 422), summary="A new token; its secret is shown only in "
                                                                         "this answer")
 async def create_token(body: TokenCreate, who: CallerDep, access: AccessDep) -> dict:
     if body.role == "experimenter" and body.site is None:

@@ -48,7 +48,7 @@ class InvalidRequest(BaseModel):
 
 _DESCRIPTIONS = {
     400: "The body could not be read (not JSON text in UTF-8)",
-    401: "No token, or an unknown, expired or revoked one (Authorization: Bearer TOKEN; docs/security.md)",
+    401: "No token, or an unknown, expired or revoked one (Authorization: Bearer TOKEN)",
     403: "Not allowed: the token's role, site or the control lease does not permit it, or the session's control "
          "token (X-Control-Token) is missing or not the current one",
     404: "No such scenario, study, session (or one of another site), trial or question",

@@ -1,5 +1,5 @@
 """The REST guard: every /api operation is checked against the declared policy before its handler
-runs (server/auth/policy.py; docs/security.md).
+runs (server/auth/policy.py).
 
 `guard` is the dependency of every /api router (app.py). It names the operation as /openapi.json
 does ("POST /api/scenario"), looks its Rule up in POLICY and refuses an operation without one
@@ -38,7 +38,7 @@ TOKEN_BURST = 400
 SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
 
 bearer = HTTPBearer(auto_error=False, description="a token from `viestac token create`, a login link or a join "
-                                                   "link (docs/security.md)")
+                                                   "link")
 BearerDep = Annotated[HTTPAuthorizationCredentials | None, Depends(bearer)]
 
 

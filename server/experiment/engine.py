@@ -12,7 +12,7 @@ that wants to drive the session takes control explicitly (`take_control`, a new 
 one stops working and the hand-over is recorded). Each change also names the trial it is about
 (`seq`), so two clicks racing for the same trial cannot both succeed (409 for the second).
 
-Sites (docs/security.md): every session belongs to a lab (`site`). Each call takes the caller's
+Sites: every session belongs to a lab (`site`). Each call takes the caller's
 `site` scope: None for the rig's admin (every session), else a site name, and a session of another
 site is NotFound (404), as if it did not exist.
 

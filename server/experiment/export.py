@@ -7,7 +7,7 @@ Per session, into OUT/<study_id>_<participant>_<session_id>/:
   trajectories/trial_<seq>_attempt_<n>.csv   the recorded samples of each attempt that has some
   cues.csv, events.csv the cue commands and the events
   audit.csv            the control actions on the session (who, what, when, the result), when the
-                       data directory has an access log (access.sqlite, docs/security.md)
+                       data directory has an access log (access.sqlite, server/auth/)
   session.json         the whole session (row, config, study text, trials with responses and
                        metrics, attempts, events): a re-analysis needs nothing else
 `--all` also writes OUT/all_trials_wide.csv, the wide rows of every session; `--site` keeps only

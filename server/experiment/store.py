@@ -186,7 +186,7 @@ class Store:
             self.db.execute("COMMIT")
 
     def _migrate(self) -> None:
-        """Columns added since a database was made: sessions.site (per-lab data, docs/security.md)."""
+        """Columns added since a database was made: sessions.site (per-lab data)."""
         columns = {r["name"] for r in self.db.execute("PRAGMA table_info(sessions)")}
         if "site" not in columns:
             self.db.execute("ALTER TABLE sessions ADD COLUMN site TEXT")

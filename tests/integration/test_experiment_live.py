@@ -15,7 +15,7 @@ import urllib.request
 
 import pytest
 
-from server.bench.loop_bench import start_server, stop_server
+from server.bench.loop_bench import auth_headers, start_server, stop_server
 from tests.integration.test_server_ws import Client
 
 STUDY = "thesis-2021"
@@ -30,7 +30,7 @@ class Api:
     def call(self, method: str, path: str, body: dict | None = None, token: str | None = None):
         """(status, json) of a request; errors are answers too."""
         data = json.dumps(body).encode() if body is not None else None
-        headers = {"Content-Type": "application/json"}
+        headers = {"Content-Type": "application/json", **auth_headers(self.base)}
         if token or self.token:
             headers["X-Control-Token"] = token or self.token
         request = urllib.request.Request(self.base + path, data=data, method=method, headers=headers)

@@ -19,6 +19,9 @@ from server.app import create_app
 from server.config import Settings
 
 
+ADMIN = "owner-thread-test-admin-token-0123456789"  # VIESTAC_ADMIN_TOKEN of the in-process server
+
+
 class Rest:
     def __init__(self, base: str):
         self.base = base
@@ -26,7 +29,7 @@ class Rest:
     def __call__(self, method: str, path: str, body: dict | None = None, headers: dict | None = None,
                  expect: tuple = (200, 201)):
         request = urllib.request.Request(self.base + path, method=method, headers={
-            "Content-Type": "application/json", **(headers or {})},
+            "Content-Type": "application/json", "Authorization": f"Bearer {ADMIN}", **(headers or {})},
             data=None if body is None else json.dumps(body).encode())
         try:
             with urllib.request.urlopen(request, timeout=10) as response:
@@ -46,6 +49,7 @@ def test_every_rest_request_rings_the_loop_from_the_event_loop_thread(tmp_path, 
         ring(self)
 
     monkeypatch.setattr(ipc.Doorbell, "ring", recording_ring)
+    monkeypatch.setenv("VIESTAC_ADMIN_TOKEN", ADMIN)
     app = create_app(Settings(data_dir=tmp_path / "data", tracker_udp="off"))
     server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning"))
     serving = threading.Thread(target=server.run, name="event-loop")  # the app's event loop runs here
@@ -59,6 +63,7 @@ def test_every_rest_request_rings_the_loop_from_the_event_loop_thread(tmp_path, 
         while rest("GET", "/api/scenario", expect=(200, 503)).get("id") is None:
             assert time.monotonic() < deadline, "the loop did not announce its scenario"
             time.sleep(0.05)
+        rest("POST", "/api/lease")  # the rig's changes need the control lease
         rings.clear()
 
         rest("POST", "/api/scenario", {"name": "stiffness", "params": {"middle_level": 3}, "seed": 1})

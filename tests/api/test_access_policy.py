@@ -1,0 +1,152 @@
+"""The role × operation matrix: every operation of /openapi.json, called by every kind of caller,
+is refused exactly when the declared policy (server/auth/policy.py) says so, with the status it
+says (401 without a valid token, 403 for the role or the lease); and every operation has a
+policy, so a new endpoint without one fails here (the guard refuses it anyway: fail closed).
+
+In process (the app without its lifespan: no loop, no devices): the guard runs before any handler,
+so what the handlers answer without a loop (503, 404, 422, ...) does not matter here, only that an
+allowed call is not refused by the guard and a refused one is."""
+
+from __future__ import annotations
+
+import asyncio
+import re
+
+import httpx
+import pytest
+
+from server.app import create_app
+from server.auth.identity import Identity
+from server.auth.policy import POLICY, decide
+from server.config import Settings
+
+PATH_VALUES = {"session_id": "s-unknown", "seq": "0", "question": "rating", "study_id": "thesis-2021",
+               "token_id": "00000000"}
+CALLERS = ("none", "observer", "participant", "experimenter", "experimenter+lease", "admin+lease")
+
+
+@pytest.fixture(scope="module")
+def app(tmp_path_factory):
+    return create_app(Settings(data_dir=tmp_path_factory.mktemp("data"), tracker_udp="off"))
+
+
+@pytest.fixture(scope="module")
+def document(app):
+    return app.openapi()
+
+
+def operations(document) -> list[str]:
+    return [f"{method.upper()} {path}" for path, methods in document["paths"].items() for method in methods]
+
+
+def test_every_operation_has_a_policy(document):
+    ops = operations(document)
+    assert len(ops) > 40, ops
+    missing = [op for op in ops if op not in POLICY]
+    assert not missing, f"operations without an access policy (server/auth/policy.py): {missing}"
+
+
+def test_every_rest_policy_names_an_operation(document):
+    ops = set(operations(document))
+    stale = [key for key in POLICY if not key.startswith("ws:") and key not in ops]
+    assert not stale, f"policies of operations that do not exist: {stale}"
+
+
+def test_every_guarded_operation_documents_the_guards_answers_and_the_bearer_scheme(document):
+    assert document["components"]["securitySchemes"]["HTTPBearer"] == {
+        "type": "http", "scheme": "bearer", "description": document["components"]["securitySchemes"]["HTTPBearer"][
+            "description"]}
+    for path, methods in document["paths"].items():
+        for method, op in methods.items():
+            assert {"401", "403", "429"} <= set(op["responses"]), (method, path)
+            assert {"HTTPBearer": []} in op["security"], (method, path)
+            assert "Retry-After" in op["responses"]["429"]["headers"], (method, path)
+
+
+class Callers:
+    """A token of each kind in the app's own book, and the lease arranged for each call."""
+
+    def __init__(self, access):
+        self.access = access
+        self.secrets: dict[str, str | None] = {"none": None}
+        self.who: dict[str, Identity | None] = {"none": None}
+        for caller, (role, site, session) in {
+                "observer": ("observer", None, None), "participant": ("participant", "lab-a", "s-unknown"),
+                "experimenter": ("experimenter", "lab-a", None), "admin": ("admin", None, None)}.items():
+            self.secrets[caller], self.who[caller] = access.book.create(role, site, session=session, label=caller)
+        for caller, base in (("experimenter+lease", "experimenter"), ("admin+lease", "admin")):
+            self.secrets[caller], self.who[caller] = self.secrets[base], self.who[base]
+
+    def arrange(self, caller: str) -> None:
+        """The lease held by the caller (…+lease), else by the admin; nobody queued; no session open."""
+        lease = self.access.lease
+        snapshot = lease.snapshot()
+        for entry in ([snapshot["holder"]] if snapshot["holder"] else []) + snapshot["queue"]:
+            lease.drop(entry["token_id"])
+        lease.session = None
+        holder = self.who["experimenter"] if caller == "experimenter+lease" else self.who["admin"]
+        assert lease.request(holder)["status"] == "granted"
+
+
+def _url(key: str) -> tuple[str, str]:
+    method, path = key.split(" ", 1)
+    return method, re.sub(r"\{(\w+)\}", lambda m: PATH_VALUES[m.group(1)], path)
+
+
+def test_each_caller_is_refused_exactly_where_the_policy_says(app, document):
+    access = app.state.access
+    callers = Callers(access)
+    reasons = set()
+    for caller in CALLERS:  # the guard's refusals in words, to tell them from a handler's own 403
+        callers.arrange(caller)
+        for rule in POLICY.values():
+            refusal = decide(rule, callers.who[caller], access.lease)
+            if refusal:
+                reasons.add(refusal[1])
+    checked = []
+
+    async def run() -> None:
+        transport = httpx.ASGITransport(app=app, raise_app_exceptions=False)
+        async with httpx.AsyncClient(transport=transport, base_url="http://127.0.0.1") as client:
+            for key in operations(document):
+                method, url = _url(key)
+                for caller in CALLERS:
+                    callers.arrange(caller)
+                    expected = decide(POLICY[key], callers.who[caller], access.lease)
+                    secret = callers.secrets[caller]
+                    headers = {"Authorization": f"Bearer {secret}"} if secret else {}
+                    body = {} if method in ("POST", "PUT") else None
+                    answer = await client.request(method, url, headers=headers, json=body)
+                    detail = answer.json().get("detail") if answer.headers.get("content-type", "").startswith(
+                        "application/json") and isinstance(answer.json(), dict) else None
+                    if expected is None:
+                        assert answer.status_code != 401 and not (answer.status_code == 403 and detail in reasons), \
+                            (key, caller, answer.status_code, detail)
+                    else:
+                        assert (answer.status_code, detail) == expected, (key, caller)
+                        if expected[0] == 401:
+                            assert answer.headers["www-authenticate"] == "Bearer", (key, caller)
+                    checked.append((key, caller, expected is None))
+
+    asyncio.run(run())
+    allowed = {(key, caller) for key, caller, ok in checked if ok}
+    assert len(checked) == len(operations(document)) * len(CALLERS)
+    # the matrix is not trivially all-allowed or all-refused: spot checks of the policy's intent
+    assert ("POST /api/scenario", "admin+lease") in allowed and ("POST /api/scenario", "experimenter") not in allowed
+    assert ("GET /api/sessions", "observer") not in allowed and ("GET /api/health", "none") in allowed
+    assert ("POST /api/sessions/{session_id}/control", "none") not in allowed
+
+
+def test_a_route_without_a_policy_is_refused(app, monkeypatch):
+    """Fail closed: the guard refuses an operation the table does not declare."""
+    monkeypatch.delitem(POLICY, "GET /api/scenarios")
+    callers = Callers(app.state.access)
+    callers.arrange("admin+lease")
+
+    async def run() -> httpx.Response:
+        transport = httpx.ASGITransport(app=app, raise_app_exceptions=False)
+        async with httpx.AsyncClient(transport=transport, base_url="http://127.0.0.1") as client:
+            return await client.get("/api/scenarios", headers={"Authorization": f"Bearer {callers.secrets['admin']}"})
+
+    answer = asyncio.run(run())
+    assert answer.status_code == 403 and "no declared access policy" in answer.json()["detail"], answer.text
