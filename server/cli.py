@@ -78,9 +78,8 @@ def _serve(args: argparse.Namespace) -> int:
         print("tracker samples by UDP to %s:%d (docs/protocol.md)" % tracker_sock.getsockname()[:2], flush=True)
     if not is_loopback(settings.host) and settings.tls_cert is None:
         print(exposure_warning(settings.host, port), file=sys.stderr, flush=True)
-    access = getattr(app.state, "access", None)
-    if settings.login_link and access is not None:
-        code = access.book.create_code("login", role="admin", ttl_s=LOGIN_LINK_TTL_S)
+    if settings.login_link:
+        code = _login_code(app, settings)
         print(f"Log in to the console (admin, single use, valid {LOGIN_LINK_TTL_S // 60} min): "
               f"{link_base(settings, port)}/console.html#login={code}", flush=True)
     config = uvicorn.Config(app, ws="websockets-sansio", ws_max_size=settings.max_frame_bytes,
@@ -91,6 +90,21 @@ def _serve(args: argparse.Namespace) -> int:
 
 
 LOGIN_LINK_TTL_S = 3600
+
+
+def _login_code(app, settings) -> str:
+    """A single-use admin login code in the server's access database (like a notebook server's
+    token URL: the one who started the server can open the console without a step)."""
+    access = getattr(app.state, "access", None)
+    if access is not None:
+        return access.book.create_code("login", role="admin", ttl_s=LOGIN_LINK_TTL_S)
+    from server.auth import open_book
+
+    store, book = open_book(settings.data_dir)  # the same file the server reads
+    try:
+        return book.create_code("login", role="admin", ttl_s=LOGIN_LINK_TTL_S)
+    finally:
+        store.close()
 
 
 def _url_host(host: str) -> str:

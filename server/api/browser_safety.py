@@ -16,7 +16,7 @@ rebinding), after which the browser treats the rig as same-origin with the attac
 - **CORS.** No CORS header at all unless `--allow-origin` lists origins (Starlette's
   CORSMiddleware, for those only, without credentials: tokens travel as Bearer headers).
 - **Headers.** A Content-Security-Policy that allows only the rig's own scripts (plus the
-  hashes of the pages' inline import maps), no framing, no Referer (join and login codes live in
+  hashes of the pages' inline import maps), framing by the rig's own pages only, no Referer (join and login codes live in
   URL fragments, but a page's query must not leak either), `no-store` on the API.
 """
 
@@ -50,14 +50,18 @@ def host_name(text: str) -> str:
     """A host as compared here: lower case, no trailing dot, IPv6 without brackets. ValueError
     for anything that is not a DNS name, `*.domain`, `*` or an IP literal."""
     name = text.strip().lower().rstrip(".")
-    if name.startswith("[") and name.endswith("]"):
+    bracketed = name.startswith("[") and name.endswith("]")
+    if bracketed:
         name = name[1:-1]
-    if name == "*" or _NAME.match(name):
+    if not bracketed and (name == "*" or _NAME.match(name)):
         return name
     try:
-        return str(ipaddress.ip_address(name))
+        ip = ipaddress.ip_address(name)
+        if not bracketed or ip.version == 6:  # [brackets] hold only IPv6 literals
+            return str(ip)
     except ValueError:
-        raise ValueError(f"{text!r} is not a host name or IP address") from None
+        pass
+    raise ValueError(f"{text!r} is not a host name or IP address")
 
 
 def _is_ip(name: str) -> bool:
@@ -173,11 +177,11 @@ def content_security_policy(script_hashes: Iterable[str] = ()) -> str:
         "object-src 'none'",
         "base-uri 'none'",
         "form-action 'self'",
-        "frame-ancestors 'none'",
+        "frame-ancestors 'self'",            # the console frames the participant page; no other site may
     ])
 
 
-DOCS_CSP = (f"default-src 'self'; script-src 'self' 'unsafe-inline' {DOCS_CDN}; style-src 'self' {DOCS_CDN}; "
+DOCS_CSP = (f"default-src 'self'; script-src 'self' 'unsafe-inline' {DOCS_CDN}; style-src 'self' 'unsafe-inline' {DOCS_CDN}; "
             "img-src 'self' data: https://fastapi.tiangolo.com; connect-src 'self'; object-src 'none'; "
             "frame-ancestors 'none'")
 
@@ -187,7 +191,7 @@ def security_headers(path: str, csp: str) -> list[tuple[bytes, bytes]]:
     headers = [
         (b"content-security-policy", (DOCS_CSP if path in DOCS_PATHS else csp).encode()),
         (b"x-content-type-options", b"nosniff"),
-        (b"x-frame-options", b"DENY"),
+        (b"x-frame-options", b"SAMEORIGIN"),
         (b"referrer-policy", b"no-referrer"),
         (b"cross-origin-opener-policy", b"same-origin"),
         (b"cross-origin-resource-policy", b"same-origin"),
