@@ -14,6 +14,7 @@ from devices.rig import SimulatedRig, default_rig_dir
 from server import __version__
 from server.api.access_routes import router as access_router
 from server.api.errors import GUARD_ERRORS
+from server.api.browser_safety import BrowserSafety, options_for
 from server.api.experiment_routes import router as experiment_router
 from server.api.guard import AuditTrail, guard
 from server.api.routes import router
@@ -137,6 +138,7 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
                   description="Networked evaluation suite for wearable tactile displays. "
                               "WebSocket protocol: /ws (docs/protocol.md).")
     app.state.settings = settings
+    app.add_middleware(BrowserSafety, **options_for(settings))  # Host, Origin, CORS, security headers
     app.state.hub = hub
     app.state.supervisor = supervisor
     app.state.rig = rig

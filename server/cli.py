@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import json
 import logging
 import os
 import socket
+import ssl
 import sys
 from pathlib import Path
 
@@ -41,7 +43,11 @@ def _serve(args: argparse.Namespace) -> int:
                             simulated_rig=not args.no_rig, rig_models=tuple(m for m in args.rig.split(",") if m),
                             data_dir=Path(args.data_dir), studies_dir=Path(args.studies),
                             record_every=args.record_every, force=args.force, tracker_udp=args.tracker_udp,
-                            overrun_threshold=args.overrun_threshold, lease_ttl_s=args.lease_ttl)
+                            overrun_threshold=args.overrun_threshold, lease_ttl_s=args.lease_ttl,
+                            tls_cert=Path(args.tls_cert) if args.tls_cert else None,
+                            tls_key=Path(args.tls_key) if args.tls_key else None,
+                            allowed_hosts=tuple(args.allow_host), allowed_origins=tuple(args.allow_origin),
+                            login_link=not args.no_login_link)
     except (ParamError, ProfileError, ValueError) as exc:
         print(f"viestac serve: {exc}", file=sys.stderr)
         return 2
@@ -57,17 +63,106 @@ def _serve(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(f"viestac serve: {exc.strerror}", file=sys.stderr)
         return 2
+    if settings.tls_cert is not None:
+        try:  # a mismatched or unreadable pair fails here, with its reason, not at the first connection
+            ssl.create_default_context(ssl.Purpose.CLIENT_AUTH).load_cert_chain(settings.tls_cert, settings.tls_key)
+        except (ssl.SSLError, OSError) as exc:
+            print(f"viestac serve: TLS certificate {settings.tls_cert} / key {settings.tls_key}: {exc}", file=sys.stderr)
+            return 2
     app = create_app(settings, tracker_sock=tracker_sock)
     sock = listen_socket(settings.host, settings.port)  # bound first so --port 0 can print the real port
     port = sock.getsockname()[1]
-    shown_host = f"[{settings.host}]" if sock.family == socket.AF_INET6 else settings.host
-    print(f"ViESTac serving scenario {settings.scenario} on http://{shown_host}:{port}/  "
-          f"(WebSocket ws://{shown_host}:{port}/ws, API docs http://{shown_host}:{port}/docs)", flush=True)
+    # Test and bench harnesses read the base URL from the first line: "on http(s)://HOST:PORT/ ".
+    print(serve_banner(settings, port), flush=True)
     if tracker_sock is not None:
         print("tracker samples by UDP to %s:%d (docs/protocol.md)" % tracker_sock.getsockname()[:2], flush=True)
+    if not is_loopback(settings.host) and settings.tls_cert is None:
+        print(exposure_warning(settings.host, port), file=sys.stderr, flush=True)
+    if settings.login_link:
+        code = _login_code(app, settings)
+        print(f"Log in to the console (admin, single use, valid {LOGIN_LINK_TTL_S // 60} min): "
+              f"{link_base(settings, port)}/console.html#login={code}", flush=True)
     config = uvicorn.Config(app, ws="websockets-sansio", ws_max_size=settings.max_frame_bytes,
-                            ws_per_message_deflate=False, log_level=args.log_level, access_log=False)
+                            ws_per_message_deflate=False, log_level=args.log_level, access_log=False,
+                            ssl_certfile=settings.tls_cert, ssl_keyfile=settings.tls_key)
     uvicorn.Server(config).run(sockets=[sock])
+    return 0
+
+
+LOGIN_LINK_TTL_S = 3600
+
+
+def _login_code(app, settings) -> str:
+    """A single-use admin login code in the server's access database (like a notebook server's
+    token URL: the one who started the server can open the console without a step)."""
+    access = getattr(app.state, "access", None)
+    if access is not None:
+        return access.book.create_code("login", role="admin", ttl_s=LOGIN_LINK_TTL_S)
+    from server.auth import open_book
+
+    store, book = open_book(settings.data_dir)  # the same file the server reads
+    try:
+        return book.create_code("login", role="admin", ttl_s=LOGIN_LINK_TTL_S)
+    finally:
+        store.close()
+
+
+def _url_host(host: str) -> str:
+    return f"[{host}]" if ":" in host else host
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def serve_banner(settings, port: int) -> str:
+    """The start-up line: where the pages, the WebSocket and the API docs are."""
+    web, ws, shown = settings.scheme, ("wss" if settings.tls_cert else "ws"), _url_host(settings.host)
+    return (f"ViESTac serving scenario {settings.scenario} on {web}://{shown}:{port}/  "
+            f"(WebSocket {ws}://{shown}:{port}/ws, API docs {web}://{shown}:{port}/docs)")
+
+
+def link_base(settings, port: int) -> str:
+    """scheme://host:port a browser on this machine can open: the bound address, or for a wildcard
+    bind a name the certificate (and the Host allow-list) holds."""
+    host = settings.host
+    if host in ("", "0.0.0.0", "::"):
+        host = "localhost"
+        if settings.tls_cert is not None:
+            from server.tls import certificate_names
+
+            names = certificate_names(settings.tls_cert)
+            host = "localhost" if "localhost" in names or not names else names[0]
+    return f"{settings.scheme}://{_url_host(host)}:{port}"
+
+
+def exposure_warning(host: str, port: int) -> str:
+    return (f"WARNING: serving on {host}:{port} without TLS. Anyone on the network can reach the pages, the API "
+            "and /ws (they still need a token), and everything crosses the network in clear text: tokens, login "
+            "and join links, scene and state, participants' answers and session data. Browsers on other machines "
+            "also get no secure context (no WebXR). Make a certificate with `viestac tls init` and pass "
+            "--tls-cert/--tls-key (docs/security.md).")
+
+
+def _tls(args: argparse.Namespace) -> int:
+    from server import tls
+
+    directory = Path(args.dir) if args.dir else Path(args.data_dir) / "tls"
+    names = ([] if args.no_defaults else tls.default_names()) + list(args.name)
+    ips = ([] if args.no_defaults else tls.lan_addresses()) + list(args.ip)
+    issued = tls.init(directory, names, ips, new_ca=args.new_ca)
+    cert, key, ca = issued.path("cert"), issued.path("key"), issued.path("ca")
+    print(f"{'new' if issued.new_ca else 'existing'} local CA: {ca}  (trust it once on each headset and browser)")
+    print(f"server certificate: {cert}  key: {key} (0600)")
+    print(f"  names: {', '.join(issued.names) or '-'}")
+    print(f"  IPs:   {', '.join(issued.ips) or '-'}")
+    print(f"  SPKI sha256: {tls.spki_sha256(cert)}")
+    print(f"serve with: viestac serve --host 0.0.0.0 --tls-cert {cert} --tls-key {key}")
     return 0
 
 
@@ -444,8 +539,30 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--lease-ttl", type=float, default=60.0, metavar="SECONDS",
                        help="the control lease goes to the next in the queue when its holder has not renewed it for "
                             "this long (default 60)")
+    serve.add_argument("--tls-cert", metavar="PEM", help="serve HTTPS and WSS with this certificate (viestac tls init)")
+    serve.add_argument("--tls-key", metavar="PEM", help="the certificate's private key")
+    serve.add_argument("--allow-host", action="append", default=[], metavar="NAME",
+                       help="also answer requests for this Host name (besides loopback, the bound address, this "
+                            "machine's names and the certificate's; '*.example.org' a domain; '*' any: behind a proxy)")
+    serve.add_argument("--allow-origin", action="append", default=[], metavar="http(s)://HOST[:PORT]",
+                       help="also let pages of this origin use the API and /ws (CORS for it, nothing else)")
+    serve.add_argument("--no-login-link", action="store_true", help="do not print a single-use admin login link")
     serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     serve.set_defaults(func=_serve)
+
+    tls_parser = sub.add_parser("tls", help="certificates for HTTPS/WSS on the LAN (a headset needs it for WebXR)")
+    tls_sub = tls_parser.add_subparsers(dest="tls_command", required=True)
+    tls_init = tls_sub.add_parser("init", help="make a local CA (once) and a server certificate for this machine's "
+                                               "names and IP addresses")
+    tls_init.add_argument("--data-dir", default=os.environ.get("VIESTAC_DATA", "data"),
+                          help="the files go to DATA_DIR/tls unless --dir says otherwise")
+    tls_init.add_argument("--dir", help="where ca.pem, ca.key, server.pem and server.key go")
+    tls_init.add_argument("--name", action="append", default=[], help="another DNS name for the certificate")
+    tls_init.add_argument("--ip", action="append", default=[], help="another IP address for the certificate")
+    tls_init.add_argument("--no-defaults", action="store_true",
+                          help="only --name/--ip (default: also localhost, this machine's names and addresses)")
+    tls_init.add_argument("--new-ca", action="store_true", help="replace the CA (every headset must trust it again)")
+    tls_init.set_defaults(func=_tls)
 
     devices = sub.add_parser("devices", help="list serial ports, configured devices and a running server's devices")
     devices.add_argument("--devices", metavar="FILE", help="also check the devices of this TOML file")

@@ -41,6 +41,11 @@ class Settings:
     tracker_udp: str = "auto"       # the loop's tracker UDP port: "auto" (HTTP host, HTTP port + 1), HOST:PORT, PORT, "off"
     overrun_threshold: int = 10     # health is degraded above this many loop overruns (> 1.5 ms) per 10 s
     lease_ttl_s: float = 60.0       # the control lease goes when its holder has been quiet this long (server/auth/lease.py)
+    tls_cert: Path | None = None    # HTTPS/WSS: PEM certificate and key (viestac tls init makes both)
+    tls_key: Path | None = None
+    allowed_hosts: tuple[str, ...] = ()    # Host names answered besides the defaults (docs/security.md); "*": any
+    allowed_origins: tuple[str, ...] = ()  # page origins allowed besides the server's own (also CORS)
+    login_link: bool = True         # print a single-use admin login link at start
 
     def __post_init__(self) -> None:
         if not 0 <= self.port <= 65535:
@@ -66,6 +71,15 @@ class Settings:
         if self.scene_file is not None:
             Scene.load(self.scene_file)  # fails early with the offending field
         self.tracker_address()  # fails early with what is wrong
+        if (self.tls_cert is None) != (self.tls_key is None):
+            raise ValueError("--tls-cert and --tls-key go together")
+        for path in (self.tls_cert, self.tls_key):
+            if path is not None and not Path(path).is_file():
+                raise ValueError(f"TLS file {path} does not exist (viestac tls init makes one)")
+
+    @property
+    def scheme(self) -> str:
+        return "https" if self.tls_cert is not None else "http"
 
     def tracker_address(self) -> tuple[str, int] | None:
         """Where the tracker UDP port binds; None when it is off. Loopback only: the port has no
