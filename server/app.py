@@ -5,14 +5,19 @@ from __future__ import annotations
 import asyncio
 import gc
 import logging
+import os
 from contextlib import asynccontextmanager
 
-from fastapi import FastAPI, WebSocket
+from fastapi import Depends, FastAPI, WebSocket
 
 from devices.rig import SimulatedRig, default_rig_dir
 from server import __version__
+from server.api.access_routes import router as access_router
+from server.api.errors import GUARD_ERRORS
 from server.api.experiment_routes import router as experiment_router
+from server.api.guard import AuditTrail, guard
 from server.api.routes import router
+from server.auth import AccessControl
 from server.api.web_client import WebClient
 from server.config import Settings
 from server.experiment.engine import Experiment
@@ -24,6 +29,30 @@ from server.hub.supervisor import LoopSupervisor
 from server.loop import tracker_udp
 
 log = logging.getLogger("viestac")
+
+
+ADMIN_TOKEN_ENV = "VIESTAC_ADMIN_TOKEN"  # a token the tests and benches register for this run (never stored)
+
+
+async def _tick_lease(access: AccessControl, every_s: float = 0.25) -> None:
+    """A quiet holder or queued requester loses its place (the lease's expiry), on the event loop."""
+    while True:
+        await asyncio.sleep(every_s)
+        try:
+            access.tick()
+        except Exception:  # a failed tick (a busy disk) must not end the task; the next one tries again
+            log.exception("lease tick failed")
+
+
+def _access_control(settings: Settings, hub: Hub) -> AccessControl:
+    access = AccessControl.open(settings.data_dir, lease_ttl_s=settings.lease_ttl_s)
+    secret = os.environ.get(ADMIN_TOKEN_ENV)
+    if secret:
+        access.book.add_ephemeral(secret, "admin", label="env")
+    if hasattr(hub, "set_lease"):  # the clients see the lease as it changes (protocol v1.3 `lease`)
+        access.on_lease_change = hub.set_lease
+    hub.access_control = access
+    return access
 
 
 async def _flush_recorder(experiment: Experiment, every_s: float = 0.25) -> None:
@@ -51,6 +80,8 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     experiment = Experiment(store, HubForWorkers(hub, hub.owner), studies_dir=settings.studies_dir, software_version=__version__,
                             config=settings.recorded(), record_every=settings.record_every,
                             force_scenarios=settings.force)
+
+    access = _access_control(settings, hub)
 
     rig = (SimulatedRig(settings.rig_models, directory=default_rig_dir())
            if settings.simulated_rig and not settings.devices else None)
@@ -81,6 +112,9 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
         supervisor.start()
         flusher = asyncio.get_running_loop().create_task(_flush_recorder(experiment))
         health = asyncio.get_running_loop().create_task(hub.watch_health({"loop": supervisor, "device_host": devices}))
+        access.tick()  # a lease that expired while the server was down goes now
+        access.on_lease_change(access.lease.snapshot())
+        lease_tick = asyncio.get_running_loop().create_task(_tick_lease(access))
         # A full collection over FastAPI's start-up heap pauses this process, event loop and all,
         # for 10-20 ms (measured when the device threads still lived here); freeze it.
         gc.collect()
@@ -88,6 +122,7 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
         yield
         flusher.cancel()
         health.cancel()
+        lease_tick.cancel()
         await asyncio.to_thread(experiment.flush)
         await supervisor.stop()
         await devices.stop()  # every actuator off first, then the ports are closed
@@ -96,6 +131,7 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
         if supervisor.tracker_sock is not None:
             supervisor.tracker_sock.close()
         store.close()
+        access.close()
 
     app = FastAPI(title="ViESTac", version=__version__, lifespan=lifespan,
                   description="Networked evaluation suite for wearable tactile displays. "
@@ -105,9 +141,12 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     app.state.supervisor = supervisor
     app.state.rig = rig
     app.state.experiment = experiment
+    app.state.access = access
     app.state.tracker_udp = None  # "HOST:PORT" once bound
-    app.include_router(router, prefix="/api")
-    app.include_router(experiment_router, prefix="/api")
+    # every /api operation passes the access guard first (server/api/guard.py; docs/security.md)
+    for api in (router, experiment_router, access_router):
+        app.include_router(api, prefix="/api", dependencies=[Depends(guard)], responses=GUARD_ERRORS)
+    app.add_middleware(AuditTrail)
 
     @app.websocket("/ws")
     async def websocket(ws: WebSocket) -> None:

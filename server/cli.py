@@ -41,7 +41,7 @@ def _serve(args: argparse.Namespace) -> int:
                             simulated_rig=not args.no_rig, rig_models=tuple(m for m in args.rig.split(",") if m),
                             data_dir=Path(args.data_dir), studies_dir=Path(args.studies),
                             record_every=args.record_every, force=args.force, tracker_udp=args.tracker_udp,
-                            overrun_threshold=args.overrun_threshold)
+                            overrun_threshold=args.overrun_threshold, lease_ttl_s=args.lease_ttl)
     except (ParamError, ProfileError, ValueError) as exc:
         print(f"viestac serve: {exc}", file=sys.stderr)
         return 2
@@ -118,7 +118,7 @@ def _devices(args: argparse.Namespace) -> int:
         report["configured"] = [{"name": c.name, "model": c.profile.model, "port": str(c.port),
                                  "resolves_to": resolve(c.port), "table_2_2": c.profile.table_row()} for c in configs]
     try:
-        report["server"] = get_json(f"{args.server.rstrip('/')}/api/devices", timeout=2.0)
+        report["server"] = get_json(f"{args.server.rstrip('/')}/api/devices", timeout=2.0, token=args.token)
     except OSError as exc:
         report["server_error"] = f"no server at {args.server} ({exc})"
     if args.json:
@@ -369,12 +369,17 @@ def build_parser() -> argparse.ArgumentParser:
                             "path (docs/protocol.md); auto = the HTTP host and port + 1 (a free one with --port 0)")
     serve.add_argument("--overrun-threshold", type=int, default=10, metavar="N",
                        help="/api/health is degraded above N loop overruns (periods > 1.5 ms) in 10 s (default 10)")
+    serve.add_argument("--lease-ttl", type=float, default=60.0, metavar="SECONDS",
+                       help="the control lease goes to the next in the queue when its holder has not renewed it for "
+                            "this long (default 60; docs/security.md)")
     serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     serve.set_defaults(func=_serve)
 
     devices = sub.add_parser("devices", help="list serial ports, configured devices and a running server's devices")
     devices.add_argument("--devices", metavar="FILE", help="also check the devices of this TOML file")
     devices.add_argument("--server", default="http://127.0.0.1:8000", help="a running server to ask for status")
+    devices.add_argument("--token", default=os.environ.get("VIESTAC_TOKEN"),
+                         help="the server's access token (default $VIESTAC_TOKEN; `viestac token create`)")
     devices.add_argument("--json", action="store_true")
     devices.set_defaults(func=_devices)
 

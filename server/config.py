@@ -39,6 +39,7 @@ class Settings:
     force: bool = False             # run scenarios no configured device can show (serve --force; studies too)
     tracker_udp: str = "auto"       # the loop's tracker UDP port: "auto" (HTTP host, HTTP port + 1), HOST:PORT, PORT, "off"
     overrun_threshold: int = 10     # health is degraded above this many loop overruns (> 1.5 ms) per 10 s
+    lease_ttl_s: float = 60.0       # the control lease goes when its holder has been quiet this long (docs/security.md)
 
     def __post_init__(self) -> None:
         if not 0 <= self.port <= 65535:
@@ -51,6 +52,8 @@ class Settings:
             raise ValueError("record_every must be in 1..1000 ticks")
         if not 0 <= self.overrun_threshold <= 10_000:
             raise ValueError("overrun_threshold must be in 0..10000 overruns per 10 s")
+        if not 1.0 <= self.lease_ttl_s <= 30 * 86400:
+            raise ValueError("lease_ttl_s must be in 1..2592000 s (30 days)")
         if not (0.0 <= self.gate_band <= 0.1 and 0.0 <= self.gate_dwell_s <= 1.0):
             raise ValueError("gate band must be in [0, 0.1] scene units and dwell in [0, 1] s")
         spec = registry.resolve(self.scenario)  # fails early, with a hint

@@ -1,7 +1,9 @@
 """REST routes of the experiment engine: studies, sessions and the trial lifecycle (everything the
 experimenter's console does). Thin: validate, call the engine, map its errors to status codes.
 
-Changes to a session need the control token its creation (or `POST .../control`) returned, in
+Who may call what is the access guard's (server/api/guard.py): a lab's experimenter sees and
+changes only its own site's sessions (another site's answer 404, as if they did not exist), the
+admin every site's. Within that, changes to a session need the control token its creation (or `POST .../control`) returned, in
 the `X-Control-Token` header; each names the trial it is about, so a stale console gets 409.
 
 The handlers are plain `def`: FastAPI runs them on worker threads, so the engine's SQLite work
@@ -17,6 +19,7 @@ from fastapi import APIRouter, Depends, Header, HTTPException, Path, Query, Requ
 from pydantic import BaseModel, Field
 
 from server.api.errors import MAX_INT, errors
+from server.api.guard import site_scope
 
 from server.core.scenario import ParamError
 from scenarios.registry import UnknownScenario
@@ -33,6 +36,7 @@ def get_experiment(request: Request) -> Experiment:
 
 
 ExperimentDep = Annotated[Experiment, Depends(get_experiment)]
+SiteDep = Annotated[str | None, Depends(site_scope)]  # whose sessions the caller sees (None: every site's)
 TokenDep = Annotated[str | None, Header(alias="X-Control-Token", description="the session's control token")]
 SeqPath = Annotated[int, Path(ge=0, le=MAX_INT, description="the trial's position in the session (0..)")]
 ParticipantIndex = Annotated[int, Query(ge=0, le=MAX_INT, description="row of the counterbalancing (0..)")]
@@ -64,6 +68,8 @@ class SessionCreate(BaseModel):
     notes: str = ""
     participant_index: int | None = Field(None, ge=0, le=MAX_INT, description="row of the counterbalancing (default: the "
                                                                   "next one for this study)")
+    site: str | None = Field(None, min_length=1, max_length=64, description="the lab the session belongs to (admin "
+                                                                            "only; an experimenter's is its own)")
 
 
 class ControlRequest(BaseModel):
@@ -104,52 +110,56 @@ def study_plan(study_id: str, experiment: ExperimentDep, participant_index: Part
         raise _http(exc) from None
 
 
-@router.get("/sessions", summary="All sessions with their progress")
-def sessions(experiment: ExperimentDep) -> list[dict]:
-    return experiment.sessions()
+@router.get("/sessions", summary="The sessions of your site (admin: all) with their progress")
+def sessions(experiment: ExperimentDep, site: SiteDep) -> list[dict]:
+    return experiment.sessions(site)
 
 
-@router.post("/sessions", status_code=201, responses=errors(400, 404, 409, 422), summary="A new session: the study's plan for one participant; returns the "
+@router.post("/sessions", status_code=201, responses=errors(400, 403, 404, 409, 422), summary="A new session: the study's plan for one participant; returns the "
                                                     "control token")
-def create_session(body: SessionCreate, experiment: ExperimentDep) -> dict:
+def create_session(body: SessionCreate, experiment: ExperimentDep, site: SiteDep) -> dict:
+    if site is None:  # the admin's: the site asked for (None: a session of no lab, only the admin sees it)
+        site = body.site
+    elif body.site is not None and body.site != site:
+        raise HTTPException(403, f"your sessions belong to site {site!r}; only the admin makes another site's")
     try:
         return experiment.create_session(study_id=body.study, participant=body.participant,
                                          experimenter=body.experimenter, device=body.device, notes=body.notes,
-                                         participant_index=body.participant_index)
+                                         participant_index=body.participant_index, site=site or None)
     except ERRORS as exc:
         raise _http(exc) from None
 
 
 @router.get("/sessions/{session_id}", responses=errors(404, 422), summary="A session with its queue of trials, statuses and answers")
-def session(session_id: str, experiment: ExperimentDep) -> dict:
+def session(session_id: str, experiment: ExperimentDep, site: SiteDep) -> dict:
     try:
-        return experiment.session(session_id)
+        return experiment.session(session_id, site)
     except ERRORS as exc:
         raise _http(exc) from None
 
 
 @router.post("/sessions/{session_id}/control", responses=errors(400, 404, 409, 422), summary="Take control of a session from this console (the previous "
                                                         "token stops working)")
-def take_control(session_id: str, body: ControlRequest, experiment: ExperimentDep) -> dict:
+def take_control(session_id: str, body: ControlRequest, experiment: ExperimentDep, site: SiteDep) -> dict:
     try:
-        return {"token": experiment.take_control(session_id, body.experimenter)}
+        return {"token": experiment.take_control(session_id, body.experimenter, site)}
     except ERRORS as exc:
         raise _http(exc) from None
 
 
 @router.get("/sessions/{session_id}/control", responses=errors(404, 422), summary="Who controls the session, and whether this console's token "
                                                        "(X-Control-Token) is the current one")
-def control(session_id: str, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+def control(session_id: str, experiment: ExperimentDep, site: SiteDep, token: TokenDep = None) -> dict:
     try:
-        return experiment.control(session_id, token)
+        return experiment.control(session_id, token, site)
     except ERRORS as exc:
         raise _http(exc) from None
 
 
 @router.put("/sessions/{session_id}/notes", responses=errors(400, 403, 404, 409, 422), summary="Replace the session's notes")
-def notes(session_id: str, body: NotesRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+def notes(session_id: str, body: NotesRequest, experiment: ExperimentDep, site: SiteDep, token: TokenDep = None) -> dict:
     try:
-        experiment.set_notes(session_id, token, body.notes)
+        experiment.set_notes(session_id, token, body.notes, site=site)
     except ERRORS as exc:
         raise _http(exc) from None
     return {"ok": True}
@@ -157,53 +167,55 @@ def notes(session_id: str, body: NotesRequest, experiment: ExperimentDep, token:
 
 @router.post("/sessions/{session_id}/trials/{seq}/start", responses=errors(403, 404, 409, 422, 503), summary="Start the next pending trial (its scenario and "
                                                                   "trial go to the loop, recording starts)")
-def start(session_id: str, seq: SeqPath, experiment: ExperimentDep, token: TokenDep = None,
+def start(session_id: str, seq: SeqPath, experiment: ExperimentDep, site: SiteDep, token: TokenDep = None,
           force: bool = Query(False, description="start even when a device the scenario needs is not "
                                                  "connected (otherwise 409)")) -> dict:
     try:
-        return experiment.start(session_id, token, seq, force)
+        return experiment.start(session_id, token, seq, force, site=site)
     except ERRORS as exc:
         raise _http(exc) from None
 
 
 @router.put("/sessions/{session_id}/trials/{seq}/responses/{question}", responses=errors(400, 403, 404, 409, 422), summary="Enter or correct one answer")
 def answer(session_id: str, seq: SeqPath, question: str, body: AnswerRequest, experiment: ExperimentDep,
-           token: TokenDep = None) -> dict:
+           site: SiteDep, token: TokenDep = None) -> dict:
     try:
-        return experiment.answer(session_id, token, seq, question, body.value, body.entered_by)
+        return experiment.answer(session_id, token, seq, question, body.value, body.entered_by, site=site)
     except ERRORS as exc:
         raise _http(exc) from None
 
 
 @router.post("/sessions/{session_id}/trials/{seq}/finish", responses=errors(403, 404, 409, 422, 503), summary="The running trial is answered (needs every "
                                                                    "required answer); committed with its data")
-def finish(session_id: str, seq: SeqPath, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+def finish(session_id: str, seq: SeqPath, experiment: ExperimentDep, site: SiteDep, token: TokenDep = None) -> dict:
     try:
-        return experiment.finish(session_id, token, seq)
+        return experiment.finish(session_id, token, seq, site=site)
     except ERRORS as exc:
         raise _http(exc) from None
 
 
 @router.post("/sessions/{session_id}/trials/{seq}/abort", responses=errors(400, 403, 404, 409, 422, 503), summary="Abort the running trial")
-def abort(session_id: str, seq: SeqPath, body: ReasonRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+def abort(session_id: str, seq: SeqPath, body: ReasonRequest, experiment: ExperimentDep, site: SiteDep,
+          token: TokenDep = None) -> dict:
     try:
-        return experiment.abort(session_id, token, seq, body.reason)
+        return experiment.abort(session_id, token, seq, body.reason, site=site)
     except ERRORS as exc:
         raise _http(exc) from None
 
 
 @router.post("/sessions/{session_id}/trials/{seq}/retry", responses=errors(403, 404, 409, 422), summary="An aborted trial back into the queue")
-def retry(session_id: str, seq: SeqPath, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+def retry(session_id: str, seq: SeqPath, experiment: ExperimentDep, site: SiteDep, token: TokenDep = None) -> dict:
     try:
-        return experiment.retry(session_id, token, seq)
+        return experiment.retry(session_id, token, seq, site=site)
     except ERRORS as exc:
         raise _http(exc) from None
 
 
 @router.post("/sessions/{session_id}/trials/{seq}/exclude", responses=errors(400, 403, 404, 409, 422), summary="Exclude an answered or aborted trial from "
                                                                     "analysis, with a reason")
-def exclude(session_id: str, seq: SeqPath, body: ReasonRequest, experiment: ExperimentDep, token: TokenDep = None) -> dict:
+def exclude(session_id: str, seq: SeqPath, body: ReasonRequest, experiment: ExperimentDep, site: SiteDep,
+             token: TokenDep = None) -> dict:
     try:
-        return experiment.exclude(session_id, token, seq, body.reason)
+        return experiment.exclude(session_id, token, seq, body.reason, site=site)
     except ERRORS as exc:
         raise _http(exc) from None

@@ -2,7 +2,12 @@
 
 Every handler is `async def`: it runs on the event loop's thread, which owns the hub, the
 supervisor and the device host (server/hub/owner.py); a plain `def` would run on a worker thread.
-Nothing here blocks: each handler reads the hub or sends one record to the loop."""
+Nothing here blocks: each handler reads the hub or sends one record to the loop.
+
+Who may call what is the access guard's (server/api/guard.py). While a study session's trial is
+recorded, the rig belongs to that session: a scenario switch or a trial start/stop from here is
+refused (409) — it would end or change the recorded trial behind the experimenter's back — and
+goes through the session's own routes instead (abort the trial first)."""
 
 from __future__ import annotations
 
@@ -36,8 +41,18 @@ async def get_supervisor(request: Request) -> LoopSupervisor:
     return request.app.state.supervisor
 
 
+async def rig_free(request: Request) -> None:
+    """409 while a session's trial is recorded (the session's routes own the rig meanwhile)."""
+    experiment = getattr(request.app.state, "experiment", None)
+    session = experiment.recording() if experiment is not None else None
+    if session is not None:
+        raise HTTPException(409, f"a trial of session {session} is being recorded; abort it through the session "
+                                 f"(POST /api/sessions/{session}/trials/{{seq}}/abort) before changing the rig")
+
+
 HubDep = Annotated[Hub, Depends(get_hub)]
 SupervisorDep = Annotated[LoopSupervisor, Depends(get_supervisor)]
+RigFree = Depends(rig_free)
 
 
 @router.get("/health", summary="Server and 1 kHz loop status (ok | degraded | starting, with the reasons a "
@@ -97,7 +112,7 @@ async def scenario(hub: HubDep) -> dict:
     return info
 
 
-@router.post("/scenario", responses=errors(400, 404, 409, 422, 503), summary="Switch the running scenario (the new scene goes to every client); 409 when no "
+@router.post("/scenario", dependencies=[RigFree], responses=errors(400, 404, 409, 422, 503), summary="Switch the running scenario (the new scene goes to every client); 409 when no "
                                   "configured device can show it, unless force")
 async def switch_scenario(body: ScenarioRequest, hub: HubDep) -> dict:
     try:
@@ -110,7 +125,7 @@ async def switch_scenario(body: ScenarioRequest, hub: HubDep) -> dict:
         raise _busy_or_bad(exc) from None
 
 
-@router.post("/trial", responses=errors(400, 409, 422, 503), summary="Start a trial of the running scenario (phase and "
+@router.post("/trial", dependencies=[RigFree], responses=errors(400, 409, 422, 503), summary="Start a trial of the running scenario (phase and "
                                                                      "trial parameters); 409 when a device it needs is "
                                                                      "not connected, unless force")
 async def start_trial(body: TrialRequest, hub: HubDep) -> dict:
@@ -122,7 +137,8 @@ async def start_trial(body: TrialRequest, hub: HubDep) -> dict:
         raise _busy_or_bad(exc) from None
 
 
-@router.delete("/trial", responses=errors(503), summary="End the running trial (back to free exploration)")
+@router.delete("/trial", dependencies=[RigFree], responses=errors(409, 503), summary="End the running trial (back to "
+                                                                                     "free exploration)")
 async def end_trial(hub: HubDep) -> dict:
     try:
         return {"trial": hub.set_trial(None)}

@@ -34,7 +34,7 @@ from pathlib import Path
 from server.bench import faults_measure as fm
 from server.bench.faults_clients import (CONTACT_POS, Participant, Poller, WsClient, health_status, reason_codes,
                                          slow_readers, udp_tracker)
-from server.bench.loop_bench import get_json, start_server, stop_server
+from server.bench.loop_bench import admin_token, auth_headers, get_json, start_server, stop_server
 from server.hub.child import HEALTHY_S
 
 FAULTS = ("loop_kill", "device_host_kill", "emulator_restart", "device_unplug", "tracker_loss", "key_flood",
@@ -84,7 +84,8 @@ class Api:
 
     def call(self, method: str, path: str, body: dict | None = None) -> tuple[int, dict]:
         data = json.dumps(body).encode() if body is not None else None
-        headers = {"Content-Type": "application/json", **({"X-Control-Token": self.token} if self.token else {})}
+        headers = {"Content-Type": "application/json", **auth_headers(self.base),
+                   **({"X-Control-Token": self.token} if self.token else {})}
         request = urllib.request.Request(self.base + path, data=data, method=method, headers=headers)
         try:
             with urllib.request.urlopen(request, timeout=10) as response:
@@ -324,7 +325,7 @@ class FaultBench:
         FLOOD_S; the viewer's frames before and during."""
         proc = await asyncio.create_subprocess_exec(
             sys.executable, "-m", "server.bench.faults_clients", "--url", self.ws_url, "--what", what,
-            "--rate", str(FLOOD_RATE), "--seconds", str(FLOOD_S), stdout=asyncio.subprocess.PIPE, cwd=REPO)
+            "--rate", str(FLOOD_RATE), "--seconds", str(FLOOD_S), "--token", admin_token(self.ws_url), stdout=asyncio.subprocess.PIPE, cwd=REPO)
         out, _ = await proc.communicate()
         flood = json.loads(out.decode().strip().splitlines()[-1])
         t0, t1 = flood["t0_ns"], flood["t1_ns"]

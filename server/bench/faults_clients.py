@@ -20,6 +20,7 @@ import msgpack
 import websockets
 
 from server.bench.load import LATENCY_ANGLE_DEG, LATENCY_IN
+from server.bench.loop_bench import admin_token, auth_headers
 from server.wire import codec
 
 _A = math.radians(LATENCY_ANGLE_DEG)
@@ -34,8 +35,10 @@ class WsClient:
     """A /ws client that records every state and health message it receives:
     states: (recv ns, tick, tick's t in ns, frame bytes, hip); health: (recv ns, status, codes)."""
 
-    def __init__(self, url: str, role: str, fmt: str = "msgpack", name: str = "bench-faults"):
+    def __init__(self, url: str, role: str, fmt: str = "msgpack", name: str = "bench-faults",
+                 token: str | None = None):
         self.url, self.role, self.fmt, self.name = url, role, fmt, name
+        self.token = token or admin_token(url)  # the bench server's admin token unless given
         self.states: list[tuple[int, int, int, int, tuple]] = []
         self.health: list[tuple[int, str, tuple | None]] = []
         self.errors: list[tuple[int, str]] = []
@@ -49,7 +52,8 @@ class WsClient:
         self.closed_at = None
         self.ws = await websockets.connect(self.url, subprotocols=[f"viestac.v1.{self.fmt}"], compression=None,
                                            max_size=1 << 22, max_queue=None)
-        await self.send({"type": "hello", "v": 1, "role": self.role, "client": self.name})
+        await self.send({"type": "hello", "v": 1, "role": self.role, "client": self.name,
+                         **({"token": self.token} if self.token else {})})
         self._reader = asyncio.create_task(self._read())
 
     async def send(self, message: dict) -> None:
@@ -167,6 +171,7 @@ class Poller:
     def __init__(self, base: str, path: str, interval_s: float):
         parts = urlsplit(base)
         self.host, self.port, self.path, self.interval_s = parts.hostname, parts.port, path, interval_s
+        self.headers = auth_headers(base)
         self.samples: list[tuple[int, dict | None]] = []
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name=f"poll {path}", daemon=True)
@@ -178,7 +183,7 @@ class Poller:
             try:
                 if conn is None:
                     conn = http.client.HTTPConnection(self.host, self.port, timeout=2.0)
-                conn.request("GET", self.path)
+                conn.request("GET", self.path, headers=self.headers)
                 response = conn.getresponse()
                 body = response.read()
                 answer = json.loads(body) if response.status == 200 else None
@@ -219,11 +224,11 @@ FLOOD_MESSAGES = {"key": {"type": "input", "key": "a", "action": "press"},
                   "tracker": {"type": "tracker", "seq": 1, "t": 0.0, "pos": list(CONTACT_POS)}}
 
 
-async def flood(url: str, what: str, rate: int, seconds: float) -> dict:
+async def flood(url: str, what: str, rate: int, seconds: float, token: str | None = None) -> dict:
     """A participant that sends FLOOD_MESSAGES[what] `rate` times a second for `seconds`, in
     batches every 10 ms; run in a process of its own (`python -m server.bench.faults_clients`) so
     the bench's viewer is not starved by its own sends."""
-    client = WsClient(url, "participant", name=f"bench-faults-{what}-flood")
+    client = WsClient(url, "participant", name=f"bench-faults-{what}-flood", token=token)
     await client.connect()
     await asyncio.sleep(0.5)
     data = codec.encode(FLOOD_MESSAGES[what], client.fmt)
@@ -256,8 +261,9 @@ def main() -> None:
     parser.add_argument("--what", choices=sorted(FLOOD_MESSAGES), required=True)
     parser.add_argument("--rate", type=int, default=10_000)
     parser.add_argument("--seconds", type=float, default=1.0)
+    parser.add_argument("--token", default=None, help="the server's access token (sent in the hello)")
     args = parser.parse_args()
-    print(json.dumps(asyncio.run(flood(args.url, args.what, args.rate, args.seconds))), flush=True)
+    print(json.dumps(asyncio.run(flood(args.url, args.what, args.rate, args.seconds, args.token))), flush=True)
 
 
 def udp_tracker(address: str):

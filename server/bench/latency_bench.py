@@ -34,7 +34,8 @@ import time
 from pathlib import Path
 
 from devices.emulator import Emulator
-from server.bench.loop_bench import _rss_summary, _tree_rss_mb, get_json, percentile, start_server, stop_server
+from server.bench.loop_bench import (_rss_summary, _tree_rss_mb, admin_token, get_json, percentile, start_server,
+                                     stop_server)
 
 
 def match_switches(switches: list[list], edges, read_at: list[tuple[int, int, bytes]]) -> list[tuple | None]:
@@ -107,7 +108,8 @@ def run_latency_bench(seconds: float = 10.0, clients: int = 0, warmup_s: float =
         udp = ["--latency-udp", get_json(base + "/api/health")["tracker_udp"]] if tracker == "udp" else []
         load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers", str(clients),
                                  "--trackers", "0", "--latency-tracker", *udp, "--warmup", str(warmup_s),
-                                 "--seconds", str(seconds)], stdout=subprocess.PIPE, text=True)
+                                 "--seconds", str(seconds), "--token", admin_token(base)],
+                                stdout=subprocess.PIPE, text=True)
         time.sleep(warmup_s)
         get_json(base + "/api/telemetry/reset", "POST")
         start_us = time.monotonic_ns() // 1000

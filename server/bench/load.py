@@ -11,6 +11,9 @@ the HIP either 3 mm inside the dome (tilt cue on) or well above it (cue off), sw
 with `--latency-udp HOST:PORT` to the loop's tracker UDP port.
 
 `--format json` makes the viewers JSON clients (`viestac bench roundtrip --format json`).
+
+`--token` is the server's access token (the bench's admin token, which holds the control lease,
+so its participant trackers may drive the HIP); every client says it in its hello.
 """
 
 from __future__ import annotations
@@ -29,13 +32,20 @@ import websockets
 
 from server.wire import codec
 
+TOKEN: str | None = None  # --token: this process's clients all use it
+
+
+def hello(role: str, client: str) -> dict:
+    """The hello of a bench client, with the access token when there is one (protocol v1.3)."""
+    return {"type": "hello", "v": 1, "role": role, "client": client, **({"token": TOKEN} if TOKEN else {})}
+
 
 async def viewer(url: str, counts: list[int], index: int, window: tuple[float, float], stop: float,
                  fmt: str = "msgpack") -> None:
     """An observer that decodes every frame, in msgpack or JSON (`viestac bench roundtrip --format`)."""
     decode = msgpack.unpackb if fmt == "msgpack" else json.loads
     async with websockets.connect(url, subprotocols=[f"viestac.v1.{fmt}"], compression=None, max_size=1 << 20) as ws:
-        await ws.send(codec.encode({"type": "hello", "v": 1, "role": "observer", "client": "bench-viewer"}, fmt))
+        await ws.send(codec.encode(hello("observer", "bench-viewer"), fmt))
         while time.monotonic() < stop:
             try:
                 data = await asyncio.wait_for(ws.recv(), timeout=max(0.05, stop - time.monotonic()))
@@ -50,7 +60,7 @@ async def viewer(url: str, counts: list[int], index: int, window: tuple[float, f
 async def participant(url: str, client: str):
     """A participant connection whose incoming frames are drained (and dropped) meanwhile."""
     async with websockets.connect(url, subprotocols=["viestac.v1.msgpack"], compression=None) as ws:
-        await ws.send(msgpack.packb({"type": "hello", "v": 1, "role": "participant", "client": client}))
+        await ws.send(msgpack.packb(hello("participant", client)))
 
         async def drain() -> None:
             async for _ in ws:
@@ -126,7 +136,10 @@ async def latency_tracker(url: str, rate_hz: float, switches: list[list], stop: 
 
 
 async def main_async(url: str, viewers: int, trackers: int, warmup_s: float, seconds: float,
-                     latency: bool = False, latency_udp: tuple[str, int] | None = None, fmt: str = "msgpack") -> dict:
+                     latency: bool = False, latency_udp: tuple[str, int] | None = None, fmt: str = "msgpack",
+                     token: str | None = None) -> dict:
+    global TOKEN
+    TOKEN = token
     start = time.monotonic()
     window = (start + warmup_s, start + warmup_s + seconds)
     stop = window[1] + 0.2
@@ -159,13 +172,14 @@ def main() -> None:
     parser.add_argument("--latency-udp", metavar="HOST:PORT", default=None,
                         help="the latency tracker sends to this tracker UDP port instead of /ws")
     parser.add_argument("--format", choices=codec.FORMATS, default="msgpack", help="the viewers' encoding")
+    parser.add_argument("--token", default=None, help="the server's access token (sent in every hello)")
     args = parser.parse_args()
     udp = None
     if args.latency_udp:
         host, _, port = args.latency_udp.rpartition(":")
         udp = (host, int(port))
     print(json.dumps(asyncio.run(main_async(args.url, args.viewers, args.trackers, args.warmup, args.seconds,
-                                            args.latency_tracker, udp, args.format))))
+                                            args.latency_tracker, udp, args.format, args.token))))
 
 
 if __name__ == "__main__":

@@ -4,12 +4,19 @@ Starts `viestac serve` as its own process tree (hub + loop), runs the load gener
 process, resets the loop's cumulative telemetry after the warm-up, and samples the resident
 memory of every server process together. The numbers come from the server's own telemetry
 (the loop's measured periods and tick costs), not from the client side.
+
+`start_server` is also the tests' harness. Each server it starts gets an admin token of its own
+(env VIESTAC_ADMIN_TOKEN: held in the server's memory only), takes the control lease with it, and
+registers it in ADMIN_TOKENS, so `get_json` on that server's URLs sends it and WebSocket clients
+find it with `admin_token(url)`; a load generator in another process gets it as an argument.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import re
+import secrets
 import shutil
 import statistics
 import subprocess
@@ -17,6 +24,7 @@ import sys
 import tempfile
 import threading
 import time
+import urllib.parse
 import urllib.request
 
 import psutil
@@ -24,11 +32,39 @@ import psutil
 from server.bench.kernel_trace import LoopWakeTrace, summarize
 
 
-def get_json(url: str, method: str = "GET", timeout: float = 5.0, body: dict | None = None) -> dict:
+ADMIN_TOKENS: dict[str, str] = {}  # base URL (scheme://host:port) of a server start_server made → its admin token
+_REGISTERED = object()  # get_json's default: the token registered for the URL's server, if any
+
+
+def _base(url: str) -> str:
+    """scheme://host:port of a URL; ws(s):// maps to the http(s) base of the same server."""
+    parts = urllib.parse.urlsplit(url)
+    scheme = {"ws": "http", "wss": "https"}.get(parts.scheme, parts.scheme)
+    return f"{scheme}://{parts.netloc}"
+
+
+def admin_token(url: str) -> str | None:
+    """The admin token start_server registered for the server at `url` (http(s):// or ws(s)://)."""
+    return ADMIN_TOKENS.get(_base(url))
+
+
+def auth_headers(url: str, token=_REGISTERED) -> dict[str, str]:
+    """The Authorization header for a request to `url`: `token`, or the registered one by default
+    (`token=None`: none)."""
+    if token is _REGISTERED:
+        token = admin_token(url)
+    return {"Authorization": f"Bearer {token}"} if token else {}
+
+
+def get_json(url: str, method: str = "GET", timeout: float = 5.0, body: dict | None = None,
+             token=_REGISTERED) -> dict:
     """GET (or POST, DELETE with an optional JSON body) a URL of the server and decode its JSON
-    answer; HTTP errors raise urllib.error.HTTPError (its .code and .read() carry the detail)."""
+    answer; HTTP errors raise urllib.error.HTTPError (its .code and .read() carry the detail).
+    Sends `token` as the bearer token; by default the one start_server registered for that
+    server (`token=None`: no token)."""
     data = json.dumps(body).encode() if body is not None else None
     headers = {"Content-Type": "application/json"} if data is not None else {}
+    headers.update(auth_headers(url, token))
     request = urllib.request.Request(url, data=data, method=method, headers=headers)
     with urllib.request.urlopen(request, timeout=timeout) as response:
         return json.loads(response.read())
@@ -37,10 +73,17 @@ def get_json(url: str, method: str = "GET", timeout: float = 5.0, body: dict | N
 UNLIMITED_OVERRUNS = 10_000  # the largest threshold: every tick of a 10 s window late
 
 
+LEASE_TTL_S = 86400  # the harness's lease lasts the run (a test that studies expiry passes --lease-ttl)
+
+
 def start_server(scenario: str = "contact-angle", extra: list[str] | None = None,
-                 timeout_s: float = 30.0) -> tuple[subprocess.Popen, str]:
-    """Start `viestac serve --port 0`; return the process and its base URL once healthy."""
+                 timeout_s: float = 30.0, *, take_lease: bool = True) -> tuple[subprocess.Popen, str]:
+    """Start `viestac serve --port 0`; return the process and its base URL once healthy, with an
+    admin token registered for it (ADMIN_TOKENS) that holds the control lease (unless not
+    `take_lease`)."""
     extra = list(extra or [])
+    if "--lease-ttl" not in extra:
+        extra += ["--lease-ttl", str(LEASE_TTL_S)]
     if "--overrun-threshold" not in extra:
         # Test and bench servers share a loaded machine and measure timing themselves; health
         # would otherwise say `degraded` for overruns and they would wait for `ok` in vain.
@@ -48,9 +91,11 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
     own_data = "--data-dir" not in extra
     if own_data:  # a server of its own gets a database of its own, removed when it stops
         extra += ["--data-dir", tempfile.mkdtemp(prefix="viestac-data-")]
+    secret = secrets.token_urlsafe(32)
     proc = subprocess.Popen([sys.executable, "-m", "server.cli", "serve", "--port", "0", "--scenario", scenario,
                              "--log-level", "warning", *extra],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env={**os.environ, "VIESTAC_ADMIN_TOKEN": secret})
     proc.own_data_dir = extra[extra.index("--data-dir") + 1] if own_data else None
     deadline = time.monotonic() + timeout_s
     base = None
@@ -59,9 +104,11 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
         line = proc.stdout.readline()
         if not line:
             raise RuntimeError(f"server exited early with code {proc.wait()}")
-        match = re.search(r"on (http://\S+?)/ ", line)
+        match = re.search(r"on (https?://\S+?)/ ", line)
         if match:
             base = match.group(1)
+            ADMIN_TOKENS[base] = secret
+            proc.base_url = base
         if time.monotonic() > deadline:
             proc.kill()
             raise RuntimeError("server did not print its URL in time")
@@ -72,6 +119,8 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
         try:
             health = get_json(base + "/api/health")
             if health["status"] == "ok":
+                if take_lease:
+                    take_the_lease(base)
                 return proc, base
         except OSError as exc:
             health = f"no answer: {exc}"
@@ -80,6 +129,18 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
             reasons = health.get("reasons") if isinstance(health, dict) else health
             raise RuntimeError(f"server did not become healthy in time; health says {reasons!r:.600}")
         time.sleep(0.1)
+
+
+def take_the_lease(base: str, token=_REGISTERED) -> dict:
+    """Hold the control lease with `token` (the registered admin's by default), taking it from
+    another holder (a restarted server's earlier token) if need be: test rigs have one user."""
+    answer = get_json(base + "/api/lease", "POST", token=token)
+    if answer["status"] == "queued":
+        get_json(base + "/api/lease/force-release", "POST", token=token)
+        answer = get_json(base + "/api/lease", "POST", token=token)
+    if answer["status"] not in ("granted", "held"):
+        raise RuntimeError(f"could not take the control lease of {base}: {answer}")
+    return answer
 
 
 def stop_server(proc: subprocess.Popen) -> None:
@@ -91,6 +152,7 @@ def stop_server(proc: subprocess.Popen) -> None:
         proc.wait()
     if getattr(proc, "own_data_dir", None):
         shutil.rmtree(proc.own_data_dir, ignore_errors=True)
+    ADMIN_TOKENS.pop(getattr(proc, "base_url", None), None)
 
 
 def _tree_rss_mb(pid: int) -> float:
@@ -144,7 +206,8 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
     try:
         ws_url = base.replace("http://", "ws://") + "/ws"
         load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers", str(viewers),
-                                 "--trackers", str(trackers), "--warmup", str(warmup_s), "--seconds", str(seconds)],
+                                 "--trackers", str(trackers), "--warmup", str(warmup_s), "--seconds", str(seconds),
+                                 "--token", admin_token(base)],
                                 stdout=subprocess.PIPE, text=True)
         time.sleep(warmup_s)
         if kernel_trace:

@@ -25,7 +25,8 @@ import time
 
 import websockets
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from server.bench.load import hello
+from server.bench.loop_bench import admin_token, get_json, start_server, stop_server
 from server.bench.roundtrip import WHERES, match_samples, sample_position, summarize
 from server.bench.roundtrip_sockets import peer_socket_nodelay
 from server.wire import codec
@@ -47,7 +48,9 @@ async def _participant(url: str, fmt: str, plan: list[tuple[str, float, float]],
     measured: list[list] = [[] for _ in plan]
     async with websockets.connect(url, subprotocols=[f"viestac.v1.{fmt}"], compression=None,
                                   max_size=1 << 21) as ws:
-        await ws.send(codec.encode({"type": "hello", "v": 1, "role": "participant", "client": "bench-roundtrip"}, fmt))
+        token = admin_token(url)
+        await ws.send(codec.encode({**hello("participant", "bench-roundtrip"), **({"token": token} if token else {})},
+                                   fmt))
         own = ws.transport.get_extra_info("socket")
         await ws.recv()  # welcome: the server has accepted by now
         nodelay = {"client_nodelay": bool(own.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY))}
@@ -124,7 +127,8 @@ def run_roundtrip_bench(seconds: float = 20.0, clients: int = 0, fmt: str = "msg
             nonlocal load, reset
             load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers",
                                      str(clients), "--trackers", "0", "--format", fmt, "--warmup", "0",
-                                     "--seconds", str(total_s + 60)], stdout=subprocess.DEVNULL)
+                                     "--seconds", str(total_s + 60), "--token", admin_token(base)],
+                                    stdout=subprocess.DEVNULL)
             _wait_viewers(base, clients)
             # The loop's telemetry and the viewers' counters from just before the first measured sample.
             reset = threading.Timer(max(0.0, warmup_s - 0.5), _window_start, (base, window))

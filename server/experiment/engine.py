@@ -12,6 +12,10 @@ that wants to drive the session takes control explicitly (`take_control`, a new 
 one stops working and the hand-over is recorded). Each change also names the trial it is about
 (`seq`), so two clicks racing for the same trial cannot both succeed (409 for the second).
 
+Sites (docs/security.md): every session belongs to a lab (`site`). Each call takes the caller's
+`site` scope: None for the rig's admin (every session), else a site name, and a session of another
+site is NotFound (404), as if it did not exist.
+
 Timestamps are the server's: UTC wall-clock from the store's clock, and the loop's tick.
 
 A loop restart during a trial interrupts it (the recorder sees the new loop's hello): `flush()`,
@@ -124,7 +128,7 @@ class Experiment:
 
     # -- sessions ---------------------------------------------------------------------------
     def create_session(self, *, study_id: str, participant: str, experimenter: str, device: str | None = None,
-                       notes: str = "", participant_index: int | None = None) -> dict:
+                       notes: str = "", participant_index: int | None = None, site: str | None = None) -> dict:
         """A new session with its plan; returns it with the control token."""
         if not PARTICIPANT_CODE.match(participant or ""):
             raise ExperimentError("participant must be a pseudonymous code of 1-32 letters, digits, '-' or '_' "
@@ -144,7 +148,7 @@ class Experiment:
                     session_id=session_id, study_id=study.id, study_title=study.title, study_hash=study.source_hash,
                     study_text=self._study_text(study), participant=participant,
                     participant_index=participant_index, device=device, experimenter=experimenter, notes=notes,
-                    software_version=self.software_version, config=self.config, plan=plan)
+                    software_version=self.software_version, config=self.config, plan=plan, site=site)
             except Conflict as exc:
                 raise ExperimentError(str(exc)) from None
             token = self._tokens[session_id] = secrets.token_urlsafe(16)
@@ -158,12 +162,9 @@ class Experiment:
                 return path.read_text()
         return ""
 
-    def session(self, session_id: str) -> dict:
+    def session(self, session_id: str, site: str | None = None) -> dict:
         """The session with its queue: every trial with its status and answers."""
-        try:
-            session = self.store.session(session_id)
-        except StoreError as exc:
-            raise NotFound(str(exc)) from None
+        session = self._visible(session_id, site)
         trials = self.store.trials(session_id)
         session.pop("study_text", None)
         queue = [{**t.to_dict(), "responses": self.store.responses(t.id)} for t in trials]
@@ -173,20 +174,45 @@ class Experiment:
                 "running": None if running is None else running.seq, "controlled": session_id in self._tokens,
                 "now_utc": self.store.utc()}
 
-    def control(self, session_id: str, token: str | None) -> dict:
+    def _visible(self, session_id: str, site: str | None) -> dict:
+        """The session's row, if the caller's `site` scope may see it (NotFound otherwise)."""
+        try:
+            session = self.store.session(session_id)
+        except StoreError as exc:
+            raise NotFound(str(exc)) from None
+        if site is not None and session.get("site") != site:
+            raise NotFound(f"unknown session {session_id!r}")  # another lab's: not seen to exist
+        return session
+
+    def _check_site(self, session_id: str, site: str | None) -> None:
+        """A change by a lab's experimenter: only to its own lab's sessions. The admin (None) is
+        not checked here, so a change without the control token stays a 403 for it."""
+        if site is not None:
+            self._visible(session_id, site)
+
+    def site_of(self, session_id: str) -> str | None:
+        """The lab a session belongs to (NotFound for an unknown one)."""
+        return self._visible(session_id, None).get("site")
+
+    def recording(self) -> str | None:
+        """The session whose trial is being recorded right now, or None (the rig is then free)."""
+        active = self.recorder.active
+        return None if active is None else active.session_id
+
+    def control(self, session_id: str, token: str | None, site: str | None = None) -> dict:
         """Who controls the session, and whether `token` is the current one (read-only)."""
-        self.session(session_id)
+        self._visible(session_id, site)
         current = self._tokens.get(session_id)
         experimenter, since = self._holders.get(session_id, (None, None))
         return {"controlled": current is not None, "experimenter": experimenter, "since": since,
                 "yours": bool(current and token and secrets.compare_digest(token, current))}
 
-    def sessions(self) -> list[dict]:
-        return self.store.sessions()
+    def sessions(self, site: str | None = None) -> list[dict]:
+        return self.store.sessions(site)
 
-    def take_control(self, session_id: str, experimenter: str) -> str:
+    def take_control(self, session_id: str, experimenter: str, site: str | None = None) -> str:
         """A new control token for this console; the previous one stops working."""
-        self.session(session_id)
+        self._visible(session_id, site)
         with self._lock:
             token = self._tokens[session_id] = secrets.token_urlsafe(16)
             self._holders[session_id] = (experimenter, self.store.utc())
@@ -230,11 +256,13 @@ class Experiment:
             return None
 
     # -- the lifecycle ------------------------------------------------------------------------
-    def start(self, session_id: str, token: str | None, seq: int, force: bool = False) -> dict:
+    def start(self, session_id: str, token: str | None, seq: int, force: bool = False, *,
+              site: str | None = None) -> dict:
         """Start trial `seq`, which must be the session's next pending trial. A trial that presents
         the scenario is refused (DeviceMissing, 409) when a device it needs is not connected,
         unless `force` (or the server runs with --force)."""
         with self._lock:
+            self._check_site(session_id, site)
             self._check_token(session_id, token)
             trial = self._trial(session_id, seq)
             nxt = self.store.next_pending(session_id)
@@ -280,9 +308,10 @@ class Experiment:
             self.hub.set_trial(phase, dict(trial.params), trial.index, force=True)  # devices checked in start
 
     def answer(self, session_id: str, token: str | None, seq: int, question: str, value: Any,
-               entered_by: str) -> dict:
+               entered_by: str, *, site: str | None = None) -> dict:
         """Record one answer of a running or answered trial (checked against its question)."""
         with self._lock:
+            self._check_site(session_id, site)
             self._check_token(session_id, token)
             trial = self._trial(session_id, seq)
             if trial.status not in ("running", "answered"):
@@ -298,9 +327,10 @@ class Experiment:
             self.store.put_response(trial.id, question, value, entered_by)
         return {"seq": seq, "question": question, "value": value}
 
-    def finish(self, session_id: str, token: str | None, seq: int) -> dict:
+    def finish(self, session_id: str, token: str | None, seq: int, *, site: str | None = None) -> dict:
         """The running trial is done: answered (every required question has its answer)."""
         with self._lock:
+            self._check_site(session_id, site)
             self._check_token(session_id, token)
             trial = self._running(session_id, seq)
             study = self.study(self.store.session(session_id)["study_id"])
@@ -311,8 +341,10 @@ class Experiment:
                 raise Conflict(f"trial {seq} still needs an answer to {', '.join(missing)}")
             return self._end(trial, "answered")
 
-    def abort(self, session_id: str, token: str | None, seq: int, reason: str = "") -> dict:
+    def abort(self, session_id: str, token: str | None, seq: int, reason: str = "", *,
+              site: str | None = None) -> dict:
         with self._lock:
+            self._check_site(session_id, site)
             self._check_token(session_id, token)
             return self._end(self._running(session_id, seq), "aborted", reason)
 
@@ -346,17 +378,20 @@ class Experiment:
         state = getattr(self.hub, "last_state", None)
         return None if state is None else state.get("tick")
 
-    def exclude(self, session_id: str, token: str | None, seq: int, reason: str) -> dict:
+    def exclude(self, session_id: str, token: str | None, seq: int, reason: str, *,
+                site: str | None = None) -> dict:
         if not reason:
             raise ExperimentError("an exclusion needs a reason")
         with self._lock:
+            self._check_site(session_id, site)
             self._check_token(session_id, token)
             trial = self._trial(session_id, seq)
             return self.store.transition(trial.id, "excluded", reason=reason).to_dict()
 
-    def retry(self, session_id: str, token: str | None, seq: int) -> dict:
+    def retry(self, session_id: str, token: str | None, seq: int, *, site: str | None = None) -> dict:
         """An aborted trial back to pending: it runs again (a new attempt) when it is next."""
         with self._lock:
+            self._check_site(session_id, site)
             self._check_token(session_id, token)
             trial = self._trial(session_id, seq)
             if trial.status != "aborted":
@@ -364,7 +399,8 @@ class Experiment:
             self.store.set_session_status(session_id, "open")
             return self.store.transition(trial.id, "pending", expect="aborted", reason="retry").to_dict()
 
-    def set_notes(self, session_id: str, token: str | None, notes: str) -> None:
+    def set_notes(self, session_id: str, token: str | None, notes: str, *, site: str | None = None) -> None:
         with self._lock:
+            self._check_site(session_id, site)
             self._check_token(session_id, token)
             self.store.set_notes(session_id, notes)

@@ -51,6 +51,7 @@ CREATE TABLE IF NOT EXISTS sessions (
     device TEXT, experimenter TEXT NOT NULL, notes TEXT NOT NULL DEFAULT '',
     status TEXT NOT NULL CHECK (status IN {SESSION_STATUSES}),
     created_utc TEXT NOT NULL, software_version TEXT NOT NULL, config_json TEXT NOT NULL,
+    site TEXT,                            -- the lab the session belongs to (NULL: the admin's)
     UNIQUE (study_id, participant)
 );
 CREATE TABLE IF NOT EXISTS trials (
@@ -164,6 +165,7 @@ class Store:
         self.db.execute("PRAGMA synchronous=NORMAL")
         self.db.execute("PRAGMA foreign_keys=ON")
         self.db.executescript(SCHEMA)
+        self._migrate()
         self.db.execute("INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)", (str(SCHEMA_VERSION),))
         self.interrupted = self._recover()
 
@@ -182,6 +184,12 @@ class Store:
                 self.db.execute("ROLLBACK")
                 raise
             self.db.execute("COMMIT")
+
+    def _migrate(self) -> None:
+        """Columns added since a database was made: sessions.site (per-lab data, docs/security.md)."""
+        columns = {r["name"] for r in self.db.execute("PRAGMA table_info(sessions)")}
+        if "site" not in columns:
+            self.db.execute("ALTER TABLE sessions ADD COLUMN site TEXT")
 
     def _recover(self) -> list[TrialRow]:
         """Trials a crash left running go back to pending (their attempt stays counted)."""
@@ -217,14 +225,16 @@ class Store:
     def create_session(self, *, session_id: str, study_id: str, study_title: str, study_hash: str,
                        study_text: str, participant: str, participant_index: int, device: str | None,
                        experimenter: str, notes: str, software_version: str, config: dict,
-                       plan: Iterable[dict]) -> dict:
+                       plan: Iterable[dict], site: str | None = None) -> dict:
         """A session with its whole plan as pending trials, in one transaction."""
         try:
             with self._tx() as db:
-                db.execute("INSERT INTO sessions VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'open', ?, ?, ?)",
+                db.execute("INSERT INTO sessions (id, study_id, study_title, study_hash, study_text, participant, "
+                           "participant_index, device, experimenter, notes, status, created_utc, software_version, "
+                           "config_json, site) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'open', ?, ?, ?, ?)",
                            (session_id, study_id, study_title, study_hash, study_text, participant,
                             participant_index, device, experimenter, notes, self.utc(), software_version,
-                            _dumps(config)))
+                            _dumps(config), site))
                 db.executemany(
                     "INSERT INTO trials (session_id, seq, task, kind, idx, scenario, scenario_params_json, device, "
                     "params_json, condition, repetition, duration_s, questions_json, status) "
@@ -248,13 +258,16 @@ class Store:
         d["config"] = json.loads(d.pop("config_json"))
         return d
 
-    def sessions(self) -> list[dict]:
+    def sessions(self, site: str | None = None) -> list[dict]:
+        """Every session with its progress; only those of `site` when given."""
+        where, args = ("WHERE s.site = ? ", (site,)) if site is not None else ("", ())
         with self._lock:
             rows = self.db.execute(
                 "SELECT s.id, s.study_id, s.participant, s.participant_index, s.device, s.experimenter, s.status, "
-                "s.created_utc, COUNT(t.id) AS trials, SUM(t.status IN ('answered', 'aborted', 'excluded')) AS done "
-                "FROM sessions s LEFT JOIN trials t ON t.session_id = s.id GROUP BY s.id ORDER BY s.created_utc"
-            ).fetchall()
+                "s.created_utc, s.site, COUNT(t.id) AS trials, "
+                "SUM(t.status IN ('answered', 'aborted', 'excluded')) AS done "
+                f"FROM sessions s LEFT JOIN trials t ON t.session_id = s.id {where}GROUP BY s.id "
+                "ORDER BY s.created_utc", args).fetchall()
         return [dict(r) for r in rows]
 
     def set_session_status(self, session_id: str, status: str) -> None:

@@ -1,0 +1,156 @@
+"""Access control: identities and tokens, the control lease, the policy table, rate limits, audit
+(docs/security.md). The pure parts (identity, lease, policy, ratelimit) decide; the store keeps
+DATA_DIR/access.sqlite and DATA_DIR/access.key; `AccessControl` is the one object a server holds
+(app.state.access) and the shells (REST guard, /ws hub) ask."""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+from typing import Callable
+
+from server.auth.audit import Audit
+from server.auth.identity import ROLES, Identity
+from server.auth.lease import Lease
+from server.auth.policy import POLICY, Rule, decide
+from server.auth.ratelimit import FailureThrottle, TokenBucket
+from server.auth.store import AccessStore, load_key
+from server.auth.tokens import TokenBook
+
+__all__ = ["AccessControl", "AccessStore", "Audit", "FailureThrottle", "Identity", "Lease", "POLICY", "ROLES",
+           "Rule", "TokenBook", "TokenBucket", "Unauthorized", "decide", "open_book"]
+
+log = logging.getLogger(__name__)
+
+DB_NAME = "access.sqlite"
+KEY_NAME = "access.key"
+
+
+class Unauthorized(Exception):
+    """No valid token (401), or too many failed attempts from this peer (429 with Retry-After)."""
+
+    def __init__(self, message: str, retry_after_s: float | None = None):
+        super().__init__(message)
+        self.message = message
+        self.retry_after_s = retry_after_s
+
+
+def open_book(data_dir: str | Path, clock=time.time) -> tuple[AccessStore, TokenBook]:
+    """The token book of a data directory without the lease (the CLI writes tokens while a server runs)."""
+    data_dir = Path(data_dir)
+    key = load_key(data_dir / KEY_NAME)
+    store = AccessStore.open(data_dir / DB_NAME)
+    return store, TokenBook(store, key, clock)
+
+
+class AccessControl:
+    def __init__(self, store: AccessStore, book: TokenBook, lease: Lease, audit: Audit,
+                 throttle: FailureThrottle, clock=time.time):
+        self.store = store
+        self.book = book
+        self.lease = lease
+        self.audit = audit
+        self.throttle = throttle
+        self.clock = clock
+        # wired to hub.set_lease(snapshot); called on the thread that changed the lease (REST
+        # handlers run in a thread pool: the callee hands it to its event loop if it needs to)
+        self.on_lease_change: Callable[[dict], None] = lambda snapshot: None
+        self._published_seen: dict[str, float] = {}  # token id -> its `seen` when last persisted
+        self._data_version = store.data_version()
+
+    @classmethod
+    def open(cls, data_dir: str | Path, *, lease_ttl_s: float = 60.0, clock=time.time) -> "AccessControl":
+        store, book = open_book(data_dir, clock)
+        lease = Lease.from_record(store.load_lease(), lease_ttl_s, clock)
+        access = cls(store, book, lease, Audit(store, clock), FailureThrottle(), clock)
+        # tokens revoked meanwhile leave the lease on the first tick after a change, not here: the
+        # environment's token (a lease holder before the restart too) is added after open()
+        if lease.expire():
+            access.lease_changed()
+        return access
+
+    # ---- who is it ---------------------------------------------------------------------------
+    def authenticate(self, secret: str | None, peer: str) -> Identity:
+        """The identity of a valid token. Unauthorized without one; a peer that failed too often is
+        refused (with retry_after_s) before its token is even looked at."""
+        now = self.clock()
+        wait = self.throttle.blocked_for(peer, now)
+        if wait > 0:
+            raise Unauthorized("too many failed attempts; try again later", retry_after_s=wait)
+        if not secret:
+            raise Unauthorized("a token is needed (Authorization: Bearer TOKEN)")
+        who = self.book.verify(secret)
+        if who is None:
+            self.throttle.failed(peer, now)
+            raise Unauthorized("the token is unknown, expired or revoked")
+        self.throttle.succeeded(peer)
+        return who
+
+    def exchange(self, kind: str, code: str | None, peer: str, *, token_ttl_s: float | None) -> tuple[str, Identity]:
+        """A login or join code for a new token (throttled per peer like `authenticate`)."""
+        now = self.clock()
+        wait = self.throttle.blocked_for(peer, now)
+        if wait > 0:
+            raise Unauthorized("too many failed attempts; try again later", retry_after_s=wait)
+        got = self.book.redeem(kind, code, token_ttl_s=token_ttl_s) if code else None
+        if got is None:
+            self.throttle.failed(peer, now)
+            raise Unauthorized(f"the {kind} code is unknown, expired or used")
+        self.throttle.succeeded(peer)
+        return got
+
+    def revoke(self, token_id: str) -> bool:
+        """Revokes a token and takes it out of the lease (holder or queue)."""
+        done = self.book.revoke(token_id)
+        if self.lease.drop(token_id):
+            self.lease_changed()
+        return done
+
+    # ---- the lease ---------------------------------------------------------------------------
+    def renew(self, who: Identity) -> bool:
+        """A renewal on the holder's (or a queued requester's) activity. It is persisted and
+        published only when the expiry moved by a tenth of the ttl: a busy console does not write
+        the database or message every viewer on each request."""
+        if self.lease.expire():
+            self.lease_changed()
+        if not self.lease.renew(who):
+            return False
+        entry = self.lease._find(who.token_id)
+        if entry is not None and entry.seen - self._published_seen.get(who.token_id, float("-inf")) \
+                >= self.lease.ttl_s / 10:
+            self.lease_changed()
+        return True
+
+    def lease_changed(self) -> None:
+        """Persist the lease and tell the hub (lease operations call it after each change)."""
+        record = self.lease.to_record()
+        self._published_seen = {e["token_id"]: e["seen"] for e in [record["holder"], *record["queue"]] if e}
+        self.store.save_lease(record)
+        try:
+            self.on_lease_change(self.lease.snapshot())
+        except Exception:  # a broken listener must not undo a lease change already persisted
+            log.exception("on_lease_change failed")
+
+    def tick(self) -> None:
+        """Periodic (the app calls it every 0.25 s): expiry, and tokens revoked by another process."""
+        changed = self._drop_inactive() if self._external_change() else False
+        if self.lease.expire() or changed:
+            self.lease_changed()
+
+    def _external_change(self) -> bool:
+        version = self.store.data_version()
+        changed, self._data_version = version != self._data_version, version
+        return changed
+
+    def _drop_inactive(self) -> bool:
+        snap = self.lease.snapshot()
+        ids = [e["token_id"] for e in ([snap["holder"]] if snap["holder"] else []) + snap["queue"]]
+        dropped = False
+        for token_id in ids:
+            if not self.book.active(token_id):
+                dropped |= self.lease.drop(token_id)
+        return dropped
+
+    def close(self) -> None:
+        self.store.close()
