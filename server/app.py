@@ -145,7 +145,7 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     app.state.tracker_udp = None  # "HOST:PORT" once bound
     # every /api operation passes the access guard first (server/api/guard.py; docs/security.md)
     for api in (router, experiment_router, access_router):
-        app.include_router(api, prefix="/api", dependencies=[Depends(guard)], responses=GUARD_ERRORS)
+        app.include_router(api, dependencies=[Depends(guard)], responses=GUARD_ERRORS)  # each router says /api
     app.add_middleware(AuditTrail)
 
     @app.websocket("/ws")

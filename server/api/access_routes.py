@@ -19,11 +19,11 @@ from pydantic import BaseModel, Field
 
 from server.api.errors import errors
 from server.api.guard import identity, peer, site_scope, too_many
-from server.auth import AccessControl
+from server.auth import AccessControl, Unauthorized
 from server.auth.identity import ROLES, Identity
 from server.experiment.engine import NotFound
 
-router = APIRouter(tags=["access"])
+router = APIRouter(prefix="/api", tags=["access"])
 
 LOGIN_TOKEN_TTL_S = 30 * 86400.0    # an admin token a login link gives: a month, revocable
 JOIN_TOKEN_TTL_S = 12 * 3600.0      # a participant's token: one session's day
@@ -73,16 +73,12 @@ class TokenCreate(BaseModel):
 # -- logging in -----------------------------------------------------------------------------------
 def _redeem(access: AccessControl, request: Request, kind: str, code: str, token_ttl_s: float) -> dict:
     """A single-use code for a token; failures from one peer are throttled (429 with Retry-After)."""
-    who, now = peer(request), time.monotonic()
-    wait = access.throttle.blocked_for(who, now)
-    if wait > 0:
-        raise too_many("too many failed attempts from this address; wait", wait)
-    redeemed = access.book.redeem(kind, code, token_ttl_s=token_ttl_s)
-    if redeemed is None:
-        access.throttle.failed(who, now)
-        raise HTTPException(401, f"unknown, used or expired {kind} code", headers={"WWW-Authenticate": "Bearer"})
-    access.throttle.succeeded(who)
-    token, ident = redeemed
+    try:
+        token, ident = access.exchange(kind, code, peer(request), token_ttl_s=token_ttl_s)
+    except Unauthorized as exc:
+        if exc.retry_after_s:
+            raise too_many(exc.message, exc.retry_after_s) from None
+        raise HTTPException(401, exc.message, headers={"WWW-Authenticate": "Bearer"}) from None
     request.state.identity = ident  # the audit row names who came in
     return {"token": token, "identity": ident.to_dict()}
 
@@ -220,15 +216,16 @@ async def create_token(body: TokenCreate, who: CallerDep, access: AccessDep) -> 
         raise HTTPException(422, "an experimenter token needs a site (its lab)")
     if body.role == "participant":
         raise HTTPException(422, "a participant token comes from a join link (POST /api/join-links)")
-    token, ident = access.book.create(body.role, body.site, label=body.label, ttl_s=body.ttl_s,
-                                      created_by=who.token_id)
+    try:
+        token, ident = access.book.create(body.role, body.site, label=body.label, ttl_s=body.ttl_s,
+                                          created_by=who.token_id)
+    except ValueError as exc:
+        raise HTTPException(422, str(exc)) from None
     return {"token": token, "identity": ident.to_dict()}
 
 
 @router.delete("/tokens/{token_id}", responses=errors(404), summary="Revoke a token at once (it also leaves the lease)")
 async def revoke_token(token_id: str, access: AccessDep) -> dict:
-    if not access.book.revoke(token_id):
-        raise HTTPException(404, f"no token {token_id!r}")
-    if access.lease.drop(token_id):
-        access.lease_changed()
+    if not access.revoke(token_id):
+        raise HTTPException(404, f"no active token {token_id!r}")
     return {"revoked": token_id}

@@ -28,7 +28,7 @@ from server.experiment.plan import plan_session
 from server.experiment.store import Conflict, StoreError
 from server.hub.control import BusyError, ScenarioRefused
 
-router = APIRouter(tags=["experiment"])
+router = APIRouter(prefix="/api", tags=["experiment"])
 
 
 def get_experiment(request: Request) -> Experiment:
@@ -117,17 +117,19 @@ def sessions(experiment: ExperimentDep, site: SiteDep) -> list[dict]:
 
 @router.post("/sessions", status_code=201, responses=errors(400, 403, 404, 409, 422), summary="A new session: the study's plan for one participant; returns the "
                                                     "control token")
-def create_session(body: SessionCreate, experiment: ExperimentDep, site: SiteDep) -> dict:
+def create_session(body: SessionCreate, experiment: ExperimentDep, site: SiteDep, request: Request) -> dict:
     if site is None:  # the admin's: the site asked for (None: a session of no lab, only the admin sees it)
         site = body.site
     elif body.site is not None and body.site != site:
         raise HTTPException(403, f"your sessions belong to site {site!r}; only the admin makes another site's")
     try:
-        return experiment.create_session(study_id=body.study, participant=body.participant,
-                                         experimenter=body.experimenter, device=body.device, notes=body.notes,
-                                         participant_index=body.participant_index, site=site or None)
+        created = experiment.create_session(study_id=body.study, participant=body.participant,
+                                            experimenter=body.experimenter, device=body.device, notes=body.notes,
+                                            participant_index=body.participant_index, site=site or None)
     except ERRORS as exc:
         raise _http(exc) from None
+    request.state.audit_session_id = created["id"]  # the audit row names the session it made
+    return created
 
 
 @router.get("/sessions/{session_id}", responses=errors(404, 422), summary="A session with its queue of trials, statuses and answers")

@@ -27,7 +27,7 @@ from fastapi import Depends, HTTPException, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from server.auth import AccessControl, Unauthorized
-from server.auth.identity import Identity
+from server.auth.identity import CONTROLLERS, Identity
 from server.auth.policy import POLICY, decide
 from server.auth.ratelimit import TokenBucket
 
@@ -61,11 +61,10 @@ def too_many(message: str, retry_after_s: float) -> HTTPException:
 
 
 class _Budgets:
-    """Per-token request budgets and the holder's lease renewals (one per app)."""
+    """Per-token request budgets (one set per app)."""
 
     def __init__(self) -> None:
         self.buckets: dict[str, TokenBucket] = {}
-        self.renewed_at = 0.0  # when an implicit renewal was last persisted (monotonic s)
 
     def take(self, token_id: str, now_ns: int) -> bool:
         bucket = self.buckets.get(token_id)
@@ -108,15 +107,10 @@ async def guard(request: Request, credentials: BearerDep) -> Identity | None:
         raise _unauthorized(reason) if status == 401 else HTTPException(status, reason)
     if who is None:
         return None
-    budgets = _budgets(request)
-    if not budgets.take(who.token_id, time.monotonic_ns()):
+    if not _budgets(request).take(who.token_id, time.monotonic_ns()):
         raise too_many(f"token {who.token_id} is over its {TOKEN_RATE_PER_S:g} requests a second", 1.0)
-    if access.lease.holds(who):  # any authorised call of the holder keeps its lease alive
-        access.lease.renew(who)
-        now = time.monotonic()
-        if now - budgets.renewed_at > access.lease.ttl_s / 4:  # persisted now and then, not per request
-            budgets.renewed_at = now
-            access.lease_changed()
+    if who.role in CONTROLLERS:  # any authorised call of the holder (or a queued one) keeps its place
+        access.renew(who)
     return who
 
 
@@ -166,8 +160,19 @@ class AuditTrail:
             return
         params = scope.get("path_params") or {}
         result = "ok" if status < 400 else f"refused {status}" if status in (401, 403, 404, 429) else f"error {status}"
+        who, session_id = state.get("identity"), params.get("session_id") or state.get("audit_session_id")
+        experiment = getattr(scope["app"].state, "experiment", None)
+
+        def write() -> None:
+            site = None  # the actor's own; an admin's action on a lab's session is that lab's to see too
+            if session_id is not None and experiment is not None and (who is None or who.role == "admin"):
+                try:
+                    site = experiment.site_of(session_id)
+                except ValueError:  # no such session
+                    pass
+            access.audit.record(who, action, scope["path"], result, session_id=session_id, site=site)
+
         try:
-            await asyncio.to_thread(access.audit.record, state.get("identity"), action, scope["path"], result,
-                                    session_id=params.get("session_id"))
+            await asyncio.to_thread(write)
         except Exception:  # the audit must not turn an answered request into a crash
             log.exception("could not write the audit row of %s", action)

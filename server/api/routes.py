@@ -29,7 +29,7 @@ from server.hub.control import BusyError, DeviceMissing, ScenarioRefused
 from server.hub.hub import Hub
 from server.hub.supervisor import LoopSupervisor
 
-router = APIRouter()
+router = APIRouter(prefix="/api")
 _STARTED = time.monotonic()
 
 

@@ -12,7 +12,7 @@ import urllib.request
 import pytest
 
 from server.api.errors import MAX_INT
-from server.bench.loop_bench import start_server, stop_server
+from server.bench.loop_bench import auth_headers, start_server, stop_server
 
 STUDY = "thesis-2021"
 
@@ -29,7 +29,7 @@ def base():
 def call(base: str, method: str, path: str, body: dict | None = None) -> tuple[int, object]:
     data = json.dumps(body).encode() if body is not None else None
     request = urllib.request.Request(base + path, data=data, method=method,
-                                     headers={"Content-Type": "application/json"})
+                                     headers={"Content-Type": "application/json", **auth_headers(base)})
     try:
         with urllib.request.urlopen(request, timeout=10) as response:
             return response.status, json.loads(response.read())
