@@ -1,4 +1,4 @@
-"""`viestac` command line: serve, devices, emulate, render, export, analyze, bench."""
+"""`viestac` command line: serve, devices, emulate, render, export, analyze, bench, token."""
 
 from __future__ import annotations
 
@@ -332,6 +332,73 @@ def _bench_faults(args: argparse.Namespace) -> int:
     return 1 if args.check and not result["pass"] else 0
 
 
+def _ttl_s(text: str) -> float | None:
+    """`30d`, `12h`, `45m`, `90s` or `none` (no expiry) as seconds."""
+    if text.lower() in ("none", "never"):
+        return None
+    units = {"s": 1, "m": 60, "h": 3600, "d": 86400}
+    number, unit = text[:-1], text[-1:].lower()
+    try:
+        value = float(number) * units[unit]
+    except (KeyError, ValueError):
+        raise ValueError(f"--ttl {text!r}: a number with s, m, h or d (30d, 12h), or none") from None
+    if not value > 0:
+        raise ValueError(f"--ttl {text!r} must be positive")
+    return value
+
+
+def _utc(seconds: float | None) -> str:
+    import datetime
+
+    if seconds is None:
+        return "never"
+    return datetime.datetime.fromtimestamp(seconds, datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+
+
+def _token(args: argparse.Namespace) -> int:
+    """Tokens of DATA_DIR/access.sqlite; a running server on the same data directory sees the change at once."""
+    from server.auth import open_book
+
+    store, book = open_book(Path(args.data_dir))
+    try:
+        if args.token == "create":
+            secret, ident = book.create(args.role, args.site, session=args.session, label=args.label,
+                                        ttl_s=_ttl_s(args.ttl), created_by="cli")
+            if args.json:
+                print(json.dumps({"token": secret, "identity": ident.to_dict()}))
+                return 0
+            where = f", site {ident.site}" if ident.site else ""
+            print(f"token {ident.token_id} ({ident.role}{where}), expires {_utc(ident.expires_at)}; "
+                  f"the secret is shown only now:", file=sys.stderr)
+            print(secret)
+            return 0
+        if args.token == "list":
+            rows = book.list()
+            if args.json:
+                print(json.dumps(rows))
+                return 0
+            for r in rows:
+                state = "active" if r["active"] else ("revoked" if r["revoked_at"] else "expired")
+                print(f"{r['token_id']}  {r['role']:12s} {r['site'] or '-':12s} {state:8s} "
+                      f"expires {_utc(r['expires_at']):20s} {r['label']}"
+                      + ("" if r["persistent"] else "  (environment, not stored)"))
+            return 0
+        if args.token == "revoke":
+            if not book.revoke(args.token_id):
+                print(f"viestac token revoke: no active token {args.token_id}", file=sys.stderr)
+                return 1
+            print(f"revoked {args.token_id}")
+            return 0
+        if args.token == "login-link":
+            code = book.create_code("login", role="admin", ttl_s=3600.0, created_by="cli")
+            print(f"{args.url.rstrip('/')}/console.html#login={code}")
+            print("single use, valid 1 hour: it signs in as admin", file=sys.stderr)
+            return 0
+    finally:
+        store.close()
+    raise AssertionError(args.token)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="viestac", description="ViESTac tactile evaluation server")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -420,6 +487,28 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--no-analysis", action="store_true", help="only simulate")
     study.add_argument("--quiet", action="store_true", help="no progress bar")
     study.set_defaults(func=_study)
+
+    data_default = os.environ.get("VIESTAC_DATA", "data")
+    token = sub.add_parser("token", help="access tokens (roles admin, experimenter, participant, observer; "
+                                         "docs/security.md)")
+    token_sub = token.add_subparsers(dest="token", required=True)
+    t_create = token_sub.add_parser("create", help="a new token; prints its secret once")
+    t_create.add_argument("--role", required=True, choices=("admin", "experimenter", "participant", "observer"))
+    t_create.add_argument("--site", default=None, help="the lab an experimenter (or participant) belongs to")
+    t_create.add_argument("--session", default=None, help="the session a participant token is bound to")
+    t_create.add_argument("--label", default="", help="who holds it (shown in lists, the lease and the audit log)")
+    t_create.add_argument("--ttl", default="30d", help="lifetime: 30d, 12h, 45m, or none (default 30d)")
+    t_create.add_argument("--json", action="store_true", help="print {token, identity}")
+    t_list = token_sub.add_parser("list", help="every token (no secrets): active, revoked, expired")
+    t_list.add_argument("--json", action="store_true")
+    t_revoke = token_sub.add_parser("revoke", help="revoke a token by its id (a running server refuses it at once)")
+    t_revoke.add_argument("token_id", metavar="ID")
+    t_link = token_sub.add_parser("login-link", help="a fresh single-use admin login link (valid 1 hour)")
+    t_link.add_argument("--url", default="http://127.0.0.1:8000", help="the server's address")
+    for p in (t_create, t_list, t_revoke, t_link):
+        p.add_argument("--data-dir", default=data_default,
+                       help="where access.sqlite and access.key live (default: $VIESTAC_DATA or ./data)")
+    token.set_defaults(func=_token)
 
     bench = sub.add_parser("bench", help="benchmarks")
     bench_sub = bench.add_subparsers(dest="bench", required=True)

@@ -56,7 +56,7 @@ class AccessControl:
         # wired to hub.set_lease(snapshot); called on the thread that changed the lease (REST
         # handlers run in a thread pool: the callee hands it to its event loop if it needs to)
         self.on_lease_change: Callable[[dict], None] = lambda snapshot: None
-        self._published_seen: dict[str, float] = {}  # token id -> its `seen` when last persisted
+        self._published: dict = lease.to_record()  # the lease as last persisted and published
         self._data_version = store.data_version()
 
     @classmethod
@@ -66,8 +66,8 @@ class AccessControl:
         access = cls(store, book, lease, Audit(store, clock), FailureThrottle(), clock)
         # tokens revoked meanwhile leave the lease on the first tick after a change, not here: the
         # environment's token (a lease holder before the restart too) is added after open()
-        if lease.expire():
-            access.lease_changed()
+        lease.expire()
+        access.publish_if_changed()
         return access
 
     # ---- who is it ---------------------------------------------------------------------------
@@ -109,34 +109,39 @@ class AccessControl:
 
     # ---- the lease ---------------------------------------------------------------------------
     def renew(self, who: Identity) -> bool:
-        """A renewal on the holder's (or a queued requester's) activity. It is persisted and
-        published only when the expiry moved by a tenth of the ttl: a busy console does not write
-        the database or message every viewer on each request."""
-        if self.lease.expire():
-            self.lease_changed()
-        if not self.lease.renew(who):
-            return False
-        entry = self.lease._find(who.token_id)
-        if entry is not None and entry.seen - self._published_seen.get(who.token_id, float("-inf")) \
-                >= self.lease.ttl_s / 10:
-            self.lease_changed()
-        return True
+        """A renewal on the holder's (or a queued requester's) activity; False when `who` is neither.
+        Persisted and published only when the expiry moved by a tenth of the ttl: a busy console
+        neither writes the database nor messages every viewer on each request."""
+        renewed = self.lease.renew(who)
+        self.publish_if_changed()
+        return renewed
 
     def lease_changed(self) -> None:
         """Persist the lease and tell the hub (lease operations call it after each change)."""
         record = self.lease.to_record()
-        self._published_seen = {e["token_id"]: e["seen"] for e in [record["holder"], *record["queue"]] if e}
+        self._published = record
         self.store.save_lease(record)
         try:
             self.on_lease_change(self.lease.snapshot())
         except Exception:  # a broken listener must not undo a lease change already persisted
             log.exception("on_lease_change failed")
 
+    def publish_if_changed(self) -> bool:
+        """`lease_changed()` when the lease differs from what was last published: another holder,
+        queue or session (lease operations expire quiet entries on their way, so a change may come
+        from a call that did not report one), or an expiry moved by a tenth of the ttl."""
+        record = self.lease.to_record()
+        if _shape(record) != _shape(self._published) or _seen_moved(record, self._published, self.lease.ttl_s / 10):
+            self.lease_changed()
+            return True
+        return False
+
     def tick(self) -> None:
         """Periodic (the app calls it every 0.25 s): expiry, and tokens revoked by another process."""
-        changed = self._drop_inactive() if self._external_change() else False
-        if self.lease.expire() or changed:
-            self.lease_changed()
+        if self._external_change():
+            self._drop_inactive()
+        self.lease.expire()
+        self.publish_if_changed()
 
     def _external_change(self) -> bool:
         version = self.store.data_version()
@@ -154,3 +159,16 @@ class AccessControl:
 
     def close(self) -> None:
         self.store.close()
+
+
+def _shape(record: dict) -> tuple:
+    """What a lease is, without the renewal times: holder (and since when), queue, open session."""
+    holder = record["holder"]
+    return ((holder["token_id"], holder["since"]) if holder else None,
+            tuple(e["token_id"] for e in record["queue"]), record["session"])
+
+
+def _seen_moved(record: dict, published: dict, by_s: float) -> bool:
+    before = {e["token_id"]: e["seen"] for e in [published["holder"], *published["queue"]] if e}
+    return any(e["seen"] - before.get(e["token_id"], float("-inf")) >= by_s
+               for e in [record["holder"], *record["queue"]] if e)

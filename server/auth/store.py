@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Iterator
 
 KEY_BYTES = 32
+MAX_AUDIT_ROWS = 10_000  # one read of the audit log at most
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS tokens (
@@ -79,7 +80,7 @@ def load_key(path: str | Path) -> bytes:
         data = path.read_bytes()
         if len(data) != KEY_BYTES:
             raise ValueError(f"{path}: a server key is {KEY_BYTES} bytes, this file has {len(data)} "
-                             f"(remove it to make a new one; every token then becomes invalid)")
+                             f"(remove it to make a new one; every token then becomes invalid)") from None
         if os.stat(path).st_mode & 0o077:
             os.chmod(path, 0o600)
         return data
@@ -210,7 +211,7 @@ class AccessStore:
             args.append(session_id)
         sql = "SELECT * FROM audit" + (" WHERE " + " AND ".join(where) if where else "") + " ORDER BY id DESC LIMIT ?"
         with self._lock:
-            rows = [dict(r) for r in self.db.execute(sql, (*args, max(0, int(limit))))]
+            rows = [dict(r) for r in self.db.execute(sql, (*args, min(MAX_AUDIT_ROWS, max(0, int(limit)))))]
         for r in rows:
             r["detail"] = None if r["detail"] is None else json.loads(r["detail"])
         rows.reverse()

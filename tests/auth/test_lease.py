@@ -11,7 +11,7 @@ A = Identity("aaaa0001", "experimenter", "lab-a", label="A")
 B = Identity("bbbb0002", "experimenter", "lab-b", label="B")
 C = Identity("cccc0003", "admin")
 P = Identity("dddd0004", "participant", "lab-a", session="s1")
-O = Identity("eeee0005", "observer")
+OBS = Identity("eeee0005", "observer")
 
 
 @pytest.fixture
@@ -31,7 +31,7 @@ def test_first_is_granted_second_queued(lease):
 
 
 def test_only_staff_may_request(lease):
-    for who in (P, O):
+    for who in (P, OBS):
         with pytest.raises(PermissionError):
             lease.request(who)
 

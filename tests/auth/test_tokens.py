@@ -8,7 +8,7 @@ import stat
 import pytest
 
 from server.auth import AccessControl, open_book
-from server.auth.store import AccessStore, load_key
+from server.auth.store import load_key
 from server.auth.tokens import TokenBook
 
 
@@ -139,3 +139,16 @@ def test_authenticate_throttles_failures_per_peer(tmp_path, clock):
     clock.advance(1.0)
     assert access.authenticate(secret, "10.0.0.9") == ident
     access.close()
+
+
+def test_a_code_is_spent_once_by_racing_redeemers_in_two_processes_views(tmp_path, clock):
+    """Two connections (a server and a second process) redeem one code at once: one wins."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    stores_books = [open_book(tmp_path, clock) for _ in range(4)]
+    code = stores_books[0][1].create_code("join", role="participant", session="s1", ttl_s=60)
+    with ThreadPoolExecutor(4) as pool:
+        results = list(pool.map(lambda sb: sb[1].redeem("join", code, token_ttl_s=60), stores_books * 3))
+    assert sum(r is not None for r in results) == 1
+    for store, _ in stores_books:
+        store.close()

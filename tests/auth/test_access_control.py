@@ -1,0 +1,135 @@
+"""The facade: the lease persisted and published, kept across a restart, expiry and revocation on tick."""
+
+from __future__ import annotations
+
+import pytest
+
+from server.auth import AccessControl, Unauthorized, open_book
+
+
+@pytest.fixture
+def access(tmp_path, clock):
+    ac = AccessControl.open(tmp_path, lease_ttl_s=60.0, clock=clock)
+    ac.published = []
+    ac.on_lease_change = ac.published.append
+    yield ac
+    ac.close()
+
+
+def test_two_sites_queue_release_and_expiry(access, clock):
+    _, a = access.book.create("experimenter", "lab-a")
+    _, b = access.book.create("experimenter", "lab-b")
+    assert access.lease.request(a)["status"] == "granted"
+    access.lease_changed()
+    assert access.lease.request(b) == {"status": "queued", "position": 1}
+    access.lease_changed()
+    assert access.published[-1]["queue"][0]["site"] == "lab-b"
+    access.lease.release(a)
+    access.lease_changed()
+    assert access.published[-1]["holder"]["token_id"] == b.token_id
+    access.lease.request(a)
+    access.lease_changed()
+    clock.advance(60)  # both quiet
+    assert access.lease.renew(a) is False  # expired on the way, without telling the facade ...
+    access.tick()  # ... which publishes it anyway
+    assert access.published[-1]["holder"] is None and access.published[-1]["queue"] == []
+    assert access.store.load_lease()["holder"] is None
+
+
+def test_expiry_on_tick_promotes_the_queued(access, clock):
+    _, a = access.book.create("experimenter", "lab-a")
+    _, b = access.book.create("experimenter", "lab-b")
+    access.lease.request(a), access.lease.request(b)
+    access.lease_changed()
+    n = len(access.published)
+    clock.advance(30)
+    access.renew(b)
+    access.tick()
+    assert access.lease.holds(a)
+    clock.advance(30)
+    access.tick()
+    assert access.lease.holds(b) and access.published[-1]["holder"]["token_id"] == b.token_id
+    assert len(access.published) > n
+    count = len(access.published)
+    access.tick()
+    assert len(access.published) == count  # nothing changed: nothing published
+
+
+def test_renewals_are_published_only_when_the_expiry_moved_enough(access, clock):
+    _, a = access.book.create("experimenter", "lab-a")
+    access.lease.request(a)
+    access.lease_changed()
+    n = len(access.published)
+    for _ in range(5):
+        clock.advance(1)  # a request a second: 5 s < ttl/10
+        assert access.renew(a)
+    assert len(access.published) == n
+    clock.advance(1)
+    assert access.renew(a)
+    assert len(access.published) == n + 1 and access.published[-1]["holder"]["expires_at"] == clock.now + 60
+    _, b = access.book.create("experimenter", "lab-b")
+    assert access.renew(b) is False
+
+
+def test_the_lease_survives_a_restart(tmp_path, clock):
+    first = AccessControl.open(tmp_path, clock=clock)
+    env = first.book.add_ephemeral("E" * 40, "admin")
+    _, a = first.book.create("experimenter", "lab-a")
+    first.lease.request(env), first.lease.request(a)
+    first.lease.open_session(env, "free-1234")
+    first.lease_changed()
+    snapshot = first.lease.snapshot()
+    first.close()
+    clock.advance(10)
+    second = AccessControl.open(tmp_path, clock=clock)
+    env_again = second.book.add_ephemeral("E" * 40, "admin")
+    second.tick()
+    assert second.lease.snapshot() == snapshot and second.lease.holds(env_again)
+    second.close()
+
+
+def test_a_restart_after_the_ttl_finds_the_lease_free(tmp_path, clock):
+    first = AccessControl.open(tmp_path, clock=clock)
+    _, a = first.book.create("experimenter", "lab-a")
+    first.lease.request(a)
+    first.lease_changed()
+    first.close()
+    clock.advance(61)
+    second = AccessControl.open(tmp_path, clock=clock)
+    assert second.lease.snapshot()["holder"] is None
+    second.close()
+
+
+def test_revocation_takes_the_token_out_of_the_lease(access, tmp_path, clock):
+    _, a = access.book.create("experimenter", "lab-a")
+    _, b = access.book.create("experimenter", "lab-b")
+    access.lease.request(a), access.lease.request(b)
+    access.lease_changed()
+    assert access.revoke(a.token_id) is True
+    assert access.lease.holds(b) and access.published[-1]["holder"]["token_id"] == b.token_id
+    # revoked by another process (the CLI): out at the next tick
+    cli_store, cli_book = open_book(tmp_path, clock)
+    assert cli_book.revoke(b.token_id)
+    access.tick()
+    assert access.lease.snapshot()["holder"] is None and access.published[-1]["holder"] is None
+    cli_store.close()
+
+
+def test_a_failing_listener_does_not_undo_the_change(access, caplog):
+    _, a = access.book.create("experimenter", "lab-a")
+
+    def broken(snapshot):
+        raise RuntimeError("hub gone")
+
+    access.on_lease_change = broken
+    access.lease.request(a)
+    access.lease_changed()
+    assert access.store.load_lease()["holder"]["token_id"] == a.token_id
+    assert "on_lease_change failed" in caplog.text
+
+
+def test_missing_token_is_not_a_failed_attempt(access):
+    for _ in range(20):
+        with pytest.raises(Unauthorized):
+            access.authenticate(None, "10.1.1.1")
+    assert access.throttle.blocked_for("10.1.1.1", 0) == 0.0
