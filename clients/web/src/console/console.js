@@ -678,7 +678,8 @@ function currentLeaseView() {
 
 function renderLeaseCard() {
   const view = currentLeaseView();
-  renderLease($('lease'), view, {
+  if (!state.identity || !state.lease) fill($('lease'), h('div', { class: 'c-muted' }, 'log in to see who controls the rig'));
+  else renderLease($('lease'), view, {
     request: onLeaseRequest, release: onLeaseRelease, forceRelease: onForceRelease, handOver: onHandOver,
   });
   const sum = $('lease-summary');

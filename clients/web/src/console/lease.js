@@ -96,7 +96,7 @@ export function renderLease(el, view, on) {
     ? h('div', { class: 'c-lease-holder', dataset: { mine: view.holder.mine ? 'yes' : 'no' } },
       h('span', { class: 'c-muted' }, 'holder '), h('strong', { id: 'lease-holder' }, view.holder.who),
       view.holder.mine ? ' (you)' : '',
-      view.holder.remainingS !== null ? h('span', { class: 'c-muted' }, ` · renews within ${fmtS(view.holder.remainingS)}`) : null)
+      view.holder.remainingS !== null ? h('span', { class: 'c-muted' }, ` · expires in ${fmtS(view.holder.remainingS)} unless renewed`) : null)
     : h('div', { class: 'c-lease-holder' }, h('strong', { id: 'lease-holder' }, 'nobody'),
       h('span', { class: 'c-muted' }, ' holds the lease'));
   const queue = view.queue.length
