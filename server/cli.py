@@ -185,7 +185,7 @@ def _export(args: argparse.Namespace) -> int:
         return 2
     try:
         summaries = export(database_path(args.data_dir), args.out, args.session, all_sessions=args.all,
-                           force=args.force)
+                           force=args.force, site=args.site)
     except ExportError as exc:
         print(f"viestac export: {exc}", file=sys.stderr)
         return 2
@@ -468,6 +468,7 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("--data-dir", default=os.environ.get("VIESTAC_DATA", "data"),
                      help="where the experiment database lives (default: $VIESTAC_DATA or ./data)")
     exp.add_argument("--force", action="store_true", help="replace a different earlier export in DIR")
+    exp.add_argument("--site", metavar="SITE", help="only the sessions of this lab (site); another lab's are unknown")
     exp.set_defaults(func=_export)
 
     ana = sub.add_parser("analyze", help="the thesis's statistics of a study's sessions: report.html, stats.json, "
@@ -489,8 +490,7 @@ def build_parser() -> argparse.ArgumentParser:
     study.set_defaults(func=_study)
 
     data_default = os.environ.get("VIESTAC_DATA", "data")
-    token = sub.add_parser("token", help="access tokens (roles admin, experimenter, participant, observer; "
-                                         "docs/security.md)")
+    token = sub.add_parser("token", help="access tokens (roles admin, experimenter, participant, observer)")
     token_sub = token.add_subparsers(dest="token", required=True)
     t_create = token_sub.add_parser("create", help="a new token; prints its secret once")
     t_create.add_argument("--role", required=True, choices=("admin", "experimenter", "participant", "observer"))

@@ -10,6 +10,7 @@ from devices.manager import DeviceConfig, check_unique
 from devices.profiles import profile_by_model
 from scenarios import registry
 from server.loop.process import LoopConfig
+from server.loop.tracker_udp import is_loopback
 from server.core.scene import Scene
 
 WEB_ROOT = Path(__file__).resolve().parents[1] / "clients" / "web"
@@ -67,13 +68,15 @@ class Settings:
         self.tracker_address()  # fails early with what is wrong
 
     def tracker_address(self) -> tuple[str, int] | None:
-        """Where the tracker UDP port binds; None when it is off. "auto" follows the HTTP server:
-        its host, its port + 1 (a free port when the HTTP port is 0)."""
+        """Where the tracker UDP port binds; None when it is off. Loopback only: the port has no
+        authentication, so only the rig PC's own processes (its tracker bridges) may send to it
+        (docs/security.md). "auto" is 127.0.0.1 at the HTTP port + 1 (a free port when the HTTP
+        port is 0); another address is refused with ValueError."""
         text = self.tracker_udp.strip()
         if text == "off":
             return None
         if text == "auto":
-            return self.host, (self.port + 1 if 0 < self.port < 65535 else 0)
+            return "127.0.0.1", (self.port + 1 if 0 < self.port < 65535 else 0)
         host, colon, port = text.rpartition(":")
         try:
             number = int(port)
@@ -82,7 +85,12 @@ class Settings:
         if not 0 <= number <= 65535 or (colon and not host):
             raise ValueError(f"tracker UDP port {self.tracker_udp!r}: expected HOST:PORT, PORT (0..65535), "
                              "'auto' or 'off'")
-        return (host or self.host), number
+        host = (host or "127.0.0.1").strip("[]")
+        if not is_loopback(host):
+            raise ValueError(f"tracker UDP port {self.tracker_udp!r}: the tracker port binds to loopback only "
+                             "(127.0.0.1 or ::1), because it has no authentication; run the tracker bridge on the "
+                             "rig PC, or send its samples over /ws with a token (docs/security.md)")
+        return host, number
 
     def loop_config(self) -> LoopConfig:
         return LoopConfig(scenario=self.scenario, scenario_params=self.scenario_params, scene_file=self.scene_file,

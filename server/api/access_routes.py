@@ -14,7 +14,7 @@ import secrets
 import time
 from typing import Annotated, Literal
 
-from fastapi import APIRouter, Depends, HTTPException, Query, Request
+from fastapi import APIRouter, Depends, HTTPException, Path, Query, Request
 from pydantic import BaseModel, Field
 
 from server.api.errors import errors
@@ -224,8 +224,10 @@ async def create_token(body: TokenCreate, who: CallerDep, access: AccessDep) -> 
     return {"token": token, "identity": ident.to_dict()}
 
 
-@router.delete("/tokens/{token_id}", responses=errors(404), summary="Revoke a token at once (it also leaves the lease)")
-async def revoke_token(token_id: str, access: AccessDep) -> dict:
+@router.delete("/tokens/{token_id}", responses=errors(404, 422), summary="Revoke a token at once (it also leaves the "
+                                                                        "lease)")
+async def revoke_token(token_id: Annotated[str, Path(max_length=64, description="the token's id (GET /api/tokens)")],
+                       access: AccessDep) -> dict:
     if not access.revoke(token_id):
         raise HTTPException(404, f"no active token {token_id!r}")
     return {"revoked": token_id}

@@ -1,5 +1,5 @@
-"""Access control: identities and tokens, the control lease, the policy table, rate limits, audit
-(docs/security.md). The pure parts (identity, lease, policy, ratelimit) decide; the store keeps
+"""Access control: identities and tokens, the control lease, the policy table, rate limits, audit.
+The pure parts (identity, lease, policy, ratelimit) decide; the store keeps
 DATA_DIR/access.sqlite and DATA_DIR/access.key; `AccessControl` is the one object a server holds
 (app.state.access) and the shells (REST guard, /ws hub) ask."""
 

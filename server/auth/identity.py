@@ -1,4 +1,4 @@
-"""Who is acting: the identity a valid token stands for (docs/security.md)."""
+"""Who is acting: the identity a valid token stands for."""
 
 from __future__ import annotations
 

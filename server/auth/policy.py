@@ -1,4 +1,4 @@
-"""Who may do what: one rule per REST operation and per /ws client message (docs/security.md).
+"""Who may do what: one rule per REST operation and per /ws client message.
 
 Keys are "METHOD /api/path/{param}" exactly as in /openapi.json, and "ws:<message type>" (plus
 "ws:input:operator" for a control whose `who` is operator). The REST guard fails closed on an

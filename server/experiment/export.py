@@ -6,9 +6,12 @@ Per session, into OUT/<study_id>_<participant>_<session_id>/:
   responses_long.csv   one row per response
   trajectories/trial_<seq>_attempt_<n>.csv   the recorded samples of each attempt that has some
   cues.csv, events.csv the cue commands and the events
+  audit.csv            the control actions on the session (who, what, when, the result), when the
+                       data directory has an access log (access.sqlite, docs/security.md)
   session.json         the whole session (row, config, study text, trials with responses and
                        metrics, attempts, events): a re-analysis needs nothing else
-`--all` also writes OUT/all_trials_wide.csv, the wide rows of every session.
+`--all` also writes OUT/all_trials_wide.csv, the wide rows of every session; `--site` keeps only
+one lab's sessions (each lab gets its own data).
 
 Reading never changes the database: it is opened read-only (`mode=ro`) and read in one
 transaction, a consistent snapshot even while a server records into it (WAL readers do not block
@@ -58,11 +61,14 @@ LONG_COLUMNS = ("session", "study", "participant", "participant_index", "seq", "
                 "repetition", "trial_status", "question", "value", "value_json", "entered_by", "answered_utc")
 TRAJECTORY_HEADER = ("tick", "t_s") + tuple(c for c in SAMPLE_COLUMNS if c != "tick")
 CUE_COLUMNS = ("seq", "attempt", "tick", "cues")
+AUDIT_COLUMNS = ("id", "utc", "token_id", "role", "site", "action", "target", "result", "detail")
+ACCESS_DB_NAME = "access.sqlite"  # server/auth: the audit log lives beside the experiment database
+MAX_AUDIT_ROWS = 1_000_000
 EVENT_COLUMNS = ("seq", "attempt", "tick", "utc", "kind", "body")
 TRIAL_KEYS = ("id", "session_id", "seq", "task", "kind", "index", "condition", "repetition", "scenario",
               "scenario_params", "device", "params", "planned_duration_s", "questions", "status", "attempt",
               "started_utc", "ended_utc", "started_tick", "ended_tick", "reason", "metrics")
-SESSION_FILES = ("trials_wide.csv", "responses_long.csv", "cues.csv", "events.csv", "session.json")
+SESSION_FILES = ("trials_wide.csv", "responses_long.csv", "cues.csv", "events.csv", "session.json", "audit.csv")
 ALL_WIDE = "all_trials_wide.csv"
 _TRAJECTORY_FILE = re.compile(r"trial_\d+_attempt_\d+\.csv\Z")
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.-]")
@@ -257,6 +263,7 @@ class SessionData:
     tick_hz: float
     folder: str
     wide: list[dict] = field(default_factory=list)  # wide rows (column → value)
+    audit: list[dict] | None = None  # the session's audit rows; None: the data directory has no access log
 
     @property
     def trajectories(self) -> list[tuple[dict, dict]]:
@@ -366,6 +373,22 @@ def _existing(out: Path, folder: str) -> list[str]:
     return found
 
 
+def audit_rows(db_path: Path, session_ids: list[str]) -> dict[str, list[dict]] | None:
+    """The audit rows of each session from the access log beside the database (None: no log)."""
+    path = Path(db_path).parent / ACCESS_DB_NAME
+    if not path.is_file():
+        return None
+    from server.auth.audit import Audit
+    from server.auth.store import AccessStore
+
+    store = AccessStore.open(path)
+    try:
+        audit = Audit(store)
+        return {sid: audit.rows(session_id=sid, limit=MAX_AUDIT_ROWS) for sid in session_ids}
+    finally:
+        store.close()
+
+
 def _write_session(stage: _Staging, reader: Reader, data: SessionData) -> None:
     d = data.folder
     cols = wide_columns(data.wide)
@@ -380,6 +403,11 @@ def _write_session(stage: _Staging, reader: Reader, data: SessionData) -> None:
     stage.csv(f"{d}/cues.csv", CUE_COLUMNS, ((c["seq"], c["attempt"], c["tick"], _json(c["cues"])) for c in data.cues))
     stage.csv(f"{d}/events.csv", EVENT_COLUMNS, ((e["seq"], e["attempt"], e["tick"], e["utc"], e["kind"],
                                                   _json(e["body"])) for e in data.events))
+    if data.audit is not None:
+        stage.csv(f"{d}/audit.csv", AUDIT_COLUMNS, ((r["id"], r["utc"], r["token_id"], r["role"], r["site"], r["action"],
+                                                    r["target"], r["result"],
+                                                    None if r["detail"] is None else _json(r["detail"]))
+                                                   for r in data.audit))
     hz = data.tick_hz
     for t, a in data.trajectories:
         stage.csv(f"{d}/{a['trajectory']}", TRAJECTORY_HEADER,
@@ -431,22 +459,26 @@ def _commit(stage: _Staging, folders: list[str], force: bool) -> dict[str, dict[
 
 # -- the export -----------------------------------------------------------------------------------
 def export(db_path: str | Path, out: str | Path, session_id: str | None = None, *, all_sessions: bool = False,
-           force: bool = False) -> list[dict]:
+           force: bool = False, site: str | None = None) -> list[dict]:
     """Export one session (`session_id`) or every session (`all_sessions`, plus all_trials_wide.csv)
     from the database at `db_path` into `out`. Returns one summary per session (and one for
     all_trials_wide.csv). Raises ExportError for a missing database, an unknown session, an
-    unwritable `out`, or a different earlier export in the way (without `force`)."""
+    unwritable `out`, or a different earlier export in the way (without `force`). `site`: only
+    that lab's sessions (another site's session is unknown to it)."""
     if (session_id is None) == (not all_sessions):
         raise ExportError("give either a session id or --all")
     out = Path(out)
     with Reader(db_path) as reader:
         sessions = reader.sessions()
+        if site is not None:
+            sessions = [s for s in sessions if s.get("site") == site]
         if not all_sessions:
             chosen = [s for s in sessions if s["id"] == session_id]
             if not chosen:
                 raise ExportError(f"unknown session {session_id!r}; {known_sessions(sessions)}")
         else:
             chosen = sessions
+        audits = audit_rows(Path(db_path), [s["id"] for s in chosen])
         try:
             out.mkdir(parents=True, exist_ok=True)
             stage = _Staging(out)
@@ -456,6 +488,7 @@ def export(db_path: str | Path, out: str | Path, session_id: str | None = None, 
             loaded = []
             for s in chosen:
                 data = _load(reader, s)
+                data.audit = None if audits is None else audits[s["id"]]
                 _write_session(stage, reader, data)
                 loaded.append(data)
             if all_sessions:

@@ -85,6 +85,11 @@ class ScenarioControl:
         """A new loop process runs what it was started with: nothing it was asked is in flight."""
         self._in_flight.clear()
 
+    def is_operator_command(self, key: str) -> bool:
+        """`key` is one of the running scenario's experimenter-only commands (`who == "operator"`)."""
+        control = find_control(self.scenario_cls.CONTROLS, key) if self.scenario_cls else None
+        return control is not None and control.who == "operator"
+
     def command(self, key: str, action: str, value=None, *, role: str = "operator", client_id: int | str = 0) -> None:
         """A key or experimenter command for the running scenario, checked against its CONTROLS:
         operator-only commands from other roles are forbidden, a command's value must fit its

@@ -15,6 +15,11 @@ roles, errors, what each client is sent and in which order) and the fan-out of t
   child processes' starts and exits; it is evaluated every `HEALTH_EVERY_S` and on every record
   that can change it, and each client is sent a `health` message when the status or the set of
   reason codes changes.
+- Access control (server/auth, `access_control`): each session authenticates its hello's token
+  and checks every message against the policy and the control lease through a `Gate`; the lease
+  reaches every client as a `lease` message (`set_lease`), and a client that drove the HIP and
+  may no longer lets go of it (`tracker_gone`), so the HIP goes home. One token holds at most
+  MAX_CONNECTIONS_PER_TOKEN connections.
 """
 
 from __future__ import annotations
@@ -32,7 +37,7 @@ from server.core.scenario import ParamError
 from server.hub.control import BusyError, ScenarioControl
 from server.hub.health import HOST_DOWN, Health, HealthReport
 from server.hub.owner import Owner
-from server.hub.session import OPEN, Access, Close, Command, ServerInfo, Session, ToLoop
+from server.hub.session import CLOSED, Close, Command, Gate, ServerInfo, Session, ToLoop
 from server.hub.telemetry import LoopTelemetry
 from server.wire import codec, messages
 
@@ -41,6 +46,7 @@ log = logging.getLogger("viestac.hub")
 SLICE = 8
 HEALTH_EVERY_S = 0.025  # a fault shows in health within 100 ms: 50 ms stall rule + this + a poll
 FLUSH_BEFORE_CLOSE_S = 2.0
+MAX_CONNECTIONS_PER_TOKEN = 256  # 64 viewers of a bench run, with room; a leaked token cannot open thousands
 
 
 class Connection:
@@ -66,7 +72,8 @@ class Hub:
         self.tick_hz = tick_hz
         self.state_hz = state_hz
         self.owner = Owner("the hub")  # the app shares one with the supervisor and the device host
-        self.access: Access = OPEN  # what each role may do (the seam for access control)
+        self._access_control = None  # server.auth.AccessControl; without one no client is admitted
+        self._lease_frames: dict[str, bytes | str] = {}
         self.connections: dict[int, Connection] = {}
         self._ids = count(1)
         self.scene: dict | None = None
@@ -92,6 +99,50 @@ class Hub:
         self.record_every = 0  # trajectory sampling asked of the loop (experiment recorder); 0 = off
         self.undelivered: deque[list] = deque(maxlen=1024)  # records for the loop that must not be lost (retried)
         self.listeners: list = []  # called with every loop record after the hub handled it (the recorder)
+
+    # ---- access control (server/auth) ------------------------------------------------------------
+    @property
+    def access_control(self):
+        return self._access_control
+
+    @access_control.setter
+    def access_control(self, access) -> None:
+        """The server's AccessControl: every hello's token is checked against it, and its lease
+        changes (from any thread: REST runs lease calls on worker threads) reach every client."""
+        self._access_control = access
+        access.on_lease_change = self._lease_changed_anywhere
+        self.set_lease(access.lease.snapshot())
+
+    def _lease_changed_anywhere(self, snapshot: dict) -> None:
+        if self.owner.here:
+            self.set_lease(snapshot)
+        else:  # a worker thread must not wait for the event loop, nor touch the sessions
+            self.owner.loop.call_soon_threadsafe(self.set_lease, snapshot)
+
+    def set_lease(self, snapshot: dict) -> None:
+        """The control lease now (Lease.snapshot()): every client is sent it, and clients that may
+        no longer drive the HIP leave it."""
+        self.owner.check()
+        message = messages.lease(snapshot)
+        self._lease_frames = {fmt: codec.encode(message, fmt) for fmt in codec.FORMATS}
+        for c in list(self.connections.values()):
+            self._forward(c, c.session.set_lease(self._lease_frames))
+            c.wake.set()
+
+    def _gate(self, ws: WebSocket) -> Gate:
+        access = self._access_control
+        if access is None:
+            return CLOSED
+        client = ws.scope.get("client")
+        peer = client[0] if client else "unknown"
+        return Gate(lambda secret: access.authenticate(secret, peer), lambda: access.lease, self._admit)
+
+    def _admit(self, who) -> str | None:
+        n = sum(1 for c in self.connections.values()
+                if c.session.identity is not None and c.session.identity.token_id == who.token_id)
+        if n >= MAX_CONNECTIONS_PER_TOKEN:
+            return f"token {who.token_id} already has {n} connections open (at most {MAX_CONNECTIONS_PER_TOKEN})"
+        return None
 
     # ---- records from the loop process -------------------------------------------------
     def on_loop_record(self, record: list) -> None:
@@ -204,11 +255,13 @@ class Hub:
         await ws.accept(subprotocol=chosen)
         server = ServerInfo(self.server_name, self.tick_hz, self.state_hz)
         session = Session(next(self._ids), codec.SUBPROTOCOLS.get(chosen, "msgpack"), server, time.monotonic_ns(),
-                          access=self.access)
+                          gate=self._gate(ws))
         if self._scene_frames:
             session.set_scene(self.scene_hash, self._scene_frames)
         if self._health_frames:
             session.set_health(self._health_frames)
+        if self._lease_frames:
+            session.set_lease(self._lease_frames)
         c = Connection(ws, session)
         self.connections[session.id] = c
         sender = asyncio.create_task(self._sender(c))
@@ -263,6 +316,11 @@ class Hub:
                     else:  # nobody to tell (a client left: tracker_gone): it must still arrive
                         self.undelivered.append(event.record)
                 continue
+            if event.role == "operator" and self.control.is_operator_command(event.key):
+                refusal = c.session.refusal("input:operator")  # experimenter commands need the lease
+                if refusal is not None:
+                    c.session.reply_error("forbidden", refusal)
+                    continue
             try:
                 self.command(event.key, event.action, event.value, role=event.role, client_id=event.client_id)
             except PermissionError as exc:

@@ -2,33 +2,41 @@
 
 The hub's shell (server/hub/hub.py) owns the socket and the clock; this object owns every
 protocol decision about one client:
-- the hello grace period: the first frame ends it, or the deadline (`hello_deadline_passed`);
-  a client without a valid hello by then is welcomed as an observer, and a hello after that is
-  refused (docs/protocol.md "Connecting: hello, grace period, observers");
-- the version check (`unsupported_version`, then close 1002) and which messages a role may send
-  (`forbidden`), through `Access`, the seam where access control will plug in;
+- the hello grace period: the first frame must be a `hello` with a valid token, by the deadline
+  (`hello_deadline_passed`); without one the client gets `unauthorized` and the connection closes
+  (1008) (docs/protocol.md "Authentication and roles");
+- the version check (`unsupported_version`, then close 1002);
+- who the client is and what it may do: the token's identity (server/auth), the role granted
+  for the one asked, and every message checked against the declared policy
+  (`server.auth.policy.POLICY`, `decide`) and the control lease, through `Gate`, what the
+  session asks of access control (injected: the session itself does no I/O);
 - decoding and validation (server/wire), with exactly one `error` per bad frame;
-- what the client is sent: an ordered control queue (welcome, scene, health, errors, close) and a
-  latest-wins slot for state frames, taken by the shell's sender with `next_frame()`;
+- what the client is sent: an ordered control queue (welcome, scene, health, lease, errors,
+  close) and a latest-wins slot for state frames, taken by the shell's sender with `next_frame()`;
 - the ordering rule: every state after `scene` H names H until the next `scene`. A state frame
   whose scene is not the last scene handed out is dropped when it is taken (the slot may hold a
   frame of the previous scene when the new scene goes first: control is sent before the slot);
 - the input budget: `input` messages spend tokens of a bucket refilled on the injected clock
   (INPUT_BURST, INPUT_RATE_PER_S; docs/protocol.md "Input budget"); one over budget is dropped
   with `rate_limited`, at most one such error a second (the rest are counted), so one client's
-  key flood can neither flood the loop's events nor every viewer's state frames;
+  key flood can neither flood the loop's events nor every viewer's state frames; refusals of
+  tracker samples (a client that may not drive) are answered at the same pace;
 - per-client counters.
 
 What a client asks of the loop comes out of `receive` as events (`ToLoop`, `Command`); the hub
-forwards them and reports a refusal back with `reply_error`.
+forwards them and reports a refusal back with `reply_error`. When the lease changes
+(`set_lease`), a client that drove the HIP and may no longer gets a `tracker_gone` for the loop.
 """
 
 from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
+from server.auth import Unauthorized
+from server.auth.identity import Identity
+from server.auth.policy import POLICY, decide
 from server.wire import codec, messages
 from server.wire.codec import WireError
 
@@ -40,7 +48,39 @@ MAX_PENDING_ERRORS = 64  # a client that floods bad frames and does not read get
 INPUT_BURST = 20
 INPUT_RATE_PER_S = 50.0
 RATE_LIMITED_ERROR_EVERY_NS = 1_000_000_000  # at most one `rate_limited` error a second per client
-SENDS = ("tracker", "input")  # client messages that act on the loop (hello is always allowed)
+FORBIDDEN_TRACKER_ERROR_EVERY_NS = 1_000_000_000  # a refused tracker stream: one `forbidden` a second
+POLICY_CLOSE = 1008  # RFC 6455 "policy violation": no valid token, or too many connections of one token
+# The wire role a token may ask for, highest first: observer < participant < operator.
+_RANK = {"observer": 0, "participant": 1, "operator": 2}
+MAX_WIRE_ROLE = {"admin": "operator", "experimenter": "operator", "participant": "participant",
+                 "observer": "observer"}
+
+
+@dataclass(frozen=True)
+class Gate:
+    """What a session asks of access control (server/auth, through the hub): injected, so the
+    session makes every decision without doing I/O itself.
+
+    authenticate(secret) -> Identity, or raises server.auth.Unauthorized (unknown, expired, revoked
+    or missing token; a peer throttled after failed attempts);
+    lease() -> the current control lease (server.auth.lease.Lease);
+    admit(identity) -> None, or why this token may not open another connection."""
+    authenticate: Callable[[str | None], Identity]
+    lease: Callable[[], Any]
+    admit: Callable[[Identity], str | None] = lambda who: None
+
+
+def _refuse_everyone(secret: str | None) -> Identity:
+    raise Unauthorized("this server has no access control configured; it accepts no client")
+
+
+CLOSED = Gate(_refuse_everyone, lambda: None)  # fail closed: a hub without access control admits nobody
+
+
+def granted_role(identity: Identity, asked: str) -> str:
+    """The wire role for a token that asked for `asked`: as asked up to what its role allows."""
+    top = MAX_WIRE_ROLE.get(identity.role, "observer")
+    return asked if _RANK[asked] <= _RANK[top] else top
 
 
 @dataclass(frozen=True)
@@ -75,30 +115,14 @@ class Close:
     code: int
 
 
-class Access:
-    """Who may do what. Today the role asked for is the role given, and an observer may send
-    nothing but hello; an access-control policy (a later issue) replaces this object."""
-
-    def role_for(self, hello: messages.Hello) -> str:
-        return hello.role
-
-    def authorize(self, role: str, kind: str) -> str | None:
-        """None when `role` may send messages of type `kind`, else the reason it may not."""
-        if role == "observer" and kind in SENDS:
-            return f"an observer may not send '{kind}' messages"
-        return None
-
-
-OPEN = Access()
-
-
 class Session:
-    def __init__(self, client_id: int, fmt: str, server: ServerInfo, opened_ns: int, *, access: Access = OPEN,
+    def __init__(self, client_id: int, fmt: str, server: ServerInfo, opened_ns: int, *, gate: Gate = CLOSED,
                  hello_timeout_ns: int = HELLO_TIMEOUT_NS):
         self.id = client_id
         self.fmt = fmt
         self.server = server
-        self.access = access
+        self.gate = gate
+        self.identity: Identity | None = None  # the token's, once the hello was accepted
         self.role = "observer"
         self.client_name = ""
         self.welcomed = False
@@ -111,6 +135,9 @@ class Session:
         self._pending_errors = 0
         self._scene: tuple[str, bytes | str] | None = None  # the current scene in this client's format
         self._health: bytes | str | None = None  # the current `health` message in this client's format
+        self._lease: bytes | str | None = None  # the current `lease` message in this client's format
+        self._driving = False  # tracker samples of this client went to the loop since it last lost the right
+        self._tracker_refusal_ns: int | None = None  # when the last refused tracker was answered
         self._sent_scene: str | None = None  # the last scene handed to the sender
         self._closed = False  # Close was handed out: nothing more goes
         # counters (GET /api/clients)
@@ -129,7 +156,9 @@ class Session:
         return self.close_code is not None
 
     def info(self) -> dict:
+        who = self.identity
         return {"client_id": self.id, "role": self.role, "client": self.client_name, "format": self.fmt,
+                "token_id": who.token_id if who else None, "site": who.site if who else None,
                 "frames_sent": self.frames_sent, "frames_dropped": self.frames_dropped,
                 "tracker_count": self.tracker_count, "last_tracker": self.last_tracker, "errors": self.errors,
                 "rate_limited": self.rate_limited}
@@ -143,9 +172,9 @@ class Session:
         return max(0.0, (self.hello_deadline_ns - now_ns) / 1e9)
 
     def hello_deadline_passed(self, now_ns: int) -> None:
-        """No hello in time: the client is an observer of protocol v1 (welcomed now)."""
+        """No hello in time: without a token the client is refused (unauthorized, close 1008)."""
         if not self.welcomed and not self.closing and now_ns >= self.hello_deadline_ns:
-            self._welcome()
+            self._refuse("unauthorized", "no hello with a token within 1 s of connecting")
 
     # ---- frames from the client --------------------------------------------------------------
     def receive(self, data: bytes | str | None, now_ns: int) -> list[ToLoop | Command]:
@@ -163,20 +192,37 @@ class Session:
         except WireError as exc:
             self.reply_error(exc.code, exc.message)
         else:
+            if not self.welcomed and not isinstance(message, messages.Hello):
+                self._refuse("unauthorized", f"the first message must be a hello with a token, not {body['type']!r}")
+                return []
             events = self._handle(body["type"], message, now_ns)
         if not self.welcomed and not self.closing:  # the first frame ends the grace period, hello or not
-            self._welcome()
+            self._refuse("unauthorized", "the first message must be a hello with a token")
         return events
+
+    def refusal(self, kind: str) -> str | None:
+        """None when this client may send messages of `kind` now ("tracker", "input", or
+        "input:operator", an experimenter command), else the reason: the role it was welcomed
+        with, then the declared policy (server.auth.policy) against its identity and the lease."""
+        base = kind.split(":")[0]
+        if self.role == "observer":
+            return f"an observer may not send '{base}' messages"
+        verdict = decide(POLICY[f"ws:{kind}"], self.identity, self.gate.lease())
+        return None if verdict is None else verdict[1]
 
     def _handle(self, kind: str, message, now_ns: int) -> list[ToLoop | Command]:
         if isinstance(message, messages.Hello):
             self._hello(message)
             return []
-        refusal = self.access.authorize(self.role, kind)
+        refusal = self.refusal(kind)
         if refusal is not None:
-            self.reply_error("forbidden", refusal)
+            if kind == "tracker":
+                self._refuse_tracker(refusal, now_ns)
+            else:
+                self.reply_error("forbidden", refusal)
             return []
         if isinstance(message, messages.Tracker):
+            self._driving = True
             self.tracker_count += 1
             self.last_tracker = {"seq": message.seq, "t": message.t_ms, "pos": list(message.pos)}
             record = ["tracker", self.id, message.seq, message.t_ms, list(message.pos),
@@ -198,6 +244,15 @@ class Session:
             return True
         return False
 
+    def _refuse_tracker(self, reason: str, now_ns: int) -> None:
+        """A tracker stream comes at up to 1 kHz: one `forbidden` a second, the rest counted."""
+        last = self._tracker_refusal_ns
+        if last is not None and now_ns - last < FORBIDDEN_TRACKER_ERROR_EVERY_NS:
+            self.errors += 1
+            return
+        self._tracker_refusal_ns = now_ns
+        self.reply_error("forbidden", reason)
+
     def _refuse_over_budget(self, now_ns: int) -> None:
         self.rate_limited += 1
         last = self._rate_error_ns
@@ -218,13 +273,49 @@ class Session:
         if self.welcomed:
             self.reply_error("bad_message", "hello must be the first message of a connection")
             return
-        self.role, self.client_name = self.access.role_for(hello), hello.client
+        try:
+            who = self.gate.authenticate(hello.token or None)
+        except Unauthorized as exc:
+            self._refuse("unauthorized", exc.message)
+            return
+        verdict = decide(POLICY["ws:hello"], who, self.gate.lease())
+        if verdict is not None:
+            self._refuse("unauthorized" if verdict[0] == 401 else "forbidden", verdict[1])
+            return
+        crowded = self.gate.admit(who)
+        if crowded is not None:
+            self._refuse("rate_limited", crowded)
+            return
+        self.identity, self.client_name = who, hello.client
+        self.role = granted_role(who, hello.role)
         self._welcome()
+        if self.role != hello.role:
+            self.reply_error("forbidden", f"a {who.role} token may not connect as {hello.role}; "
+                                          f"connected as {self.role}")
+
+    def _refuse(self, code: str, text: str) -> None:
+        """One error, then close 1008; nothing else is sent (no welcome, no scene, no state)."""
+        self.reply_error(code, text)
+        self.close_code = POLICY_CLOSE
+        self._control.append(Close(POLICY_CLOSE))
 
     def disconnected(self) -> list[ToLoop]:
         """The connection is gone: a client whose tracker samples reached the loop leaves the HIP
         (the loop sends it home and clears its driver)."""
         return [ToLoop(["tracker_gone", self.id])] if self.tracker_count else []
+
+    def set_lease(self, frames: Mapping[str, bytes | str]) -> list[ToLoop]:
+        """The control lease changed (`frames`: the `lease` message encoded per format). A welcomed
+        client is sent it (one still queued is superseded); a client that drove the HIP and may
+        no longer leaves it: the returned `tracker_gone` sends the HIP home."""
+        self._lease = frames[self.fmt]
+        if self.welcomed and not self.closing:
+            self._control = deque(item for item in self._control if not _is_kind(item, "lease"))
+            self._control.append(("lease", self._lease, None))
+        if self._driving and self.refusal("tracker") is not None:
+            self._driving = False
+            return [ToLoop(["tracker_gone", self.id])]
+        return []
 
     # ---- what the client is sent -------------------------------------------------------------
     def reply_error(self, code: str, text: str) -> None:
@@ -238,12 +329,15 @@ class Session:
     def _welcome(self) -> None:
         self.welcomed = True
         s = self.server
-        welcome = messages.welcome(self.id, self.role, s.name, s.tick_hz, s.state_hz, self.fmt)
+        identity = self.identity.to_dict() if self.identity is not None else None
+        welcome = messages.welcome(self.id, self.role, s.name, s.tick_hz, s.state_hz, self.fmt, identity)
         self._control.append(("welcome", codec.encode(welcome, self.fmt), None))
         if self._scene is not None:
             self._control.append(("scene", self._scene[1], self._scene[0]))
         if self._health is not None:  # after the scene: a v1.0 client reads welcome, then scene
             self._control.append(("health", self._health, None))
+        if self._lease is not None:
+            self._control.append(("lease", self._lease, None))
 
     def set_scene(self, scene_hash: str, frames: Mapping[str, bytes | str]) -> None:
         """The current scene (`frames`: its scene message encoded per format). A welcomed client

@@ -16,10 +16,15 @@ the same codes as on /ws, and is counted; the sample is not applied. The sender 
 `parse_datagram` is pure; `TrackerPort` is the thin non-blocking socket adapter the loop polls.
 It reads at most MAX_PER_TICK datagrams per tick, so a flood cannot stretch a tick; the rest
 wait for the next one.
+
+The port binds to loopback only (`bind` refuses any other address; server/config.py checks the
+setting first): it has no authentication, so only the rig PC's own processes, which the rig's
+admin controls, can move the HIP through it (docs/security.md).
 """
 
 from __future__ import annotations
 
+import ipaddress
 import socket
 
 from server.wire import codec, messages
@@ -90,8 +95,21 @@ class TrackerPort:
             pass
 
 
+def is_loopback(host: str) -> bool:
+    """`host` names this machine's loopback interface only (127.0.0.0/8, ::1 or "localhost")."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def bind(address: tuple[str, int]) -> socket.socket:
-    """The hub binds the port once (it outlives loop restarts); OSError says which address failed."""
+    """The hub binds the port once (it outlives loop restarts); OSError says which address failed.
+    ValueError for an address that is not loopback (the port has no authentication)."""
+    if not is_loopback(address[0]):
+        raise ValueError(f"the tracker UDP port binds to loopback only, not {address[0]} (docs/security.md)")
     family = socket.AF_INET6 if ":" in address[0] else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_DGRAM)
     try:

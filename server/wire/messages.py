@@ -1,4 +1,4 @@
-"""Protocol v1.2 messages (docs/protocol.md): validated client messages, server message builders.
+"""Protocol v1.3 messages (docs/protocol.md): validated client messages, server message builders.
 
 Every message is declared once in schema.py. Client messages are frozen dataclasses parsed from
 a decoded map by the declaration's checker (check.py): a wrong field is
@@ -8,7 +8,7 @@ declared field order, because the msgpack test vectors are byte-exact.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from server.wire.check import check_message
@@ -17,7 +17,8 @@ from server.wire.schema import (CLIENT_MESSAGE_NAMES, HELLO, INPUT, INPUT_ACTION
                                 ROLES, SCENE_FORMAT_VERSION, STATE, TRACKER)
 
 __all__ = ["PROTOCOL_VERSION", "PROTOCOL_MINOR", "ROLES", "INPUT_ACTIONS", "Hello", "Tracker", "Input",
-           "CLIENT_MESSAGES", "parse_client_message", "welcome", "scene_message", "state_message", "error"]
+           "CLIENT_MESSAGES", "parse_client_message", "welcome", "scene_message", "state_message", "error", "health",
+           "lease"]
 
 
 @dataclass(frozen=True)
@@ -25,14 +26,18 @@ class Hello:
     version: int
     role: str
     client: str
+    token: str | None = field(default=None, repr=False)  # a secret: never in a repr, a log line or an error
 
     @classmethod
     def parse(cls, body: dict) -> Hello:
         f = check_message(body, HELLO)
-        return cls(f["v"], f["role"], f["client"])
+        return cls(f["v"], f["role"], f["client"], f["token"])
 
     def to_wire(self) -> dict:
-        return {"type": "hello", "v": self.version, "role": self.role, "client": self.client}
+        msg = {"type": "hello", "v": self.version, "role": self.role, "client": self.client}
+        if self.token:
+            msg["token"] = self.token
+        return msg
 
 
 @dataclass(frozen=True)
@@ -85,9 +90,16 @@ def parse_client_message(body: dict) -> Hello | Tracker | Input:
     return parser.parse(body)
 
 
-def welcome(client_id: int, role: str, server: str, tick_hz: int, state_hz: float, fmt: str) -> dict:
-    return {"type": "welcome", "v": PROTOCOL_VERSION, "minor": PROTOCOL_MINOR, "client_id": client_id,
-            "role": role, "server": server, "tick_hz": tick_hz, "state_hz": state_hz, "format": fmt}
+IDENTITY_FIELDS = ("token_id", "role", "site", "session")  # what a welcome says of a token (never the secret)
+
+
+def welcome(client_id: int, role: str, server: str, tick_hz: int, state_hz: float, fmt: str,
+            identity: Mapping[str, Any] | None = None) -> dict:
+    msg = {"type": "welcome", "v": PROTOCOL_VERSION, "minor": PROTOCOL_MINOR, "client_id": client_id,
+           "role": role, "server": server, "tick_hz": tick_hz, "state_hz": state_hz, "format": fmt}
+    if identity is not None:
+        msg["identity"] = {k: identity.get(k) for k in IDENTITY_FIELDS}
+    return msg
 
 
 def scene_message(scene: dict, scene_hash: str) -> dict:
@@ -152,3 +164,10 @@ def health(status: str, reasons: list[Mapping[str, Any]]) -> dict:
     change the frame every time without news)."""
     return {"type": "health", "status": status,
             "reasons": [{"code": r["code"], "message": r["message"]} for r in reasons]}
+
+
+def lease(snapshot: Mapping[str, Any]) -> dict:
+    """The `lease` message for a lease snapshot (server/auth/lease.py `Lease.snapshot()`), the
+    declared fields in their order."""
+    return {"type": "lease", "holder": snapshot.get("holder"), "queue": list(snapshot.get("queue") or []),
+            "session": snapshot.get("session"), "ttl_s": snapshot["ttl_s"]}

@@ -1,4 +1,4 @@
-"""Protocol v1.2: every message declared once, as data (docs/protocol.md).
+"""Protocol v1.3: every message declared once, as data (docs/protocol.md).
 
 Everything else follows from this module: the Python parsers and builders (messages.py, through
 the checker in check.py), the message tables of docs/protocol.md and the browser client's schema
@@ -34,7 +34,8 @@ from typing import Any
 from server.core.workspace import WORKSPACE_HALF_EXTENT_M
 
 PROTOCOL_VERSION = 1  # the major version: hello.v and welcome.v
-PROTOCOL_MINOR = 2    # v1.1: welcome.minor, state.stiffness/haptic/driver; v1.2: health, bounds, input budget
+PROTOCOL_MINOR = 3    # v1.1: welcome.minor, state.stiffness/haptic/driver; v1.2: health, bounds, input budget;
+                      # v1.3: hello.token, welcome.identity, lease, unauthorized
 SCENE_FORMAT_VERSION = 1
 ROLES = ("participant", "operator", "observer")
 INPUT_ACTIONS = ("down", "up", "press")
@@ -43,6 +44,7 @@ MAX_SAFE_INT = 2**53 - 1
 MAX_T_MS = float(MAX_SAFE_INT)  # a sender's timestamp in ms: epoch ms are ~1.7e12
 QUAT_NORM = (0.5, 2.0)  # a tracker quaternion's norm must lie here; it is then normalised
 DIRECTIONS = ("client_to_server", "server_to_client")
+MAX_TOKEN_CHARS = 200  # a token is 43 characters (32 random bytes, base64url); the bound only limits abuse
 
 
 def _range(low: Any, high: Any, low_open: bool = False) -> str:
@@ -168,10 +170,13 @@ V3 = vec(3, POS)
 HELLO = Message("hello", "client_to_server", "first message; optional for observers that only watch", (
     _type("hello"),
     Field("v", integer(), "protocol major version (1)"),
-    Field("role", enum(ROLES), "what the client is. Authorisation comes later; today an observer may not send "
-          "`tracker` or `input` (`forbidden`)."),
+    Field("role", enum(ROLES), "the role asked for; the token decides what is granted (\"Authentication and "
+          "roles\" below). An observer may not send `tracker` or `input` (`forbidden`)."),
     Field("client", string(max_len=64), 'free-form name/version, e.g. `"viestac-web/0.1"`', required=False,
           default=""),
+    Field("token", string(max_len=MAX_TOKEN_CHARS), "the client's access token (\"Authentication and roles\"); "
+          "without a valid one the server answers `unauthorized` and closes the connection (1008). Never put it "
+          "in the URL", required=False, since=3),
 ))
 
 TRACKER = Message("tracker", "client_to_server", "the HIP, any rate; the server keeps the latest per client", (
@@ -196,10 +201,13 @@ INPUT = Message("input", "client_to_server", "keys and commands", (
           'a command\'s argument, e.g. `{"key": "tap_angle", "action": "press", "value": -30}`', required=False),
 ))
 
+_OPT_STRING = any_of(null(), string(), doc="string \\| null")
+_IDENTITY = mapping(doc="map `{token_id, role, site, session}`")
+
 WELCOME = Message("welcome", "server_to_client", "reply to `hello`, or sent on connect to clients without one", (
     _type("welcome"),
     Field("v", integer(), "server's protocol major version (1)"),
-    Field("minor", integer(min=0), "server's protocol minor version (2 for this document; absent from v1.0 "
+    Field("minor", integer(min=0), "server's protocol minor version (3 for this document; absent from v1.0 "
           "servers)", required=False, since=1),
     Field("client_id", integer(min=1), "this connection's id (`driver` in `state` names a /ws client by it)"),
     Field("role", enum(ROLES), "the role the server assigned (may differ from the one asked for; clients follow "
@@ -208,6 +216,9 @@ WELCOME = Message("welcome", "server_to_client", "reply to `hello`, or sent on c
     Field("tick_hz", integer(min=1), "haptic loop rate (1000)"),
     Field("state_hz", number(min=0, min_exclusive=True), "state publish rate (60 by default)"),
     Field("format", enum(FORMATS), "the encoding of this connection"),
+    Field("identity", _IDENTITY, "who the token says this connection is: its `token_id` (not secret), its "
+          "`role` (`admin`, `experimenter`, `participant`, `observer`), its `site` and, for a participant, its "
+          "`session` (null when none)", required=False, since=3),
 ))
 
 SCENE = Message("scene", "server_to_client", "static scene; on join and whenever it changes", (
@@ -294,7 +305,24 @@ HEALTH = Message("health", "server_to_client", "after `welcome` and the first `s
           "`GET /api/health` lists the same reasons", since=2),
 ))
 
-MESSAGES: dict[str, Message] = {m.name: m for m in (HELLO, TRACKER, INPUT, WELCOME, SCENE, STATE, ERROR, HEALTH)}
+_LEASE_HOLDER = mapping(doc="map `{token_id, role, site, label, since, expires_at}`")
+_LEASE_QUEUED = mapping(doc="map `{token_id, role, site, label, position}`")
+
+LEASE = Message("lease", "server_to_client", "after `welcome`, `scene` and `health`, and whenever the control lease "
+                "changes", (
+    _type("lease"),
+    Field("holder", any_of(null(), _LEASE_HOLDER, doc="map \\| null"), "who controls the rig now, or null: "
+          "`token_id`, `role`, `site`, `label`, `since` and `expires_at` (UTC seconds; renewing moves it)", since=3),
+    Field("queue", array(_LEASE_QUEUED, "array of maps"), "who waits for it, first in line first: `token_id`, "
+          "`role`, `site`, `label`, `position` (1 = next)", since=3),
+    Field("session", _OPT_STRING, "the participant session the holder opened: a participant token of this "
+          "session may drive the HIP; null when none is open", since=3),
+    Field("ttl_s", number(min=0, min_exclusive=True), "seconds without a renewal after which the holder (or a "
+          "queued requester) loses its place", since=3),
+))
+
+MESSAGES: dict[str, Message] = {m.name: m for m in (HELLO, TRACKER, INPUT, WELCOME, SCENE, STATE, ERROR, HEALTH,
+                                                    LEASE)}
 CLIENT_MESSAGE_NAMES = tuple(name for name, m in MESSAGES.items() if m.direction == "client_to_server")
 
 ERROR_CODES: dict[str, str] = {
@@ -303,13 +331,17 @@ ERROR_CODES: dict[str, str] = {
     "non_finite": "NaN or ±Infinity in a number",
     "unknown_type": "a `type` the server does not know",
     "too_large": "a frame over 64 KiB",
-    "forbidden": "the role may not send this message",
+    "forbidden": "the role, the site or the control lease does not allow this message (or the role asked for in "
+                 "`hello`: the welcome then grants a lower one)",
+    "unauthorized": "no valid token: `hello` without a token, with an unknown, expired or revoked one, or no "
+                    "`hello` within the grace period (the connection then closes, code 1008)",
     "unsupported_version": "`hello.v` is not 1 (the connection then closes)",
     "busy": "the loop's input mailbox is full; the message was dropped",
     "out_of_range": "a finite number beyond the protocol's bounds: an integer outside ±(2^53 − 1), a tracker "
                     "`pos` outside the workspace, a `t` beyond ±(2^53 − 1) ms (\"Bounds\")",
     "rate_limited": "the client sent `input` faster than its budget (\"Input budget\"); the message was dropped "
-                    "(at most one such error a second)",
+                    "(at most one such error a second); or the token already has 256 connections open (the "
+                    "connection then closes, code 1008)",
 }
 
 # One line per cue kind for the docs (fields, units and ranges come from server/core/cues.py).

@@ -9,6 +9,7 @@ import asyncio
 import msgpack
 
 from server.hub.hub import Hub
+from tests.hub.access_fakes import FakeAccess
 from tests.hub.test_hub_shell import FakeSocket, settle, state_record
 
 
@@ -30,6 +31,7 @@ def test_a_broadcast_sends_to_participants_and_operators_before_the_observers_wh
 
     async def go() -> list[int]:
         hub = Hub(server_name="test", tick_hz=1000, state_hz=60)
+        hub.access_control = FakeAccess()
         hub.send_to_loop = lambda record: True
         order: list[int] = []
         sockets = [OrderedSocket(n, order) for n in range(1, len(roles) + 1)]

@@ -19,6 +19,7 @@ from server.hub.hub import Hub
 from server.hub.session import ServerInfo, Session
 from server.wire import codec
 from server.wire.check import check_message
+from tests.hub.access_fakes import gate, with_token
 
 RIG = {"fingertac": profile_by_model("fingertac"), "ferrovibe": profile_by_model("ferrovibe")}
 FERRO_GONE = {"fingertac": "connected", "ferrovibe": "disconnected"}
@@ -92,11 +93,11 @@ def taken(session):
 
 @pytest.mark.parametrize("fmt", codec.FORMATS)
 def test_a_session_gets_health_after_its_welcome_and_scene_and_only_the_latest(fmt):
-    session = Session(3, fmt, ServerInfo("t", 1000, 60.0), 0)
+    session = Session(3, fmt, ServerInfo("t", 1000, 60.0), 0, gate=gate()[0])
     session.set_health(health_frames("ok"))
     session.set_scene("aaaa", {f: codec.encode({"type": "scene", "v": 1, "hash": "aaaa", "scene": {}}, f)
                                for f in codec.FORMATS})
-    session.hello_deadline_passed(10**10)
+    session.receive(codec.encode(with_token({"type": "hello", "v": 1, "role": "observer"}), fmt), 1)
     assert [m["type"] for m in taken(session)] == ["welcome", "scene", "health"], "a v1.0 reader: welcome, scene"
     session.set_health(health_frames("degraded", ["loop_down"]))
     session.set_health(health_frames("degraded", ["loop_down", "device_missing"]))
@@ -124,12 +125,12 @@ def test_the_hub_turns_records_and_reports_into_health_and_tells_each_client():
         hub.send_to_loop = lambda record: True
         hub.device_profiles = RIG
         hub.on_loop_record(["scenario", {"id": "contact-angle-v1", "params": {}, "seed": 0, "trial": None}])
-        session = Session(1, "json", ServerInfo("t", 1000, 60.0), 0)
+        session = Session(1, "json", ServerInfo("t", 1000, 60.0), 0, gate=gate()[0])
         hub.on_child_start("loop")
         hub.on_child_start("device_host")
         assert hub.check_health().status == "starting"
         session.set_health(hub._health_frames)
-        session.hello_deadline_passed(10**10)
+        session.receive(codec.encode(with_token({"type": "hello", "v": 1, "role": "observer"}), "json"), 1)
         assert taken(session)[-1]["status"] == "starting"
 
         class Conn:

@@ -10,16 +10,20 @@ import json
 import msgpack
 
 from server.hub.hub import Hub
+from tests.hub.access_fakes import FakeAccess, with_token
 
 
 class FakeSocket:
-    """What Hub.serve uses of a starlette WebSocket; the test plays the client."""
+    """What Hub.serve uses of a starlette WebSocket; the test plays the client. Its hello carries
+    the admin's token (tests/hub/access_fakes.py); `lease` messages are kept apart in `leases`
+    (tests/hub/test_hub_access.py looks at them), everything else in `got`."""
 
     def __init__(self, fmt: str = "msgpack"):
         self.fmt = fmt
-        self.scope = {"subprotocols": [f"viestac.v1.{fmt}"]}
+        self.scope = {"subprotocols": [f"viestac.v1.{fmt}"], "client": ("127.0.0.1", 50000)}
         self.inbox: asyncio.Queue = asyncio.Queue()
         self.got: list[dict] = []
+        self.leases: list[dict] = []
         self.close_code: int | None = None
 
     async def accept(self, subprotocol=None) -> None:
@@ -29,15 +33,20 @@ class FakeSocket:
         return await self.inbox.get()
 
     async def send_bytes(self, data: bytes) -> None:
-        self.got.append(msgpack.unpackb(data))
+        self._got(msgpack.unpackb(data))
 
     async def send_text(self, data: str) -> None:
-        self.got.append(json.loads(data))
+        self._got(json.loads(data))
+
+    def _got(self, message: dict) -> None:
+        (self.leases if message["type"] == "lease" else self.got).append(message)
 
     async def close(self, code: int = 1000) -> None:
         self.close_code = code
 
     def send(self, message: dict) -> None:
+        if message["type"] == "hello" and "token" not in message:
+            message = with_token(message)
         if self.fmt == "msgpack":
             self.inbox.put_nowait({"type": "websocket.receive", "bytes": msgpack.packb(message)})
         else:
@@ -59,6 +68,7 @@ def state_record(tick: int, scene: str) -> dict:
 
 def new_hub(accept: bool = True) -> tuple[Hub, list]:
     hub = Hub(server_name="test", tick_hz=1000, state_hz=60)
+    hub.access_control = FakeAccess()  # the admin holds the lease
     to_loop: list = []
     hub.send_to_loop = lambda record: to_loop.append(record) or accept
     return hub, to_loop

@@ -13,6 +13,7 @@ import pytest
 from server.hub.session import (INPUT_BURST, INPUT_RATE_PER_S, RATE_LIMITED_ERROR_EVERY_NS, Close, Command,
                                 ServerInfo, Session, ToLoop)
 from server.wire import codec, messages
+from tests.hub.access_fakes import ADMIN_SECRET, gate
 
 SERVER = ServerInfo("viestac/test", 1000, 60.0)
 T0 = 5_000_000_000
@@ -20,8 +21,8 @@ MS = 1_000_000
 
 
 def welcomed(fmt: str = "msgpack") -> Session:
-    s = Session(7, fmt, SERVER, T0)
-    hello = {"type": "hello", "v": 1, "role": "participant", "client": "pytest"}
+    s = Session(7, fmt, SERVER, T0, gate=gate()[0])
+    hello = {"type": "hello", "v": 1, "role": "participant", "client": "pytest", "token": ADMIN_SECRET}
     s.receive(msgpack.packb(hello) if fmt == "msgpack" else json.dumps(hello), T0)
     drain(s)
     return s

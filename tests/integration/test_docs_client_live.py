@@ -15,7 +15,7 @@ import time
 import pytest
 import websockets
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from server.bench.loop_bench import admin_token, get_json, start_server, stop_server
 
 # The doc's step 3 in JavaScript: JSON.stringify with every object's keys sorted; then SHA-256.
 NODE_SCENE_HASH = r"""
@@ -66,7 +66,8 @@ def test_a_client_from_the_doc_reproduces_the_scene_hash_and_predicts_the_force(
     async def go():
         ws_url = own_server.replace("http://", "ws://") + "/ws"
         async with websockets.connect(ws_url, subprotocols=["viestac.v1.json"]) as ws:
-            await ws.send(json.dumps({"type": "hello", "v": 1, "role": "participant", "client": "doc-client"}))
+            await ws.send(json.dumps({"type": "hello", "v": 1, "role": "participant", "client": "doc-client",
+                                      "token": admin_token(ws_url)}))
             assert (await _recv(ws))["type"] == "welcome"
             await asyncio.to_thread(get_json, own_server + "/api/scenario", "POST", body={"name": "stiffness"})
             while (message := await _recv(ws))["type"] != "scene" or message["scene"]["name"] != "stiffness":

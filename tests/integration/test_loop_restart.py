@@ -14,7 +14,7 @@ import websockets
 
 from tests.integration.test_experiment_live import Api, answers_for, new_session, run_trial, touch
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from server.bench.loop_bench import admin_token, get_json, start_server, stop_server
 
 
 def test_killed_loop_is_restarted_and_clients_get_the_scene_again():
@@ -26,7 +26,8 @@ def test_killed_loop_is_restarted_and_clients_get_the_scene_again():
         async def go():
             async with websockets.connect(base.replace("http", "ws") + "/ws", subprotocols=["viestac.v1.msgpack"],
                                           max_queue=None) as ws:
-                await ws.send(msgpack.packb({"type": "hello", "v": 1, "role": "observer", "client": "t"}))
+                await ws.send(msgpack.packb({"type": "hello", "v": 1, "role": "observer", "client": "t",
+                                             "token": admin_token(base)}))
                 kinds = []
                 while "state" not in kinds:
                     kinds.append(msgpack.unpackb(await ws.recv())["type"])

@@ -14,6 +14,8 @@ import msgpack
 import pytest
 import websockets
 
+from server.bench.loop_bench import admin_token
+
 VECTORS = Path(__file__).parents[1] / "vectors"
 INVALID = json.loads((VECTORS / "invalid.json").read_text())["frames"]
 MSGPACK = "viestac.v1.msgpack"
@@ -24,21 +26,31 @@ def run(coro):
     return asyncio.run(coro)
 
 
+_ADMIN = object()  # Client.connect's default token: the harness's admin token for that server
+
+
 class Client:
-    """A protocol v1 client over a real WebSocket, decoding either format."""
+    """A protocol v1 client over a real WebSocket, decoding either format. Its hello carries the
+    admin token the harness made for that server (which holds the control lease), unless `token`
+    says otherwise (None: no token)."""
 
     def __init__(self, ws, fmt: str):
         self.ws, self.fmt = ws, fmt
 
     @classmethod
-    async def connect(cls, url: str, fmt: str = "msgpack", role: str = "participant", hello: bool = True):
+    async def connect(cls, url: str, fmt: str = "msgpack", role: str = "participant", hello: bool = True,
+                      token=_ADMIN):
         # max_queue=None: a test that stops reading must still see the server's close frame
         # (with a bounded queue, reading pauses and close() waits for its 10 s timeout).
         ws = await websockets.connect(url, subprotocols=[MSGPACK if fmt == "msgpack" else JSON],
                                       compression=None, max_size=1 << 21, max_queue=None)
         client = cls(ws, fmt)
         if hello:
-            await client.send({"type": "hello", "v": 1, "role": role, "client": "pytest"})
+            message = {"type": "hello", "v": 1, "role": role, "client": "pytest"}
+            token = admin_token(url) if token is _ADMIN else token
+            if token is not None:
+                message["token"] = token
+            await client.send(message)
         return client
 
     async def send(self, message: dict) -> None:
@@ -252,15 +264,18 @@ def test_observer_may_not_send_tracker_and_bad_version_closes(live_server):
     run(go())
 
 
-def test_client_without_hello_is_an_observer(live_server):
+def test_client_without_hello_is_refused_at_the_grace_deadline(live_server):
+    """v1.3: a client without a hello has no token (it was welcomed as an observer up to v1.2)."""
     async def go():
         client = await Client.connect(live_server.ws_url, hello=False)
-        welcome = await client.recv_type("welcome")
-        await client.recv_type("state")
-        await client.close()
-        return welcome
+        error = await client.recv(timeout=3.0)
+        with pytest.raises(websockets.ConnectionClosed) as info:
+            await client.recv(timeout=3.0)
+        return error, info.value.rcvd
 
-    assert run(go())["role"] == "observer"
+    error, close = run(go())
+    assert error["type"] == "error" and error["code"] == "unauthorized"
+    assert close is not None and close.code == 1008
 
 
 def test_slow_client_does_not_hold_back_others(live_server):

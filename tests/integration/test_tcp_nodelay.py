@@ -11,10 +11,11 @@ import asyncio
 import errno
 import socket
 
+import msgpack
 import pytest
 import websockets
 
-from server.bench.loop_bench import start_server, stop_server
+from server.bench.loop_bench import admin_token, start_server, stop_server
 from server.bench.roundtrip_sockets import peer_socket_nodelay
 from server.cli import listen_socket
 
@@ -28,6 +29,7 @@ def test_the_server_end_of_an_accepted_ws_connection_of_viestac_serve_has_tcp_no
     try:
         async def check() -> tuple[bool, bool]:
             async with websockets.connect(base.replace("http://", "ws://") + "/ws", compression=None) as ws:
+                await ws.send(msgpack.packb({"type": "hello", "v": 1, "role": "observer", "token": admin_token(base)}))
                 await ws.recv()  # welcome: accepted
                 own = ws.transport.get_extra_info("socket")
                 try:

@@ -117,6 +117,11 @@ MESSAGES = [
      {"type": "hello", "v": 1, "role": "observer", "client": ""}),
     ("hello-operator-64-code-points", "client_to_server",
      {"type": "hello", "v": 1, "role": "operator", "client": "😀" * 64}),
+    ("hello-with-token", "client_to_server",
+     {"type": "hello", "v": 1, "role": "operator", "client": "viestac-console/0.1",
+      "token": "q3Jx0N6b1d2Zc8wYkU4mT7rVhA9sLpE5gFiK_oWjQ-Y"}),
+    ("hello-token-200-code-points", "client_to_server",
+     {"type": "hello", "v": 1, "role": "participant", "client": "", "token": "t" * 200}),
     ("tracker-position", "client_to_server",
      {"type": "tracker", "seq": 42, "t": 1234.5, "pos": [0.125, -0.6, 0.3]}),
     ("tracker-integral-coordinates", "client_to_server",
@@ -136,11 +141,13 @@ MESSAGES = [
     ("input-command-text", "client_to_server",
      {"type": "input", "key": "note", "action": "press", "value": "Größe ≈ 3 cm"}),
     ("welcome", "server_to_client",
-     {"type": "welcome", "v": 1, "minor": 2, "client_id": 7, "role": "participant", "server": "viestac/0.1.0",
-      "tick_hz": 1000, "state_hz": 60, "format": "msgpack"}),
+     {"type": "welcome", "v": 1, "minor": 3, "client_id": 7, "role": "participant", "server": "viestac/0.1.0",
+      "tick_hz": 1000, "state_hz": 60, "format": "msgpack",
+      "identity": {"token_id": "3fa9c2d1", "role": "participant", "site": "lab-a", "session": "s-0007"}}),
     ("welcome-json-observer", "server_to_client",
-     {"type": "welcome", "v": 1, "minor": 2, "client_id": 12, "role": "observer", "server": "viestac/0.1.0",
-      "tick_hz": 1000, "state_hz": 62.5, "format": "json"}),
+     {"type": "welcome", "v": 1, "minor": 3, "client_id": 12, "role": "observer", "server": "viestac/0.1.0",
+      "tick_hz": 1000, "state_hz": 62.5, "format": "json",
+      "identity": {"token_id": "0b7e41aa", "role": "admin", "site": None, "session": None}}),
     ("scene-minimal", "server_to_client", {"type": "scene", "v": 1, "hash": HASH_MINIMAL, "scene": SCENE_MINIMAL}),
     ("scene-overlays-skin", "server_to_client", {"type": "scene", "v": 1, "hash": HASH_AIDS, "scene": SCENE_AIDS}),
     ("scene-perspective-mesh", "server_to_client", {"type": "scene", "v": 1, "hash": HASH_TABLE, "scene": SCENE_TABLE}),
@@ -172,12 +179,22 @@ MESSAGES = [
     ("error-unsupported-version", "server_to_client",
      {"type": "error", "code": "unsupported_version",
       "message": "protocol version 2 is not supported; this server speaks v1"}),
+    ("error-unauthorized", "server_to_client",
+     {"type": "error", "code": "unauthorized", "message": "no valid token: unknown, expired or revoked"}),
     ("health-ok", "server_to_client", {"type": "health", "status": "ok", "reasons": []}),
     ("health-degraded", "server_to_client",
      {"type": "health", "status": "degraded", "reasons": [
          {"code": "device_missing", "message": "device 'ferrovibe' is disconnected: check its cable and power; "
                                                "the running scenario 'contact-angle' needs it for macro-roughness (tilt)"},
          {"code": "loop_stalled", "message": "the haptic loop has not ticked for 0.07 s"}]}),
+    ("lease-free", "server_to_client",
+     {"type": "lease", "holder": None, "queue": [], "session": None, "ttl_s": 60}),
+    ("lease-held-queued-open-session", "server_to_client",
+     {"type": "lease",
+      "holder": {"token_id": "5d0c9e12", "role": "experimenter", "site": "lab-a", "label": "Anna",
+                 "since": 1767225600.5, "expires_at": 1767225660.5},
+      "queue": [{"token_id": "a1b2c3d4", "role": "experimenter", "site": "lab-b", "label": "Ben", "position": 1}],
+      "session": "s-0007", "ttl_s": 60}),
 ]
 
 # ---- frames a receiver accepts although no canonical encoder writes them --------------------------
@@ -237,6 +254,17 @@ RECEIVED = [
      packed({"type": "input", "key": "r", "action": "up", "value": None}),
      '{"type":"input","key":"r","action":"up","value":null}',
      {"type": "input", "key": "r", "action": "up"}),
+    ("hello-token-null", "client_to_server",
+     packed({"type": "hello", "v": 1, "role": "observer", "client": "x", "token": None}),
+     '{"type":"hello","v":1,"role":"observer","client":"x","token":null}',
+     {"type": "hello", "v": 1, "role": "observer", "client": "x"}),
+    ("welcome-v1.2-server", "server_to_client",
+     packed({"type": "welcome", "v": 1, "minor": 2, "client_id": 4, "role": "participant", "server": "viestac/0.1.0",
+             "tick_hz": 1000, "state_hz": 60, "format": "msgpack"}),
+     '{"type":"welcome","v":1,"minor":2,"client_id":4,"role":"participant","server":"viestac/0.1.0","tick_hz":1000,'
+     '"state_hz":60,"format":"msgpack"}',
+     {"type": "welcome", "v": 1, "minor": 2, "client_id": 4, "role": "participant", "server": "viestac/0.1.0",
+      "tick_hz": 1000, "state_hz": 60, "format": "msgpack"}),
     ("welcome-v1.0-server", "server_to_client",
      packed({"type": "welcome", "v": 1, "client_id": 3, "role": "observer", "server": "viestac/0.0.9",
              "tick_hz": 1000, "state_hz": 60, "format": "msgpack"}),
@@ -293,6 +321,10 @@ INVALID = [
     bad("hello-v-string", {"type": "hello", "v": "1", "role": "participant", "client": ""}, "bad_message"),
     bad("hello-v-missing", {"type": "hello", "role": "participant", "client": ""}, "bad_message"),
     bad("hello-client-65-code-points", {"type": "hello", "v": 1, "role": "operator", "client": "😀" * 65},
+        "bad_message"),
+    bad("hello-token-201-code-points", {"type": "hello", "v": 1, "role": "participant", "client": "",
+                                        "token": "t" * 201}, "bad_message"),
+    bad("hello-token-number", {"type": "hello", "v": 1, "role": "participant", "client": "", "token": 12345},
         "bad_message"),
     bad("tracker-seq-fraction", {"type": "tracker", "seq": 2.5, "t": 0, "pos": [0, 0, 0]}, "bad_message"),
     bad("tracker-seq-beyond-2^53", {"type": "tracker", "seq": 2**53, "t": 0, "pos": [0, 0, 0]}, "out_of_range"),
@@ -360,6 +392,11 @@ INVALID_SERVER = [
      None, "non_finite"),
     bad("error-code-number", {"type": "error", "code": 3, "message": "x"}, "bad_message"),
     bad("error-message-missing", {"type": "error", "code": "busy"}, "bad_message"),
+    bad("welcome-identity-not-a-map", {**WELCOME, "identity": "admin"}, "bad_message"),
+    bad("lease-queue-missing", {"type": "lease", "holder": None, "session": None, "ttl_s": 60}, "bad_message"),
+    bad("lease-holder-string", {"type": "lease", "holder": "anna", "queue": [], "session": None, "ttl_s": 60},
+        "bad_message"),
+    bad("lease-ttl-zero", {"type": "lease", "holder": None, "queue": [], "session": None, "ttl_s": 0}, "bad_message"),
     bad("health-status-unknown", {"type": "health", "status": "fine", "reasons": []}, "bad_message"),
     bad("health-reason-code-number", {"type": "health", "status": "degraded", "reasons": [{"code": 3}]},
         "bad_message"),
@@ -421,7 +458,7 @@ POINTS = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, -0.6, 0.3], [-2, 3.2
 ROTATIONS = [[1, 0, 0, 0], [H, 0, 0, H], [H, H, 0, 0], [H, 0, H, 0], [0.5, 0.5, 0.5, 0.5]]
 
 ABOUT_MESSAGES = {
-    "what": "ViESTac wire protocol v1.2 (docs/protocol.md): valid messages of every type, both directions, "
+    "what": "ViESTac wire protocol v1.3 (docs/protocol.md): valid messages of every type, both directions, "
             "both encodings.",
     "vectors": "Canonical messages. `message`: the decoded map (field order = the order encoders write); "
                "`msgpack_hex`: the exact msgpack bytes every encoder writes for it (canonical numbers: integral "
@@ -463,12 +500,12 @@ def main() -> None:
                 for n, d, b, j, e in RECEIVED]
     for r in received:  # the JSON text and the bytes say the same thing
         assert json.loads(r["json"]) == msgpack.unpackb(bytes.fromhex(r["msgpack_hex"]))
-    dump("messages.json", {"version": 1, "protocol": "1.2", "about": ABOUT_MESSAGES, "vectors": vectors,
+    dump("messages.json", {"version": 1, "protocol": "1.3", "about": ABOUT_MESSAGES, "vectors": vectors,
                            "received": received})
 
     def frames(rows):
         return [{"name": n, "msgpack_hex": b.hex(), "json": j, "code": c} for n, b, j, c in rows]
-    dump("invalid.json", {"version": 1, "protocol": "1.2", "about": ABOUT_INVALID, "frames": frames(INVALID),
+    dump("invalid.json", {"version": 1, "protocol": "1.3", "about": ABOUT_INVALID, "frames": frames(INVALID),
                           "server_frames": frames(INVALID_SERVER)})
     cases = []
     for name, value, canonical in SCENE_HASH_CASES:

@@ -67,14 +67,18 @@ def _order(name):
 
 def test_builders_write_the_declared_fields_in_order_and_pass_the_checks():
     built = {
-        "welcome": messages.welcome(3, "observer", "viestac/test", 1000, 60.0, "json"),
+        "welcome": messages.welcome(3, "observer", "viestac/test", 1000, 60.0, "json",
+                                    {"token_id": "0b7e41aa", "role": "admin", "site": None, "label": "env"}),
         "scene": messages.scene_message({"name": "x"}, "0123456789abcdef"),
         "error": messages.error("busy", "full"),
+        "lease": messages.lease({"holder": None, "queue": [], "session": None, "ttl_s": 60.0}),
     }
     for name, message in built.items():
         assert list(message) == _order(name)
         check_message(message)
-    assert built["welcome"]["minor"] == 2
+    assert built["welcome"]["minor"] == 3
+    # the welcome says who the token is, never more (no label, no secret)
+    assert built["welcome"]["identity"] == {"token_id": "0b7e41aa", "role": "admin", "site": None, "session": None}
 
 
 def _record(**extra):

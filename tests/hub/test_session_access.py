@@ -1,0 +1,278 @@
+"""Access control in the I/O-free session (issue 19): the token in `hello`, the role granted for
+the one asked, every client message type checked against the declared policy
+(server.auth.policy.POLICY) and the control lease, the `lease` message, and a client that loses
+the right to drive leaving the HIP. No server, no socket."""
+
+from __future__ import annotations
+
+import msgpack
+import pytest
+
+from server.auth.lease import Lease
+from server.auth.policy import POLICY, decide
+from server.hub.session import (FORBIDDEN_TRACKER_ERROR_EVERY_NS, HELLO_TIMEOUT_NS, Close, Command, ServerInfo,
+                                Session, ToLoop)
+from server.wire import codec, messages
+from server.wire.schema import CLIENT_MESSAGE_NAMES
+from tests.hub.access_fakes import (ADMIN, EXP_A, EXP_B, OBSERVER, PART_1, PART_2, SECRET, Clock, gate)
+
+SERVER = ServerInfo("viestac/test", 1000, 60.0)
+T0 = 5_000_000_000
+SCENE = {fmt: codec.encode({"type": "scene", "v": 1, "hash": "aaaa", "scene": {}}, fmt) for fmt in codec.FORMATS}
+TRACKER = {"type": "tracker", "seq": 1, "t": 0, "pos": [0, 0, 1]}
+KEY = {"type": "input", "key": "ArrowUp", "action": "press"}
+SAMPLE = {"tracker": TRACKER, "input": KEY}  # one valid message of each client type but hello
+
+
+def frame(message: dict) -> bytes:
+    return msgpack.packb(message)
+
+
+def hello(role: str = "participant", token: str | None = None) -> bytes:
+    body = {"type": "hello", "v": 1, "role": role, "client": "pytest"}
+    if token is not None:
+        body["token"] = token
+    return frame(body)
+
+
+def sent(session: Session) -> list:
+    out = []
+    while (item := session.next_frame()) is not None:
+        out.append(item if isinstance(item, Close) else codec.decode(item))
+    return out
+
+
+def kinds(items: list) -> list:
+    return [m if isinstance(m, Close) else m["type"] if m["type"] != "error" else m["code"] for m in items]
+
+
+def connect(who, role: str = "participant", lease: Lease | None = None, **kw) -> tuple[Session, Lease]:
+    g, lease = gate(lease, **kw)
+    s = Session(7, "msgpack", SERVER, T0, gate=g)
+    s.set_scene("aaaa", SCENE)
+    s.receive(hello(role, SECRET[who.token_id]), T0)
+    return s, lease
+
+
+def lease_frames(lease: Lease) -> dict:
+    return {fmt: codec.encode(messages.lease(lease.snapshot()), fmt) for fmt in codec.FORMATS}
+
+
+# ---- the token ------------------------------------------------------------------------------------
+@pytest.mark.parametrize("token", [None, "", "not-a-token", "admin-secret "])
+def test_a_hello_without_a_valid_token_is_refused_and_the_connection_closes(token):
+    g, _ = gate()
+    s = Session(7, "msgpack", SERVER, T0, gate=g)
+    s.set_scene("aaaa", SCENE)
+    assert s.receive(hello("operator", token), T0 + 1) == []
+    out = sent(s)
+    assert kinds(out) == ["unauthorized", Close(1008)]  # no welcome, no scene
+    assert s.closing and not s.welcomed and s.identity is None
+    s.offer_state(b"x", "aaaa")
+    assert s.receive(frame(TRACKER), T0 + 2) == [] and sent(s) == []
+
+
+def test_the_token_never_shows_in_an_error_or_a_repr():
+    g, _ = gate()
+    s = Session(7, "msgpack", SERVER, T0, gate=g)
+    s.receive(hello("operator", "a-guessed-secret-123"), T0)
+    assert "a-guessed-secret-123" not in repr(sent(s))
+    parsed = messages.parse_client_message(msgpack.unpackb(hello("operator", "a-guessed-secret-123")))
+    assert parsed.token == "a-guessed-secret-123" and "a-guessed-secret-123" not in repr(parsed)
+
+
+@pytest.mark.parametrize("first", [frame(TRACKER), frame(KEY), b"\xc1"])
+def test_a_first_frame_that_is_not_a_hello_is_refused(first):
+    g, _ = gate()
+    s = Session(7, "msgpack", SERVER, T0, gate=g)
+    s.set_scene("aaaa", SCENE)
+    assert s.receive(first, T0 + 1) == []
+    out = kinds(sent(s))
+    assert out[-2:] == ["unauthorized", Close(1008)] and "welcome" not in out
+    assert out[:-2] in ([], ["bad_encoding"])
+
+
+def test_no_hello_within_the_grace_period_is_refused():
+    g, _ = gate()
+    s = Session(7, "msgpack", SERVER, T0, gate=g)
+    assert s.hello_wait_s(T0) == pytest.approx(1.0)
+    assert s.hello_wait_s(T0 + HELLO_TIMEOUT_NS // 4) == pytest.approx(0.75)
+    s.hello_deadline_passed(T0 + HELLO_TIMEOUT_NS - 1)
+    assert sent(s) == []
+    s.hello_deadline_passed(T0 + HELLO_TIMEOUT_NS)
+    assert kinds(sent(s)) == ["unauthorized", Close(1008)] and s.hello_wait_s(T0 + HELLO_TIMEOUT_NS) is None
+
+
+def test_a_session_without_access_control_admits_nobody():
+    s = Session(7, "msgpack", SERVER, T0)  # the default gate fails closed
+    s.receive(hello("observer", "admin-secret"), T0)
+    assert kinds(sent(s)) == ["unauthorized", Close(1008)]
+
+
+def test_the_connection_cap_refuses_with_rate_limited_and_closes():
+    s, _ = connect(ADMIN, admit=lambda who: f"token {who.token_id} already has 256 connections open")
+    assert kinds(sent(s)) == ["rate_limited", Close(1008)] and not s.welcomed
+
+
+def test_the_policy_can_refuse_the_hello_itself(monkeypatch):
+    monkeypatch.setitem(POLICY, "ws:hello", POLICY["ws:hello"].__class__(roles=frozenset({"admin"})))
+    s, _ = connect(OBSERVER, "observer")
+    out = sent(s)
+    assert kinds(out) == ["forbidden", Close(1008)]
+
+
+# ---- the role granted -----------------------------------------------------------------------------
+# token role -> {asked: granted}; a role above what the token allows is granted the highest it allows
+GRANTS = {
+    ADMIN: {"operator": "operator", "participant": "participant", "observer": "observer"},
+    EXP_A: {"operator": "operator", "participant": "participant", "observer": "observer"},
+    PART_1: {"operator": "participant", "participant": "participant", "observer": "observer"},
+    OBSERVER: {"operator": "observer", "participant": "observer", "observer": "observer"},
+}
+
+
+@pytest.mark.parametrize("who", list(GRANTS), ids=lambda w: w.role)
+@pytest.mark.parametrize("asked", ["operator", "participant", "observer"])
+def test_the_welcome_grants_the_role_the_token_allows_and_says_who_it_is(who, asked):
+    s, _ = connect(who, asked)
+    out = sent(s)
+    granted = GRANTS[who][asked]
+    welcome = out[0]
+    assert welcome["type"] == "welcome" and welcome["role"] == granted == s.role and welcome["minor"] == 3
+    assert welcome["identity"] == {"token_id": who.token_id, "role": who.role, "site": who.site,
+                                   "session": who.session}
+    if granted == asked:
+        assert kinds(out) == ["welcome", "scene"]
+    else:  # welcomed with the allowed role plus one forbidden error
+        assert kinds(out) == ["welcome", "scene", "forbidden"] and asked in out[2]["message"]
+    assert not s.closing
+
+
+# ---- every client message type x role x lease state, against POLICY -----------------------------
+def test_every_client_message_type_has_a_policy_entry():
+    missing = [f"ws:{name}" for name in CLIENT_MESSAGE_NAMES if f"ws:{name}" not in POLICY]
+    assert not missing, f"client message types without a policy entry: {missing}"
+    assert "ws:input:operator" in POLICY
+    assert set(SAMPLE) | {"hello"} == set(CLIENT_MESSAGE_NAMES), "a new client message type needs a case here"
+
+
+def _lease_state(state: str, who) -> Lease:
+    """free | mine (who holds it) | other (EXP_B holds it) | other-open-s1 (EXP_B holds it, opened
+    participant session s-1)."""
+    lease = Lease(60.0, clock=Clock())
+    if state == "mine":
+        assert lease.request(who)["status"] == "granted"
+    elif state.startswith("other"):
+        lease.request(EXP_B)
+        if state == "other-open-s1":
+            lease.open_session(EXP_B, "s-1")
+    return lease
+
+
+# Who may send tracker/input as a participant connection (the hand-written expectation of the
+# contract: the holder's own connections, and a participant token of the session it opened).
+def _may_drive(who, state: str) -> bool:
+    if who.role in ("admin", "experimenter"):
+        return state == "mine"
+    if who.role == "participant":
+        return state == "other-open-s1" and who.session == "s-1"
+    return False
+
+
+WHO = [ADMIN, EXP_A, PART_1, PART_2, OBSERVER]
+STATES = ["free", "mine", "other", "other-open-s1"]
+# every token role x lease state that can occur (participant and observer tokens never hold the lease)
+CASES = [pytest.param(who, state, id=f"{who.role}-{who.token_id}-{state}") for who in WHO for state in STATES
+         if not (state == "mine" and who.role in ("participant", "observer"))]
+
+
+@pytest.mark.parametrize("kind", sorted(SAMPLE))
+@pytest.mark.parametrize("who, state", CASES)
+def test_each_message_is_allowed_exactly_when_the_policy_and_the_lease_say_so(kind, who, state):
+    lease = _lease_state(state, who)
+    s, _ = connect(who, "participant", lease)
+    sent(s)
+    allowed_by_policy = decide(POLICY[f"ws:{kind}"], who, lease) is None
+    expected = _may_drive(who, state) and s.role != "observer"
+    assert allowed_by_policy == _may_drive(who, state), "POLICY disagrees with the contract's drive rule"
+    events = s.receive(frame(SAMPLE[kind]), T0 + 10)
+    if expected:
+        assert len(events) == 1 and sent(s) == []
+        assert isinstance(events[0], ToLoop if kind == "tracker" else Command)
+    else:
+        assert events == []
+        (error,) = sent(s)
+        assert error["code"] == "forbidden"
+
+
+@pytest.mark.parametrize("who, state", CASES)
+def test_experimenter_commands_need_an_operator_connection_of_the_lease_holder(who, state):
+    lease = _lease_state(state, who)
+    s, _ = connect(who, "operator", lease)
+    allowed = s.refusal("input:operator") is None
+    assert allowed == (who.role in ("admin", "experimenter") and state == "mine")
+    assert allowed == (s.role == "operator" and decide(POLICY["ws:input:operator"], who, lease) is None)
+
+
+def test_an_observer_connection_of_the_holder_may_not_send():
+    lease = _lease_state("mine", ADMIN)
+    s, _ = connect(ADMIN, "observer", lease)
+    sent(s)
+    for kind in sorted(SAMPLE):
+        assert s.receive(frame(SAMPLE[kind]), T0 + 1) == []
+        assert [m["code"] for m in sent(s)] == ["forbidden"]
+
+
+def test_refused_tracker_samples_get_one_error_a_second():
+    s, _ = connect(PART_2, "participant", _lease_state("other-open-s1", PART_2))
+    sent(s)
+    for i in range(1000):  # a 1 kHz stream for one second
+        assert s.receive(frame({**TRACKER, "seq": i}), T0 + 10 + i * 1_000_000) == []
+    assert [m["code"] for m in sent(s)] == ["forbidden"] and s.errors == 1000
+    s.receive(frame(TRACKER), T0 + 10 + FORBIDDEN_TRACKER_ERROR_EVERY_NS)
+    assert [m["code"] for m in sent(s)] == ["forbidden"]
+
+
+# ---- the lease message and losing the right to drive ------------------------------------------------
+def test_the_lease_message_follows_welcome_scene_and_health_and_every_change():
+    lease = _lease_state("mine", EXP_A)
+    g, _ = gate(lease)
+    s = Session(7, "msgpack", SERVER, T0, gate=g)
+    s.set_scene("aaaa", SCENE)
+    s.set_health({fmt: codec.encode(messages.health("ok", []), fmt) for fmt in codec.FORMATS})
+    s.set_lease(lease_frames(lease))
+    assert sent(s) == []  # nothing before the welcome
+    s.receive(hello("operator", SECRET[EXP_A.token_id]), T0)
+    out = sent(s)
+    assert kinds(out) == ["welcome", "scene", "health", "lease"]
+    assert out[3]["holder"]["token_id"] == EXP_A.token_id and out[3]["queue"] == []
+    lease.request(EXP_B)
+    s.set_lease(lease_frames(lease))
+    lease.open_session(EXP_A, "s-1")
+    s.set_lease(lease_frames(lease))  # supersedes the one not yet sent
+    (latest,) = sent(s)
+    assert latest["type"] == "lease" and latest["session"] == "s-1"
+    assert [q["token_id"] for q in latest["queue"]] == [EXP_B.token_id]
+
+
+def test_a_driver_that_loses_the_lease_leaves_the_hip_once():
+    lease = _lease_state("mine", EXP_A)
+    s, _ = connect(EXP_A, "participant", lease)
+    watcher, _ = connect(EXP_A, "participant", lease)  # holds the same right, never drove
+    assert len(s.receive(frame(TRACKER), T0 + 1)) == 1
+    assert s.set_lease(lease_frames(lease)) == []  # still the holder: nothing changes
+    lease.release(EXP_A)
+    assert s.set_lease(lease_frames(lease)) == [ToLoop(["tracker_gone", 7])]
+    assert watcher.set_lease(lease_frames(lease)) == []
+    assert s.set_lease(lease_frames(lease)) == []  # once
+    assert s.receive(frame(TRACKER), T0 + 2) == []  # and its samples are refused now
+
+
+def test_a_participant_of_a_session_that_is_no_longer_open_leaves_the_hip():
+    lease = _lease_state("other-open-s1", PART_1)
+    s, _ = connect(PART_1, "participant", lease)
+    assert len(s.receive(frame(TRACKER), T0 + 1)) == 1
+    lease.open_session(EXP_B, "s-2")
+    assert s.set_lease(lease_frames(lease)) == [ToLoop(["tracker_gone", 7])]
+    other, _ = connect(PART_2, "participant", lease)
+    assert len(other.receive(frame(TRACKER), T0 + 2)) == 1
