@@ -291,7 +291,7 @@ const invalidFile = loadVectors('invalid.json');
 
 describe('the declaration drives the checks (src/schema.js)', () => {
   test('every message type is declared and has vectors of its direction', () => {
-    assert.deepStrictEqual([...P.MESSAGE_TYPES], ['hello', 'tracker', 'input', 'welcome', 'scene', 'state', 'error', 'health']);
+    assert.deepStrictEqual([...P.MESSAGE_TYPES], ['hello', 'tracker', 'input', 'welcome', 'scene', 'state', 'error', 'health', 'lease']);
     for (const m of P.SCHEMA.messages) {
       const vectors = messageFile.vectors.filter((v) => v.type === m.name);
       assert.ok(vectors.length > 0, `no vector for ${m.name}`);
