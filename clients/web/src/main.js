@@ -117,9 +117,9 @@ async function main() {
     updateWaiting();
   };
   conn.onUnauthorized = (why) => {
-    showWaiting(opts.role === 'participant'
+    showWaiting(joinError ?? (opts.role === 'participant'
       ? `This page is not admitted (${why}). Open the join link the experimenter gives you.`
-      : `Not logged in (${why}). Log in at the console (console.html), then reload.`);
+      : `Not logged in (${why}). Log in at the console (console.html), then reload.`));
   };
   conn.onScene = (m) => {
     view.build(m.scene, m.hash);

@@ -1,4 +1,4 @@
-// ViESTac wire protocol v1.2: pure codec, message builders, validation and frame conversions.
+// ViESTac wire protocol v1.3: pure codec, message builders, validation and frame conversions.
 // No DOM, no WebSocket, no clock: everything here is a function of its arguments, so the same
 // module runs in the browser and under `node --test` against tests/vectors/ (docs/protocol.md).
 // Every message is declared once, on the server (server/wire/schema.py); schema.js is generated
