@@ -40,3 +40,36 @@ def browser():
             yield b
         finally:
             b.close()
+
+
+# -- access (issue 19): pages log in with the harness's admin token --------------------------------
+
+TOKEN_KEY = "viestac.token"  # clients/web/src/auth.js TOKEN_KEY
+
+
+def admin_token(base_url: str) -> str | None:
+    """The admin token the harness (server.bench.loop_bench.start_server) gave that server."""
+    from server.bench import loop_bench
+
+    find = getattr(loop_bench, "admin_token", None)
+    return find(base_url) if find else None
+
+
+def auth_header(base_url: str) -> dict[str, str]:
+    token = admin_token(base_url)
+    return {"Authorization": f"Bearer {token}"} if token else {}
+
+
+def log_in(ctx, token: str | None) -> None:
+    """Every page of `ctx` (and its iframes) starts with `token` as the console's token, as if
+    logged in through a login link."""
+    if token:
+        ctx.add_init_script(f"try {{ localStorage.setItem({TOKEN_KEY!r}, {token!r}); }} catch (e) {{}}")
+
+
+def new_context(browser, base_url: str, *, token: str | None | bool = True, **kwargs):
+    """A browser context logged in as the harness's admin of `base_url` (token=True), as a given
+    token, or not at all (token=None)."""
+    ctx = browser.new_context(**kwargs)
+    log_in(ctx, admin_token(base_url) if token is True else token)
+    return ctx

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from server.bench.loop_bench import start_server, stop_server
-from tests.browser.conftest import ARTIFACTS, require_web_deps
+from tests.browser.conftest import ARTIFACTS, auth_header, new_context, require_web_deps
 from tests.browser.test_web_client import READY_TIMEOUT_MS, VIEWPORT, Client, wait_for
 from tests.conftest import LiveServer
 
@@ -82,8 +82,9 @@ def open_page(browser):
     require_web_deps()  # the participant's view in the console imports three.js
     contexts = []
 
-    def make(viewport=CONSOLE_VIEWPORT):
-        ctx = browser.new_context(viewport=viewport)
+    def make(viewport=CONSOLE_VIEWPORT, server: LiveServer | None = None, token=True):
+        ctx = new_context(browser, server.http_url, token=token, viewport=viewport) if server \
+            else browser.new_context(viewport=viewport)
         contexts.append(ctx)
         return ctx.new_page()
 
@@ -121,7 +122,7 @@ def touch_the_dome(participant: Client, seconds: float) -> None:
 
 def test_console_runs_a_session(open_page, console_server):
     server = console_server
-    console = Console(open_page(), server).open()
+    console = Console(open_page(server=server), server).open()
     page = console.page
 
     # the studies: the shipped one usable, the broken file listed with its error
@@ -158,7 +159,7 @@ def test_console_runs_a_session(open_page, console_server):
     page.click("#setup > summary")
 
     # the participant's page, sending the HIP; it must never ask for sessions, studies or answers
-    participant_page = open_page(VIEWPORT)
+    participant_page = open_page(VIEWPORT, server=server)
     participant_urls: list[str] = []
     participant_page.on("request", lambda r: participant_urls.append(r.url))
     participant = Client(participant_page, server).open()
@@ -215,7 +216,7 @@ def test_console_runs_a_session(open_page, console_server):
     page.evaluate("window.__console.pause(true)")
     token = page.evaluate(f"sessionStorage.getItem('viestac.console.token.{sid}')")
     req = urllib.request.Request(f"{server.http_url}/api/sessions/{sid}/trials/2/start", method="POST",
-                                 headers={"X-Control-Token": token})
+                                 headers={"X-Control-Token": token, **auth_header(server.http_url)})
     urllib.request.urlopen(req, timeout=5).read()
     page.click("#start")  # the page still thinks trial 2 is next
     console.wait_text("#run-msg", "Not possible now")
@@ -245,7 +246,7 @@ def test_console_runs_a_session(open_page, console_server):
     assert view["running"] is None and view["next"] == 3
 
     # a second console takes control: the first one shows that it lost it
-    other = Console(open_page(), server).open(f"#session={sid}")
+    other = Console(open_page(server=server), server).open(f"#session={sid}")
     other.wait_state(f"s.sessionId === '{sid}' && s.control === 'none'")
     assert other.page.is_visible("#take-control") and other.page.is_disabled("#start")
     other.page.fill("#experimenter", "bob")
@@ -272,7 +273,7 @@ def test_finish_checks_the_answers_against_the_session_read_after_saving_them(op
     save (which has no answer, while the typed draft is gone once saved): every session read is
     made slower than the 2 s refresh period here, so one always overtakes it."""
     server = console_server
-    console = Console(open_page(), server).open()
+    console = Console(open_page(server=server), server).open()
     page = console.page
     page.fill("#experimenter", "alice")
     page.fill("#participant", "P43")

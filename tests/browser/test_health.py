@@ -11,7 +11,7 @@ import signal
 
 import pytest
 
-from tests.browser.conftest import ARTIFACTS, require_web_deps
+from tests.browser.conftest import ARTIFACTS, new_context, require_web_deps
 from tests.browser.test_console import CONSOLE_VIEWPORT, Console
 from tests.browser.test_web_client import VIEWPORT, Client
 
@@ -38,8 +38,8 @@ def wait_visible(page, selector: str, shown: bool, timeout_ms: int = 10_000) -> 
 def test_console_banner_and_participant_line_follow_health(browser, server):
     require_web_deps()
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    console_ctx = browser.new_context(viewport=CONSOLE_VIEWPORT)
-    participant_ctx = browser.new_context(viewport=VIEWPORT)
+    console_ctx = new_context(browser, server.http_url, viewport=CONSOLE_VIEWPORT)
+    participant_ctx = new_context(browser, server.http_url, viewport=VIEWPORT)
     try:
         console = Console(console_ctx.new_page(), server).open()
         participant = Client(participant_ctx.new_page(), server).open("?role=participant")

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from server.bench.loop_bench import get_json, start_server, stop_server
-from tests.browser.conftest import ARTIFACTS, require_web_deps
+from tests.browser.conftest import ARTIFACTS, auth_header, new_context, require_web_deps
 from tests.conftest import LiveServer
 
 pytestmark = pytest.mark.browser
@@ -89,9 +89,10 @@ def open_client(browser, live_server):
     contexts = []
 
     def make(query: str = "", server: LiveServer | None = None) -> Client:
-        ctx = browser.new_context(viewport=VIEWPORT)
+        server = server or live_server
+        ctx = new_context(browser, server.http_url, viewport=VIEWPORT)
         contexts.append(ctx)
-        return Client(ctx.new_page(), server or live_server).open(query)
+        return Client(ctx.new_page(), server).open(query)
 
     yield make
     for ctx in contexts:
@@ -102,7 +103,8 @@ def open_client(browser, live_server):
 
 
 def api_clients(server) -> list[dict]:
-    with urllib.request.urlopen(f"{server.http_url}/api/clients", timeout=5) as r:
+    req = urllib.request.Request(f"{server.http_url}/api/clients", headers=auth_header(server.http_url))
+    with urllib.request.urlopen(req, timeout=5) as r:
         return json.load(r)
 
 

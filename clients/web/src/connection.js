@@ -1,6 +1,8 @@
 // WebSocket adapter: turns socket events into protocol messages and back. No rendering, no
 // scenario logic. Reconnects with capped exponential backoff; the tracker path drops samples
-// instead of queueing them when the link is slow (ws.bufferedAmount > 0).
+// instead of queueing them when the link is slow (ws.bufferedAmount > 0). The access token goes
+// in `hello.token` (never in the URL); a server that refuses it (error `unauthorized`, close 1008)
+// is not retried until the page has a new token (`setToken`).
 
 import * as protocol from './protocol.js';
 
@@ -13,6 +15,7 @@ export class Connection {
    * @param {string} [opts.role]         participant | operator | observer
    * @param {string} [opts.client]       free-form client name sent in hello
    * @param {string} [opts.format]       'msgpack' (default) or 'json'
+   * @param {string|Function} [opts.token] access token, or a function returning the current one
    * @param {Function} [opts.WebSocket]  WebSocket constructor (tests inject a fake)
    * @param {Function} [opts.now]        clock in ms for tracker timestamps
    * @param {number} [opts.backoffMinMs] first reconnect delay
@@ -23,6 +26,7 @@ export class Connection {
     this.role = opts.role ?? 'participant';
     this.client = opts.client ?? 'viestac-web/0.1';
     this.format = opts.format ?? 'msgpack';
+    this.token = opts.token ?? null;
     this.WebSocket = opts.WebSocket ?? globalThis.WebSocket;
     this.now = opts.now ?? (() => performance.timeOrigin + performance.now());
     this.backoffMinMs = opts.backoffMinMs ?? 250;
@@ -32,6 +36,8 @@ export class Connection {
     this.onScene = noop;
     this.onState = noop;
     this.onHealth = noop; // the server's health: {status, reasons: [{code, message}]}
+    this.onLease = noop; // the control lease: {holder, queue, session, ttl_s} (protocol v1.3)
+    this.onUnauthorized = noop; // (message): the token was refused; connect() again with a new one
     this.onError = noop; // (ProtocolError-like {code, message}, source: 'server' | 'client')
     this.onStatus = noop; // (status string, detail string)
 
@@ -44,6 +50,23 @@ export class Connection {
     this.retryTimer = null;
     this.closedByUser = false;
     this.status = 'idle';
+    this.unauthorized = null; // the server's reason once it refused the token
+  }
+
+  /** The token hello carries (a function is asked at each connect, so a new login applies). */
+  currentToken() {
+    const t = typeof this.token === 'function' ? this.token() : this.token;
+    return t || null;
+  }
+
+  /** A new token (after a log-in): reconnect with it if the old one was refused. */
+  setToken(token) {
+    this.token = token;
+    if (this.unauthorized !== null) {
+      this.unauthorized = null;
+      this.attempt = 0;
+      this.connect();
+    }
   }
 
   connect() {
@@ -126,7 +149,7 @@ export class Connection {
     else if (ws.protocol === protocol.SUBPROTOCOLS.msgpack) this.format = 'msgpack';
     this._setStatus('open', this.url);
     // Observers may skip hello, but sending it states the protocol version explicitly.
-    this._send(protocol.hello(this.role, this.client));
+    this._send(protocol.hello(this.role, this.client, this.currentToken()));
   }
 
   _onMessage(ws, data) {
@@ -154,7 +177,11 @@ export class Connection {
       case 'health':
         this.onHealth(msg);
         break;
+      case 'lease':
+        this.onLease(msg);
+        break;
       case 'error':
+        if (msg.code === 'unauthorized') this.unauthorized = msg.message ?? 'unauthorized';
         this.onError(msg, 'server');
         break;
       default:
@@ -167,6 +194,13 @@ export class Connection {
     this.ws = null;
     this.welcome = null;
     if (this.closedByUser) return;
+    if (this.unauthorized !== null || (ev.code === 1008 && /unauthori[sz]ed/i.test(ev.reason ?? ''))) {
+      // The same token would be refused again: wait for setToken().
+      this.unauthorized = this.unauthorized ?? (ev.reason || 'unauthorized');
+      this._setStatus('unauthorized', this.unauthorized);
+      this.onUnauthorized(this.unauthorized);
+      return;
+    }
     if (ev.code === 1002) {
       // unsupported_version: retrying cannot help.
       this._setStatus('failed', `server closed: protocol error (${ev.reason || 1002})`);

@@ -2,6 +2,8 @@
 // operator panel together.
 // URL query: ?ws=ws://host:port/ws  ?role=participant|operator|observer  ?format=msgpack|json
 //            ?depth_step=0.02 (scene units per wheel notch / PageUp/PageDown)
+// URL fragment: #join=CODE (a participant join link) or #login=CODE, exchanged for a token at
+// once and removed from the address bar (auth.js); the token goes in hello.
 
 import { Connection } from './connection.js';
 import { SceneView } from './scene_view.js';
@@ -10,6 +12,8 @@ import { ViewOrbit } from './orbit.js';
 import { Hud } from './hud.js';
 import { OperatorPanel, httpBase } from './operator_panel.js';
 import { ROLES } from './protocol.js';
+import { TokenStore, redeemFragment, authHeaders } from './auth.js';
+import { waitingState } from './waiting.js';
 
 const CLIENT_NAME = 'viestac-web/0.1';
 
@@ -26,8 +30,16 @@ function options(search) {
   };
 }
 
-function main() {
+async function main() {
   const opts = options(location.search);
+  const store = new TokenStore();
+  const waitingEl = document.getElementById('waiting');
+  let joinError = null;
+  try {
+    await redeemFragment(store, { base: httpBase(opts.url) });
+  } catch (e) {
+    joinError = e.message;
+  }
   const canvas = document.getElementById('view');
   const hud = new Hud({
     hud: document.getElementById('hud'),
@@ -40,7 +52,8 @@ function main() {
 
   const stats = { framesReceived: 0, trackerSent: 0, trackerDropped: 0, lastStateFrame: null, lastError: null };
   const view = new SceneView(canvas);
-  const conn = new Connection({ url: opts.url, role: opts.role, format: opts.format, client: CLIENT_NAME });
+  const conn = new Connection({ url: opts.url, role: opts.role, format: opts.format, client: CLIENT_NAME,
+    token: () => store.forRole(opts.role) });
   const orbit = new ViewOrbit(canvas, view); // perspective scenes only; purely local, every role
   const pointer = new PointerInput({ element: canvas, view, depthStep: opts.depthStep,
     ignoreWheel: (e) => orbit.takesWheel(e) });
@@ -63,6 +76,9 @@ function main() {
     sceneHash: null,
     renderedHash: null, // hash of the scene last drawn
     health: null, // the server's last `health` message
+    identity: null, // welcome.identity: {token_id, role, site, session}
+    lease: null, // the last `lease` message
+    waiting: () => waiting.waiting,
     stats,
     renderer: view.rendererInfo(),
     memory: () => ({ ...view.renderer.info.memory }),
@@ -91,7 +107,19 @@ function main() {
   };
   conn.onWelcome = (w) => {
     hook.clientId = w.client_id;
+    hook.identity = w.identity ?? null;
     showStatus();
+    updateWaiting();
+  };
+  conn.onLease = (l) => {
+    hook.lease = l;
+    leaseAt = performance.now();
+    updateWaiting();
+  };
+  conn.onUnauthorized = (why) => {
+    showWaiting(joinError ?? (opts.role === 'participant'
+      ? `This page is not admitted (${why}). Open the join link the experimenter gives you.`
+      : `Not logged in (${why}). Log in at the console (console.html), then reload.`));
   };
   conn.onScene = (m) => {
     view.build(m.scene, m.hash);
@@ -120,18 +148,40 @@ function main() {
   };
   conn.onError = (e, source) => {
     stats.lastError = { code: e.code, message: e.message, source };
+    if (e.code === 'forbidden' && source === 'server') {
+      forbiddenAt = performance.now();
+      updateWaiting();
+    }
     console.warn(`viestac ${source} error ${e.code}: ${e.message}`);
     showStatus();
   };
 
   window.addEventListener('resize', () => view.resize());
 
+  // "Waiting for the experimenter": shown while this page may not drive the HIP.
+  let forbiddenAt = -Infinity;
+  let leaseAt = -Infinity;
+  let waiting = { waiting: false, reason: '' };
+  function showWaiting(text) {
+    if (!waitingEl) return;
+    waitingEl.hidden = !text;
+    waitingEl.textContent = text ?? '';
+  }
+  function updateWaiting() {
+    waiting = waitingState({ role: conn.welcome?.role ?? opts.role, identity: hook.identity, lease: hook.lease,
+      leaseAt, forbiddenAt, nowMs: performance.now() });
+    if (conn.status === 'unauthorized' || (joinError && !hook.identity)) return; // that message stays
+    showWaiting(waiting.waiting ? waiting.reason : '');
+  }
+  setInterval(updateWaiting, 1000); // a refusal that stopped coming no longer holds the page
+  if (joinError) showWaiting(joinError);
+
   const api = httpBase(opts.url);
   let panelRequests = 0;
   async function refreshPanel() {
     const n = ++panelRequests;
     try {
-      const r = await fetch(`${api}/api/scenario`);
+      const r = await fetch(`${api}/api/scenario`, { headers: authHeaders(store.forRole(opts.role)) });
       if (!r.ok) throw new Error(`GET /api/scenario: HTTP ${r.status}`);
       const body = await r.json();
       if (n !== panelRequests) return; // a newer scene came in meanwhile

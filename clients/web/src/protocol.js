@@ -1,4 +1,4 @@
-// ViESTac wire protocol v1.2: pure codec, message builders, validation and frame conversions.
+// ViESTac wire protocol v1.3: pure codec, message builders, validation and frame conversions.
 // No DOM, no WebSocket, no clock: everything here is a function of its arguments, so the same
 // module runs in the browser and under `node --test` against tests/vectors/ (docs/protocol.md).
 // Every message is declared once, on the server (server/wire/schema.py); schema.js is generated
@@ -19,6 +19,7 @@ function deepFreeze(value) {
 export const SCHEMA = deepFreeze(DECLARED);
 const DECLARATIONS = Object.fromEntries(SCHEMA.messages.map((m) => [m.name, m]));
 const declaredType = (message, field) => DECLARATIONS[message].fields.find((f) => f.name === field).type;
+const declares = (message, field) => DECLARATIONS[message]?.fields.some((f) => f.name === field) ?? false;
 
 export const PROTOCOL_VERSION = SCHEMA.protocol.v;
 export const PROTOCOL_MINOR = SCHEMA.protocol.minor;
@@ -28,6 +29,8 @@ export const FORMATS = declaredType('welcome', 'format').values;
 export const ROLES = declaredType('hello', 'role').values;
 export const INPUT_ACTIONS = declaredType('input', 'action').values;
 export const MAX_CLIENT_NAME = declaredType('hello', 'client').max_len;
+// longest `hello.token` (protocol v1.3; the bound the server enforces)
+export const MAX_TOKEN = declares('hello', 'token') ? declaredType('hello', 'token').max_len : 200;
 export const MAX_KEY_NAME = declaredType('input', 'key').max_len;
 // longest string `input.value`
 export const MAX_INPUT_TEXT = declaredType('input', 'value').types.find((t) => t.kind === 'string').max_len;
@@ -150,11 +153,21 @@ function checked(message, field, value) {
   return value;
 }
 
-/** `hello`: the first message of a participant/operator connection. */
-export function hello(role = 'participant', client = 'viestac-web/0.1') {
-  return {
+/**
+ * `hello`: the first message of a connection. `token` (the page's access token, docs/security.md)
+ * is sent only when given; it never goes into a URL.
+ */
+export function hello(role = 'participant', client = 'viestac-web/0.1', token = null) {
+  const msg = {
     type: 'hello', v: PROTOCOL_VERSION, role: checked('hello', 'role', role), client: checked('hello', 'client', client),
   };
+  if (token != null) {
+    if (typeof token !== 'string' || !token || token.length > MAX_TOKEN) {
+      throw new ProtocolError('bad_message', `token must be a string of 1 to ${MAX_TOKEN} characters`);
+    }
+    msg.token = token;
+  }
+  return msg;
 }
 
 /**

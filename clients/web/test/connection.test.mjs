@@ -187,3 +187,85 @@ test('the role in welcome decides whether the client may send', () => {
   assert.equal(c.sendTracker([0, 0, 0]), false);
   assert.equal(c.sendInput('r', 'down'), false);
 });
+
+describe('access token', () => {
+  beforeEach(() => { FakeSocket.instances = []; mock.timers.enable({ apis: ['setTimeout'] }); });
+  afterEach(() => mock.timers.reset());
+
+  test('hello carries the token; a function is asked at each connect', () => {
+    let token = 'first';
+    const { c } = make({ role: 'operator', client: 'test/1', token: () => token });
+    c.connect();
+    FakeSocket.instances[0].open();
+    assert.deepStrictEqual(FakeSocket.instances[0].decoded(),
+      [{ type: 'hello', v: 1, role: 'operator', client: 'test/1', token: 'first' }]);
+    token = 'second';
+    FakeSocket.instances[0].drop();
+    mock.timers.tick(1000);
+    FakeSocket.instances[1].open();
+    assert.equal(FakeSocket.instances[1].decoded()[0].token, 'second');
+    assert.ok(!FakeSocket.instances[1].url.includes('second')); // never in the URL
+  });
+
+  test('no token: hello without one', () => {
+    const { c } = make({ role: 'observer' });
+    c.connect();
+    FakeSocket.instances[0].open();
+    assert.ok(!('token' in FakeSocket.instances[0].decoded()[0]));
+  });
+
+  test('a refused token (close 1008 unauthorized) is not retried until setToken', () => {
+    const { c } = make({ token: 'bad' });
+    const why = [];
+    c.onUnauthorized = (w) => why.push(w);
+    c.connect();
+    const ws = FakeSocket.instances[0];
+    ws.open();
+    ws.readyState = 3;
+    ws.onclose({ code: 1008, reason: 'unauthorized: unknown token' });
+    assert.equal(c.status, 'unauthorized');
+    assert.deepStrictEqual(why, ['unauthorized: unknown token']);
+    mock.timers.tick(20000);
+    assert.equal(FakeSocket.instances.length, 1);
+    c.setToken('good');
+    assert.equal(FakeSocket.instances.length, 2);
+    FakeSocket.instances[1].open();
+    assert.equal(FakeSocket.instances[1].decoded()[0].token, 'good');
+  });
+
+  test('another 1008 (e.g. too many connections) is retried with backoff', () => {
+    const { c } = make({ token: 'ok' });
+    c.connect();
+    const ws = FakeSocket.instances[0];
+    ws.readyState = 3;
+    ws.onclose({ code: 1008, reason: 'rate_limited' });
+    assert.equal(c.status, 'reconnecting');
+    mock.timers.tick(1000);
+    assert.equal(FakeSocket.instances.length, 2);
+  });
+
+  test('the unauthorized error marks the connection before the close', { skip: !P.ERROR_CODES.includes('unauthorized') }, () => {
+    const { c, seen } = make({ token: 'bad' });
+    c.connect();
+    const ws = FakeSocket.instances[0];
+    ws.open();
+    ws.receive({ type: 'error', code: 'unauthorized', message: 'unknown token' });
+    assert.deepStrictEqual(seen.error, [{ code: 'unauthorized', src: 'server' }]);
+    ws.drop(1008);
+    assert.equal(c.status, 'unauthorized');
+    mock.timers.tick(20000);
+    assert.equal(FakeSocket.instances.length, 1);
+  });
+
+  test('lease messages reach onLease', { skip: !P.MESSAGE_TYPES.includes('lease') }, () => {
+    const { c } = make();
+    const leases = [];
+    c.onLease = (l) => leases.push(l);
+    c.connect();
+    const ws = FakeSocket.instances[0];
+    ws.open();
+    ws.receive({ type: 'lease', holder: null, queue: [], session: null, ttl_s: 60 });
+    assert.equal(leases.length, 1);
+    assert.equal(leases[0].ttl_s, 60);
+  });
+});

@@ -135,3 +135,57 @@ describe('clockOffset', () => {
     }
   });
 });
+
+describe('access', () => {
+  test('every request carries the bearer token; a 401 calls onUnauthorized', async () => {
+    let token = 'adm';
+    const { fetch, calls } = fakeFetch({
+      'GET /api/studies': [200, []],
+      'POST /api/lease': [200, { status: 'queued', position: 2, lease: {} }],
+      'GET /api/auth/me': [401, { detail: 'invalid token' }],
+    });
+    const api = new Api({ fetch, storage: new MemoryStorage(), bearer: () => token });
+    const refusals = [];
+    api.onUnauthorized = (e) => refusals.push(e.status);
+    await api.studies();
+    assert.equal(calls[0].headers.Authorization, 'Bearer adm');
+    token = 'other';
+    assert.deepEqual(await api.requestLease(), { status: 'queued', position: 2, lease: {} });
+    assert.equal(calls[1].headers.Authorization, 'Bearer other');
+    await assert.rejects(api.me(), (e) => e.status === 401 && /^Not logged in: invalid token/.test(e.message));
+    assert.deepEqual(refusals, [401]);
+    token = null;
+    await api.studies();
+    assert.ok(!('Authorization' in calls[3].headers));
+  });
+
+  test('lease, join link and audit routes', async () => {
+    const { fetch, calls } = fakeFetch({
+      'DELETE /api/lease': [200, {}],
+      'POST /api/lease/handover': [200, {}],
+      'POST /api/lease/force-release': [200, {}],
+      'POST /api/lease/renew': [200, {}],
+      'POST /api/join-links': [200, { url: 'http://h/index.html?role=participant#join=c', session: 'free-1' }],
+      'GET /api/audit*': [200, []],
+    });
+    const api = new Api({ fetch, storage: new MemoryStorage(), bearer: () => 't' });
+    await api.releaseLease();
+    await api.handOver('bbbb0002');
+    await api.forceRelease();
+    await api.renewLease();
+    await api.joinLink('s1');
+    await api.joinLink();
+    await api.audit({ sessionId: 's1', limit: 5 });
+    assert.deepEqual(calls.map((c) => `${c.method} ${c.url}`), [
+      'DELETE /api/lease', 'POST /api/lease/handover', 'POST /api/lease/force-release', 'POST /api/lease/renew',
+      'POST /api/join-links', 'POST /api/join-links', 'GET /api/audit?session_id=s1&limit=5']);
+    assert.deepEqual(JSON.parse(calls[1].body), { token_id: 'bbbb0002' });
+    assert.deepEqual(JSON.parse(calls[4].body), { session_id: 's1' });
+    assert.deepEqual(JSON.parse(calls[5].body), { session_id: null });
+  });
+
+  test('429 and 401 in plain words', () => {
+    assert.match(errorText(429, ''), /^Too many requests/);
+    assert.match(errorText(401, ''), /log in with a token/);
+  });
+});

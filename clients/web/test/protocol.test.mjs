@@ -24,7 +24,7 @@ const unhex = (s) => new Uint8Array(Buffer.from(s, 'hex'));
 /** Build a client → server message with the builders, from a vector's message. */
 function build(msg) {
   switch (msg.type) {
-    case 'hello': return P.hello(msg.role, msg.client);
+    case 'hello': return P.hello(msg.role, msg.client, msg.token ?? null);
     case 'tracker': return P.tracker(msg.seq, msg.t, msg.pos, msg.quat ?? null);
     case 'input': return P.input(msg.key, msg.action, msg.value);
     default: throw new Error(`no builder for ${msg.type}`);
@@ -112,6 +112,15 @@ describe('builders', () => {
     assert.deepStrictEqual(Object.keys(P.tracker(0, 1, [1, 2, 3], [1, 0, 0, 0])), ['type', 'seq', 't', 'pos', 'quat']);
     assert.deepStrictEqual(Object.keys(P.input('r', 'down')), ['type', 'key', 'action']);
     assert.deepStrictEqual(Object.keys(P.input('tap_angle', 'press', -30)), ['type', 'key', 'action', 'value']);
+  });
+  test('hello carries the access token only when given, bounded', () => {
+    assert.ok(!('token' in P.hello('observer', 'x')));
+    assert.ok(!('token' in P.hello('observer', 'x', null)));
+    assert.equal(P.hello('operator', 'x', 'tok_-1').token, 'tok_-1');
+    assert.equal(P.hello('operator', 'x', 't'.repeat(P.MAX_TOKEN)).token.length, P.MAX_TOKEN);
+    assert.throws(() => P.hello('operator', 'x', 't'.repeat(P.MAX_TOKEN + 1)), { code: 'bad_message' });
+    assert.throws(() => P.hello('operator', 'x', ''), { code: 'bad_message' });
+    assert.throws(() => P.hello('operator', 'x', 42), { code: 'bad_message' });
   });
   test('input value: number, bool or string when given, omitted otherwise', () => {
     assert.ok(!('value' in P.input('release', 'press')));
@@ -282,14 +291,14 @@ const invalidFile = loadVectors('invalid.json');
 
 describe('the declaration drives the checks (src/schema.js)', () => {
   test('every message type is declared and has vectors of its direction', () => {
-    assert.deepStrictEqual([...P.MESSAGE_TYPES], ['hello', 'tracker', 'input', 'welcome', 'scene', 'state', 'error', 'health']);
+    assert.deepStrictEqual([...P.MESSAGE_TYPES], ['hello', 'tracker', 'input', 'welcome', 'scene', 'state', 'error', 'health', 'lease']);
     for (const m of P.SCHEMA.messages) {
       const vectors = messageFile.vectors.filter((v) => v.type === m.name);
       assert.ok(vectors.length > 0, `no vector for ${m.name}`);
       vectors.forEach((v) => assert.equal(v.direction, m.direction, v.name));
       for (const f of m.fields) assert.ok(vectors.some((v) => f.name in v.message), `no vector has ${m.name}.${f.name}`);
     }
-    assert.equal(P.PROTOCOL_MINOR, 2);
+    assert.equal(P.PROTOCOL_MINOR, 3);
   });
   test('constants come from the declaration', () => {
     assert.deepStrictEqual([...P.ROLES], ['participant', 'operator', 'observer']);

@@ -1,10 +1,14 @@
 // REST client of the experimenter console: the experiment API (server/api/experiment_routes.py)
-// with the session's control token in `X-Control-Token`, kept in sessionStorage per session (a
-// reload of this tab keeps control; another tab or browser is another console).
+// and the access API (identity, control lease, join links, audit; server/api/access_routes.py).
+// Every request carries `Authorization: Bearer` with the console's access token (auth.js); a 401
+// calls `onUnauthorized` so the page can ask for a log-in. A session's control token, where the
+// server still hands one out, goes in `X-Control-Token`, kept in sessionStorage per session.
 //
 // Errors become ApiError with the HTTP status and a sentence for a person (errorText), so the
 // page can show them next to the button that caused them. Pure except for `fetch` and the
 // storage, both injected (tests pass fakes).
+
+import { authHeaders } from '../auth.js';
 
 export const TOKEN_PREFIX = 'viestac.console.token.';
 
@@ -36,10 +40,12 @@ export function errorText(status, detail) {
   const why = detailText(detail);
   switch (status) {
     case 0: return `The server did not answer${why ? ` (${why})` : ''}. Check the connection and try again.`;
-    case 403: return `This console does not control the session: ${why || 'take control first'}.`;
+    case 401: return `Not logged in: ${why || 'log in with a token'}.`;
+    case 403: return `Not allowed: ${why || 'this needs the control lease or another role'}.`;
     case 404: return `Not found: ${why || 'no such study, session or trial'}.`;
     case 409: return `Not possible now: ${why || 'the session changed meanwhile'}. The queue has been refreshed.`;
     case 422: return `Not accepted: ${why || 'the input does not fit'}.`;
+    case 429: return `Too many requests: ${why || 'wait a moment and try again'}.`;
     case 503: return `The server is busy: ${why || 'try again in a moment'}.`;
     default: return `Server error ${status}${why ? `: ${why}` : ''}.`;
   }
@@ -64,12 +70,15 @@ export class Api {
    * @param {object} [opts]
    * @param {string} [opts.base]     HTTP origin of the server ('' = this page's)
    * @param {Function} [opts.fetch]  fetch implementation
-   * @param {Storage} [opts.storage] where tokens live (sessionStorage)
+   * @param {Storage} [opts.storage] where session control tokens live (sessionStorage)
+   * @param {Function} [opts.bearer] () → the access token (auth.js TokenStore), or null
    */
   constructor(opts = {}) {
     this.base = opts.base ?? '';
     this.fetch = opts.fetch ?? ((...a) => globalThis.fetch(...a));
     this.storage = opts.storage ?? globalThis.sessionStorage;
+    this.bearer = opts.bearer ?? (() => null);
+    this.onUnauthorized = null; // (ApiError) on every 401
     this.clockOffsetMs = 0; // server clock − this clock, from the Date headers (clockOffset)
   }
 
@@ -90,7 +99,7 @@ export class Api {
 
   /** One request; resolves to the decoded JSON answer, rejects with ApiError. */
   async request(method, path, { body, sessionId } = {}) {
-    const headers = {};
+    const headers = { ...authHeaders(this.bearer()) };
     if (body !== undefined) headers['Content-Type'] = 'application/json';
     const token = sessionId ? this.token(sessionId) : null;
     if (token) headers['X-Control-Token'] = token;
@@ -113,9 +122,43 @@ export class Api {
     }
     if (!res.ok) {
       const detail = answer?.detail ?? answer;
-      throw new ApiError(res.status, detail, errorText(res.status, detail));
+      const err = new ApiError(res.status, detail, errorText(res.status, detail));
+      if (res.status === 401) this.onUnauthorized?.(err);
+      throw err;
     }
     return answer;
+  }
+
+  // -- identity, the control lease, join links, audit (server/api/access_routes.py) -------------
+  me() { return this.request('GET', '/api/auth/me'); }
+
+  /** GET /api/lease → {holder, queue, session, ttl_s, you: 'holder'|'queued'|'none', position}. */
+  lease() { return this.request('GET', '/api/lease'); }
+
+  /** Ask for the lease → {status: 'granted'|'held'|'queued', position, lease}. */
+  requestLease() { return this.request('POST', '/api/lease'); }
+
+  renewLease() { return this.request('POST', '/api/lease/renew'); }
+
+  /** Give the lease up (the next in the queue gets it), or leave the queue. */
+  releaseLease() { return this.request('DELETE', '/api/lease'); }
+
+  handOver(tokenId) { return this.request('POST', '/api/lease/handover', { body: { token_id: tokenId } }); }
+
+  forceRelease() { return this.request('POST', '/api/lease/force-release'); }
+
+  /** A participant join link for a study session (null: free exploration) → {url, expires_at, session, qr_svg}. */
+  joinLink(sessionId = null, ttlS = undefined) {
+    const body = { session_id: sessionId };
+    if (ttlS !== undefined) body.ttl_s = ttlS;
+    return this.request('POST', '/api/join-links', { body });
+  }
+
+  audit({ sessionId = null, limit = 100 } = {}) {
+    const q = new URLSearchParams();
+    if (sessionId) q.set('session_id', sessionId);
+    q.set('limit', String(limit));
+    return this.request('GET', `/api/audit?${q}`);
   }
 
   // -- studies and sessions ---------------------------------------------------------------------

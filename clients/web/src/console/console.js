@@ -3,7 +3,12 @@
 // live. Everything about the session comes from REST (api.js); the participant's pages never ask
 // for it, and no answer ever goes over the WebSocket. The live panels are an observer.
 //
-// URL: console.html[?ws=ws://host:port/ws][#session=ID]. Test hook: window.__console.
+// Access (docs/security.md): every request carries the console's token (auth.js); a login link
+// `#login=CODE` is exchanged at once and removed from the address bar; a 401 shows the log-in
+// screen. The lease card shows who controls the rig and the queue, and requests, renews,
+// releases, hands over or (admin) force-releases it; the join card makes a participant link + QR.
+//
+// URL: console.html[?ws=ws://host:port/ws][#session=ID][#login=CODE]. Test hook: window.__console.
 
 import { Api } from './api.js';
 import { h, fill, say } from './dom.js';
@@ -11,14 +16,22 @@ import { AnswerForm, changedAnswers, fieldFor, missingAnswers, questionsFor } fr
 import { formatAnswers, formatParams, progress, queueRows, renderQueue, trialBySeq, trialName } from './queue.js';
 import { LivePanels } from './live.js';
 import { renderHealth } from './health.js';
+import { TokenStore, redeemFragment, whoText } from '../auth.js';
+import { leaseView, leaseSummary, renderLease, renewIntervalMs } from './lease.js';
+import { auditRows, renderAudit } from './audit.js';
 
 const REFRESH_MS = 2000;
 const SESSIONS_REFRESH_MS = 10000;
 const PARTICIPANT_CODE = /^[A-Za-z0-9_-]{1,32}$/;
 const $ = (id) => document.getElementById(id);
 
-const api = new Api();
+const store = new TokenStore();
+const api = new Api({ bearer: () => store.token });
 const state = {
+  identity: null, // GET /api/auth/me
+  lease: null, // the last snapshot (GET /api/lease or the `lease` message)
+  join: null, // the last join link made here
+  loginShown: false,
   studies: [],
   studyId: null,
   studyDetails: new Map(), // study id → GET /api/studies/{id}
@@ -308,6 +321,7 @@ function render() {
   renderRun();
   renderTrial();
   $('notes-card').hidden = !state.session;
+  renderLeaseCard();
 }
 
 function renderControl() {
@@ -572,6 +586,205 @@ async function onSaveNotes() {
   await act($('notes-msg'), () => api.setNotes(state.sessionId, $('session-notes').value), 'Notes saved.');
 }
 
+// ---- access: log-in, identity, the lease, join links, audit ----------------------------------
+
+function showLogin(why) {
+  state.loginShown = true;
+  $('login').hidden = false;
+  say($('login-why'), why || 'This console needs an access token.', why ? 'error' : 'info');
+  $('login-token').focus();
+}
+
+function renderIdentity() {
+  const me = state.identity;
+  $('identity').textContent = me ? `${whoText(me)} · ${me.role}${me.site ? ` · site ${me.site}` : ''}` : 'not logged in';
+  $('logout').hidden = !store.token;
+}
+
+/** Who am I? false when the token is missing or refused (the log-in screen is shown). */
+async function loadIdentity() {
+  if (!store.token) {
+    state.identity = null;
+    renderIdentity();
+    showLogin('');
+    return false;
+  }
+  try {
+    state.identity = await api.me();
+  } catch (e) {
+    state.identity = null;
+    renderIdentity();
+    if (e.status !== 401) say($('lease-msg'), e.message, 'error'); // 401: onUnauthorized showed the log-in
+    return e.status !== 401;
+  }
+  renderIdentity();
+  return true;
+}
+
+async function onLogin(ev) {
+  ev.preventDefault();
+  const token = $('login-token').value.trim();
+  if (!token) return say($('login-msg'), 'Paste a token first.', 'error');
+  const before = store.token;
+  store.save(token);
+  try {
+    state.identity = await api.me();
+  } catch (e) {
+    store.save(before);
+    state.identity = null;
+    return say($('login-msg'), e.status === 401 ? 'This token is not valid (unknown, expired or revoked).' : e.message,
+      'error');
+  }
+  $('login-token').value = '';
+  await loggedIn();
+}
+
+async function loggedIn() {
+  state.loginShown = false;
+  $('login').hidden = true;
+  say($('login-msg'), '');
+  renderIdentity();
+  live?.conn.setToken(() => store.token);
+  await Promise.all([loadStudies(), loadSessions(), pollLease(), loadAudit()]);
+}
+
+function onLogout() {
+  store.clear();
+  state.identity = null;
+  state.lease = null;
+  renderIdentity();
+  renderLeaseCard();
+  showLogin('Logged out.');
+}
+
+function setLease(snapshot) {
+  state.lease = snapshot;
+  renderLeaseCard();
+  scheduleRenew();
+}
+
+async function pollLease() {
+  if (!store.token) return;
+  try {
+    setLease(await api.lease());
+  } catch (e) {
+    if (e.status !== 401) say($('lease-msg'), e.message, 'error');
+  }
+}
+
+function currentLeaseView() {
+  return leaseView(state.lease, state.identity, { offsetMs: api.clockOffsetMs });
+}
+
+function renderLeaseCard() {
+  const view = currentLeaseView();
+  if (!state.identity || !state.lease) fill($('lease'), h('div', { class: 'c-muted' }, 'log in to see who controls the rig'));
+  else renderLease($('lease'), view, {
+    request: onLeaseRequest, release: onLeaseRelease, forceRelease: onForceRelease, handOver: onHandOver,
+  });
+  const sum = $('lease-summary');
+  sum.textContent = state.lease ? leaseSummary(view) : 'control: unknown';
+  sum.dataset.you = view.you;
+  $('join-create').disabled = !view.actions.joinLink;
+  $('join-create').title = view.actions.joinLink ? '' : 'hold the control lease first';
+  $('join-for').textContent = state.sessionId
+    ? `for session ${state.sessionId}${state.session ? ` (${state.session.participant})` : ''}`
+    : 'for free exploration (no session open)';
+}
+
+let renewTimer = null;
+let renewEvery = null;
+/** Renew every ttl/4 while holding or queued (a quiet holder loses the lease). */
+function scheduleRenew() {
+  const { actions } = currentLeaseView();
+  const every = actions.renew ? renewIntervalMs(state.lease?.ttl_s) : null;
+  if (every === renewEvery) return;
+  clearInterval(renewTimer);
+  renewTimer = null;
+  renewEvery = every;
+  if (every) {
+    renewTimer = setInterval(async () => {
+      try {
+        await api.renewLease();
+      } catch (e) {
+        if (e.status !== 401) await pollLease(); // lost it meanwhile: show who has it now
+      }
+    }, every);
+  }
+}
+
+/** A lease or join-link action: its message next to it, then the lease is read again. */
+async function leaseAct(fn, okText, msgEl = $('lease-msg')) {
+  say(msgEl, '');
+  let out;
+  try {
+    out = await fn();
+    say(msgEl, typeof okText === 'function' ? okText(out) : okText, 'ok');
+  } catch (e) {
+    say(msgEl, e.message ?? String(e), 'error');
+  }
+  await pollLease();
+  return out;
+}
+
+function onLeaseRequest() {
+  return leaseAct(() => api.requestLease(), (r) => (r?.status === 'queued'
+    ? `Queued: you are #${r.position} (the holder releases it, or it expires when they go quiet).`
+    : 'You control the rig.'));
+}
+
+function onLeaseRelease() {
+  return leaseAct(() => api.releaseLease(), 'Released.');
+}
+
+function onForceRelease() {
+  if (!window.confirm('Take the lease away from its holder? Their running actions on the rig stop.')) return undefined;
+  return leaseAct(() => api.forceRelease(), 'Lease released by force.');
+}
+
+function onHandOver(tokenId) {
+  return leaseAct(() => api.handOver(tokenId), `Handed over to ${tokenId}.`);
+}
+
+async function onJoinLink() {
+  const link = await leaseAct(() => api.joinLink(state.sessionId ?? null),
+    (j) => `Join link for ${j.session} made; this session is now open for its participant.`, $('join-msg'));
+  if (!link) return;
+  state.join = link;
+  $('join-out').hidden = false;
+  $('join-url').value = link.url;
+  $('join-expires').textContent = `single use · expires ${new Date(link.expires_at * 1000).toLocaleString()}`;
+  showQr($('join-qr'), link.qr_svg);
+}
+
+/** The server's QR SVG, inline (no script or event attributes survive; the page's CSP forbids data: images). */
+function showQr(el, svgText) {
+  el.replaceChildren();
+  if (!svgText) return;
+  const doc = new DOMParser().parseFromString(svgText, 'image/svg+xml');
+  const svg = doc.documentElement;
+  if (svg.nodeName.toLowerCase() !== 'svg') return;
+  for (const bad of svg.querySelectorAll('script, foreignObject')) bad.remove();
+  for (const node of [svg, ...svg.querySelectorAll('*')]) {
+    for (const a of [...node.attributes]) if (/^on/i.test(a.name) || /href$/i.test(a.name)) node.removeAttribute(a.name);
+  }
+  if (!svg.getAttribute('viewBox') && svg.getAttribute('width') && svg.getAttribute('height')) {
+    svg.setAttribute('viewBox', `0 0 ${parseFloat(svg.getAttribute('width'))} ${parseFloat(svg.getAttribute('height'))}`);
+  }
+  el.append(document.importNode(svg, true));
+}
+
+async function loadAudit() {
+  if (!store.token || !$('audit-details').open) return;
+  try {
+    const rows = await api.audit({ sessionId: $('audit-session').checked ? state.sessionId : null, limit: 100 });
+    renderAudit($('audit'), auditRows(rows));
+    say($('audit-msg'), '');
+  } catch (e) {
+    say($('audit-msg'), e.status === 403 ? 'The audit log is for experimenters and admins.' : e.message, 'error');
+  }
+}
+
 // ---- start -----------------------------------------------------------------------------------
 
 function wsUrl() {
@@ -579,6 +792,8 @@ function wsUrl() {
   const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
   return q.get('ws') || `${scheme}//${location.host}/ws`;
 }
+
+let live = null;
 
 function main() {
   const exp = $('experimenter');
@@ -603,6 +818,17 @@ function main() {
   $('exclude').addEventListener('click', onExclude);
   $('save-answers').addEventListener('click', onSaveAnswers);
   $('save-notes').addEventListener('click', onSaveNotes);
+  $('login-form').addEventListener('submit', onLogin);
+  $('logout').addEventListener('click', onLogout);
+  $('join-create').addEventListener('click', onJoinLink);
+  $('audit-details').addEventListener('toggle', loadAudit);
+  $('audit-session').addEventListener('change', loadAudit);
+  $('audit-reload').addEventListener('click', loadAudit);
+  api.onUnauthorized = () => {
+    state.identity = null;
+    renderIdentity();
+    showLogin(store.token ? 'The server refused this token (expired or revoked): log in again.' : '');
+  };
 
   const ws = wsUrl();
   const q = new URLSearchParams(location.search);
@@ -615,7 +841,9 @@ function main() {
   };
   new ResizeObserver(fitFrame).observe($('scene-frame').parentElement);
   fitFrame();
-  const live = new LivePanels({ timeline: $('timeline'), side: $('traj-side'), top: $('traj-top') }, { url: ws });
+  live = new LivePanels({ timeline: $('timeline'), side: $('traj-side'), top: $('traj-top') },
+    { url: ws, token: () => store.token });
+  live.onLease = (l) => { if (state.identity) setLease({ ...l, you: undefined, position: undefined }); };
   live.onStatus = (status, detail) => {
     say($('live-status'), status === 'ready' ? 'live' : status, status === 'ready' ? 'ok' : status === 'failed'
       ? 'error' : 'warn');
@@ -631,6 +859,9 @@ function main() {
       selected: state.selected, next: state.session?.next ?? null, running: state.session?.running ?? null }),
     live: live.stats,
     health: () => live.stats.health,
+    identity: () => state.identity,
+    lease: () => ({ ...currentLeaseView(), loginShown: state.loginShown }),
+    join: () => state.join && { url: state.join.url, session: state.join.session, qr: !!$('join-qr svg') },
     lanes: () => live.lanes().map((l) => ({ id: l.id, runs: l.runs.length, pulses: l.pulses?.length ?? null,
       text: l.text })),
     trajectory: () => live.trajectory().length,
@@ -639,14 +870,30 @@ function main() {
   };
   window.__console = hook;
 
-  setInterval(() => { if (!state.paused && !state.busy) refresh(); }, REFRESH_MS);
-  setInterval(() => { if (!state.paused) loadSessions(); }, SESSIONS_REFRESH_MS);
+  setInterval(() => { if (!state.paused && !state.busy && !state.loginShown) refresh(); }, REFRESH_MS);
+  setInterval(() => { if (!state.paused && !state.loginShown) pollLease(); }, REFRESH_MS);
+  setInterval(() => {
+    if (!state.paused && !state.loginShown) {
+      loadSessions();
+      loadAudit();
+    }
+  }, SESSIONS_REFRESH_MS);
   setInterval(() => { if (state.session?.running !== null && state.session) renderRun(); }, 500);
 
   (async () => {
     render();
-    await loadStudies();
-    await loadSessions();
+    try {
+      await redeemFragment(store, { kinds: ['login'] }); // a join code is the participant page's
+    } catch (e) {
+      showLogin(e.message);
+    }
+    if (!state.loginShown) await loadIdentity();
+    renderLeaseCard();
+    if (!state.loginShown) {
+      await pollLease();
+      await loadStudies();
+      await loadSessions();
+    }
     const m = /session=([^&]+)/.exec(location.hash);
     if (m) {
       await openSession(decodeURIComponent(m[1]));

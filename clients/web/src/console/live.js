@@ -24,15 +24,15 @@ function prepare(canvas) {
 export class LivePanels {
   /**
    * @param {object} els  {timeline, side, top: canvases; status: element}
-   * @param {object} opts {url: ws URL, format}
+   * @param {object} opts {url: ws URL, format, token: () => access token}
    */
-  constructor(els, { url, format = 'msgpack' }) {
+  constructor(els, { url, format = 'msgpack', token = null }) {
     this.els = els;
     this.cues = new History(WINDOW_S + 2);
     this.traj = new History(WINDOW_S + 2);
     this.stats = { frames: 0, scene: null, status: 'idle', lastT: null, health: null };
     this.bounds = { side: null, top: null };
-    this.conn = new Connection({ url, role: 'observer', format, client: 'viestac-console/0.1' });
+    this.conn = new Connection({ url, role: 'observer', format, client: 'viestac-console/0.1', token });
     this.conn.onStatus = (status, detail) => {
       this.stats.status = status;
       this.onStatus?.(status, detail);
@@ -48,9 +48,13 @@ export class LivePanels {
       this.stats.health = h;
       this.onHealth?.(h);
     };
+    this.conn.onLease = (l) => this.onLease?.(l);
+    this.conn.onUnauthorized = (why) => this.onUnauthorized?.(why);
     this.conn.onError = () => {};
     this.onStatus = null;
     this.onHealth = null;
+    this.onLease = null; // the `lease` message (protocol v1.3)
+    this.onUnauthorized = null;
     this._raf = null;
     this._lastDraw = 0;
   }
