@@ -69,7 +69,10 @@ def log_in(ctx, token: str | None) -> None:
 
 def new_context(browser, base_url: str, *, token: str | None | bool = True, **kwargs):
     """A browser context logged in as the harness's admin of `base_url` (token=True), as a given
-    token, or not at all (token=None)."""
+    token, or not at all (token=None). The pages' Content-Security-Policy (no 'unsafe-eval') is
+    bypassed: Playwright's wait_for_function polls a string through eval; tests/transport checks
+    that the pages themselves run under the policy with no violation."""
+    kwargs.setdefault("bypass_csp", True)
     ctx = browser.new_context(**kwargs)
     log_in(ctx, admin_token(base_url) if token is True else token)
     return ctx
