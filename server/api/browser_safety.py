@@ -32,7 +32,7 @@ from pathlib import Path
 from urllib.parse import urlsplit
 
 from starlette.middleware.cors import CORSMiddleware
-from starlette.responses import PlainTextResponse
+from starlette.responses import JSONResponse
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 LOOPBACK_HOSTS = ("localhost", "127.0.0.1", "::1")
@@ -254,7 +254,7 @@ class BrowserSafety:
         if scope["type"] == "websocket" and "websocket.http.response" not in scope.get("extensions", {}):
             await send({"type": "websocket.close", "code": 1008, "reason": text})  # the handshake gets 403
             return
-        response = PlainTextResponse(text, status_code=status)
+        response = JSONResponse({"detail": text}, status_code=status)  # the body every API error has
         response.raw_headers.extend(security_headers(scope["path"], self.csp))
         await response(scope, receive, send)
 
