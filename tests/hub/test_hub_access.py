@@ -10,7 +10,7 @@ import threading
 
 from server.hub import hub as hub_module
 from server.hub.hub import Hub
-from tests.hub.access_fakes import EXP_A, SECRET, FakeAccess
+from tests.hub.access_fakes import EXP_A, SECRET
 from tests.hub.test_hub_shell import FakeSocket, new_hub, settle
 
 TRACKER = {"type": "tracker", "seq": 1, "t": 0, "pos": [0, 0, 1]}
