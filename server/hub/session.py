@@ -190,6 +190,9 @@ class Session:
             body = codec.decode(data, self.fmt)
             message = messages.parse_client_message(body)
         except WireError as exc:
+            if not self.welcomed:  # one error per frame: this one, then the connection closes
+                self._refuse("unauthorized", f"the first message must be a hello with a token ({exc.code}: {exc.message})")
+                return []
             self.reply_error(exc.code, exc.message)
         else:
             if not self.welcomed and not isinstance(message, messages.Hello):
