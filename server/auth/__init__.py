@@ -73,19 +73,20 @@ class AccessControl:
     # ---- who is it ---------------------------------------------------------------------------
     def authenticate(self, secret: str | None, peer: str) -> Identity:
         """The identity of a valid token. Unauthorized without one; a peer that failed too often is
-        refused (with retry_after_s) before its token is even looked at."""
+        refused (with retry_after_s) until its wait is over. A valid token passes even then: many
+        clients share one address (the rig PC, a NAT), and one of them guessing must not lock the
+        others out; a valid token does not clear the peer's failures either."""
         now = self.clock()
+        who = self.book.verify(secret) if secret else None
+        if who is not None:
+            return who
         wait = self.throttle.blocked_for(peer, now)
         if wait > 0:
             raise Unauthorized("too many failed attempts; try again later", retry_after_s=wait)
         if not secret:
             raise Unauthorized("a token is needed (Authorization: Bearer TOKEN)")
-        who = self.book.verify(secret)
-        if who is None:
-            self.throttle.failed(peer, now)
-            raise Unauthorized("the token is unknown, expired or revoked")
-        self.throttle.succeeded(peer)
-        return who
+        self.throttle.failed(peer, now)
+        raise Unauthorized("the token is unknown, expired or revoked")
 
     def exchange(self, kind: str, code: str | None, peer: str, *, token_ttl_s: float | None) -> tuple[str, Identity]:
         """A login or join code for a new token (throttled per peer like `authenticate`)."""

@@ -133,3 +133,16 @@ def test_missing_token_is_not_a_failed_attempt(access):
         with pytest.raises(Unauthorized):
             access.authenticate(None, "10.1.1.1")
     assert access.throttle.blocked_for("10.1.1.1", 0) == 0.0
+
+
+def test_a_valid_token_passes_while_its_address_is_throttled(access):
+    _, good = access.book.create("experimenter", "lab-a")
+    secret, _ = access.book.create("observer")
+    for _ in range(10):
+        with pytest.raises(Unauthorized):
+            access.authenticate("not-a-token-" + "x" * 20, "10.2.2.2")
+    assert access.throttle.blocked_for("10.2.2.2", access.clock()) > 0
+    assert access.authenticate(secret, "10.2.2.2").role == "observer"
+    with pytest.raises(Unauthorized) as refused:  # the guesser still waits
+        access.authenticate("not-a-token-" + "y" * 20, "10.2.2.2")
+    assert refused.value.retry_after_s

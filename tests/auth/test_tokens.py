@@ -133,11 +133,13 @@ def test_authenticate_throttles_failures_per_peer(tmp_path, clock):
     with pytest.raises(Unauthorized):
         access.authenticate("wrong", "10.0.0.9")  # the sixth failure blocks the peer
     with pytest.raises(Unauthorized) as exc:
-        access.authenticate(secret, "10.0.0.9")  # blocked even with a good token
+        access.authenticate("wrong", "10.0.0.9")  # the blocked peer's next guess waits
     assert exc.value.retry_after_s == pytest.approx(1.0)
-    assert access.authenticate(secret, "10.0.0.10") == ident  # another peer is not
+    assert access.authenticate(secret, "10.0.0.9") == ident  # a good token is not locked out
     clock.advance(1.0)
-    assert access.authenticate(secret, "10.0.0.9") == ident
+    with pytest.raises(Unauthorized) as exc:
+        access.authenticate("wrong", "10.0.0.9")
+    assert exc.value.retry_after_s is None  # the wait is over: this guess counts (and blocks again)
     access.close()
 
 
