@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import ipaddress
 import json
 import logging
 import os
@@ -15,6 +14,7 @@ from pathlib import Path
 from server.core.scenario import ParamError
 from scenarios.registry import UnknownScenario
 from server.config import STUDIES_DIR
+from server.loop.tracker_udp import is_loopback
 from server.core.scene import SceneError
 
 
@@ -109,15 +109,6 @@ def _login_code(app, settings) -> str:
 
 def _url_host(host: str) -> str:
     return f"[{host}]" if ":" in host else host
-
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def serve_banner(settings, port: int) -> str:
