@@ -53,7 +53,13 @@ def _site_read(doc: str) -> Rule:
     return Rule(STAFF, scope="site", doc=doc)
 
 
-def _site_write(doc: str) -> Rule:
+def _site_data(doc: str) -> Rule:
+    """A change to a site's recorded data that does not move the rig: the site's staff, no lease
+    (a lab whose lease expired mid-trial can still finish, abort or annotate its own session)."""
+    return Rule(STAFF, scope="site", doc=doc)
+
+
+def _site_rig(doc: str) -> Rule:
     return Rule(STAFF, lease=True, scope="site", doc=doc)
 
 
@@ -80,19 +86,21 @@ POLICY: dict[str, Rule] = {
     "GET /api/studies": Rule(STAFF, doc="study files"),
     "GET /api/studies/{study_id}": Rule(STAFF, doc="one study"),
     "GET /api/studies/{study_id}/plan": Rule(STAFF, doc="a participant's planned trials"),
-    # sessions: a site's data (404 across sites); a change runs on the rig, so it needs the lease
+    # sessions: a site's data (404 across sites). Only starting a trial runs on the rig (the lease);
+    # the rest changes the site's own records, and a running trial refuses rig changes (409) until
+    # its lab finishes or aborts it, lease or not.
     "GET /api/sessions": _site_read("the site's sessions"),
     "GET /api/sessions/{session_id}": _site_read("a session with its answers"),
     "GET /api/sessions/{session_id}/control": _site_read("who controls a session"),
-    "POST /api/sessions": _site_write("a new session (of the caller's site)"),
-    "POST /api/sessions/{session_id}/control": _site_write("take control of a session"),
-    "PUT /api/sessions/{session_id}/notes": _site_write("replace the notes"),
-    "POST /api/sessions/{session_id}/trials/{seq}/start": _site_write("start a trial"),
-    "PUT /api/sessions/{session_id}/trials/{seq}/responses/{question}": _site_write("enter an answer"),
-    "POST /api/sessions/{session_id}/trials/{seq}/finish": _site_write("finish a trial"),
-    "POST /api/sessions/{session_id}/trials/{seq}/abort": _site_write("abort a trial"),
-    "POST /api/sessions/{session_id}/trials/{seq}/exclude": _site_write("exclude a trial"),
-    "POST /api/sessions/{session_id}/trials/{seq}/retry": _site_write("retry an aborted trial"),
+    "POST /api/sessions": _site_data("a new session (of the caller's site)"),
+    "POST /api/sessions/{session_id}/control": _site_data("take control of a session"),
+    "PUT /api/sessions/{session_id}/notes": _site_data("replace the notes"),
+    "POST /api/sessions/{session_id}/trials/{seq}/start": _site_rig("start a trial"),
+    "PUT /api/sessions/{session_id}/trials/{seq}/responses/{question}": _site_data("enter an answer"),
+    "POST /api/sessions/{session_id}/trials/{seq}/finish": _site_data("finish a trial"),
+    "POST /api/sessions/{session_id}/trials/{seq}/abort": _site_data("abort a trial"),
+    "POST /api/sessions/{session_id}/trials/{seq}/exclude": _site_data("exclude a trial"),
+    "POST /api/sessions/{session_id}/trials/{seq}/retry": _site_data("retry an aborted trial"),
     # sign-in: public, throttled per peer; the code is the credential
     "POST /api/auth/login": Rule(frozenset(), scope="public", doc="a login code for an admin token"),
     "POST /api/auth/join": Rule(frozenset(), scope="public", doc="a join code for a participant token"),

@@ -124,6 +124,33 @@ def test_a_rig_change_during_a_recorded_trial_is_refused(base):
     assert ok(call(base, "POST", "/api/scenario", {"name": "contact-angle"}))["id"].startswith("contact-angle")
 
 
+def test_a_lab_that_lost_the_lease_mid_trial_still_closes_its_trial(base):
+    lab = new_token(base, "experimenter", "lab-a")
+    ok(call(base, "DELETE", "/api/lease"))
+    try:
+        assert ok(call(base, "POST", "/api/lease", token=lab))["status"] == "granted"
+        created = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "P-lost",
+                                                          "experimenter": "al"}, token=lab), 201)
+        sid, control = created["id"], {"X-Control-Token": created["token"]}
+        ok(call(base, "POST", f"/api/sessions/{sid}/trials/0/start", token=lab, headers=control))
+        ok(call(base, "POST", "/api/lease/force-release"))  # the admin takes the rig mid-trial
+        ok(call(base, "POST", "/api/lease"))
+        # the rig stays with the trial (409 for the new holder) until its own lab closes it, lease or not
+        assert call(base, "POST", "/api/scenario", {"name": "texture"})[0] == 409
+        ok(call(base, "PUT", f"/api/sessions/{sid}/notes", {"notes": "lease lost at trial 0"}, token=lab,
+                headers=control))
+        ok(call(base, "POST", f"/api/sessions/{sid}/trials/0/abort", {"reason": "lease lost"}, token=lab,
+                headers=control))
+        assert call(base, "POST", f"/api/sessions/{sid}/trials/0/start", token=lab, headers=control)[0] == 403
+        session = ok(call(base, "GET", f"/api/sessions/{sid}", token=lab))
+        assert session["notes"] == "lease lost at trial 0" and session["trials"][0]["status"] == "aborted", session
+        ok(call(base, "POST", "/api/scenario", {"name": "contact-angle"}))
+    finally:
+        if ok(call(base, "GET", "/api/lease"))["you"] != "holder":
+            ok(call(base, "POST", "/api/lease/force-release"))
+            ok(call(base, "POST", "/api/lease"))
+
+
 def test_two_labs_share_the_rig(tmp_path):
     proc, base = start_server(extra=["--lease-ttl", "2"], take_lease=False)
     try:
@@ -131,15 +158,20 @@ def test_two_labs_share_the_rig(tmp_path):
         assert ok(call(base, "POST", "/api/lease", token=a))["status"] == "granted"
         queued = ok(call(base, "POST", "/api/lease", token=b))
         assert (queued["status"], queued["position"]) == ("queued", 1)
-        assert call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "PB", "experimenter": "bo"},
-                    token=b)[0] == 403  # queued is not holding
+        # queued, b prepares its session (its own records) but may not run a trial on the rig
+        created = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "PB", "experimenter": "bo"},
+                          token=b), 201)
+        sb, b_control = created["id"], {"X-Control-Token": created["token"]}
+        start_b = f"/api/sessions/{sb}/trials/0/start"
+        assert call(base, "POST", start_b, token=b, headers=b_control)[0] == 403  # queued is not holding
+        assert call(base, "POST", "/api/scenario", {"name": "texture"}, token=b)[0] == 403
         sa = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "PA", "experimenter": "al"},
                      token=a), 201)["id"]
         ok(call(base, "POST", "/api/lease/renew", token=b))
         ok(call(base, "DELETE", "/api/lease", token=a))  # released: the next in the queue has it
         assert ok(call(base, "GET", "/api/lease", token=b))["you"] == "holder"
-        sb = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "PB", "experimenter": "bo"},
-                     token=b), 201)["id"]
+        ok(call(base, "POST", start_b, token=b, headers=b_control))
+        ok(call(base, "POST", f"/api/sessions/{sb}/trials/0/abort", {"reason": "test"}, token=b, headers=b_control))
         # neither lab sees the other's sessions; the admin sees both
         assert [s["id"] for s in ok(call(base, "GET", "/api/sessions", token=a))] == [sa]
         assert [s["id"] for s in ok(call(base, "GET", "/api/sessions", token=b))] == [sb]

@@ -40,9 +40,13 @@ def test_state_changes_need_the_lease_and_reads_do_not():
         if method in ("POST", "PUT", "DELETE", "PATCH") and rule.roles:
             exempt = key.startswith(("POST /api/lease", "DELETE /api/lease", "POST /api/auth/", "POST /api/tokens",
                                      "DELETE /api/tokens"))
-            assert rule.lease or exempt, key
+            # a session's own records are the site's data, not the rig: only a trial start runs on the rig
+            site_data = "/api/sessions" in key and not key.endswith("/start")
+            assert rule.lease or exempt or site_data, key
+            assert not (site_data and rule.lease), key
         if method == "GET":
             assert not rule.lease, key
+    assert POLICY["POST /api/sessions/{session_id}/trials/{seq}/start"].lease
     assert POLICY["GET /api/health"].roles == frozenset()
     assert all(POLICY[k].scope == "site" for k in POLICY if "/sessions" in k)
     assert all(POLICY[k].roles == {"admin"} for k in POLICY if "/tokens" in k)
