@@ -16,7 +16,7 @@ from server.api.access_routes import router as access_router
 from server.api.errors import GUARD_ERRORS
 from server.api.browser_safety import BrowserSafety, options_for
 from server.api.experiment_routes import router as experiment_router
-from server.api.guard import AuditTrail, guard
+from server.api.guard import AuditTrail, guard, install_access_doc
 from server.api.routes import router
 from server.auth import AccessControl
 from server.api.web_client import WebClient
@@ -149,6 +149,7 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     for api in (router, experiment_router, access_router):
         app.include_router(api, dependencies=[Depends(guard)], responses=GUARD_ERRORS)  # each router says /api
     app.add_middleware(AuditTrail)
+    install_access_doc(app)  # /openapi.json says who may call each operation
 
     @app.websocket("/ws")
     async def websocket(ws: WebSocket) -> None:

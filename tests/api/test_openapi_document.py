@@ -60,3 +60,15 @@ def test_integers_a_client_sends_are_bounded(document):
     plan = dict(operations(document))["GET /api/studies/{study_id}/plan"]
     index = next(p for p in plan["parameters"] if p["name"] == "participant_index")["schema"]
     assert index["minimum"] == 0 and index["maximum"] == 2**53 - 1, index
+
+
+def test_every_operation_says_who_may_call_it(document):
+    from server.auth.policy import POLICY
+    for name, op in operations(document):
+        rule = POLICY[name]
+        assert op["x-viestac-access"] == {"roles": sorted(rule.roles), "lease": rule.lease, "scope": rule.scope}, name
+        # the bearer token is optional (an empty requirement beside it) on the public ones only
+        assert ({} in op["security"]) == (not rule.roles), name
+    ops = dict(operations(document))
+    assert ops["GET /api/health"]["security"] == [{}, {"HTTPBearer": []}]
+    assert ops["POST /api/scenario"]["x-viestac-access"]["lease"] is True
