@@ -34,6 +34,8 @@ namespace Viestac.Client
         public int MaxQueueLength = 600;
         public Func<ITransport> TransportFactory;
         public Action<string> Log = Console.Error.WriteLine;
+        /// <summary>Record each state frame's decode time (msgpack read + typed parse) for DecodeTimesUs().</summary>
+        public bool MeasureDecode;
     }
 
     public sealed class ViestacSession : IDisposable
@@ -66,6 +68,8 @@ namespace Viestac.Client
         int _connections, _dispatchPosted;
         double _lastDrainS, _lastWarnS = -1e9;
         readonly SendOrPostCallback _drainCallback;
+        readonly double[] _decodeUs = new double[8192];
+        int _decodeCount;
 
         // sending: the newest tracker sample wins (the server keeps only the latest), inputs queue
         readonly object _sendLock = new object();
@@ -301,6 +305,7 @@ namespace Viestac.Client
                         int n = await receive.ConfigureAwait(false);
                         if (n < 0) { if (!refused) why = "closed by the server (" + t.CloseCode + " " + t.CloseReason + ")"; break; }
                         ServerMessage m;
+                        long started = Stopwatch.GetTimestamp();
                         try
                         {
                             var decoded = reader.ReadFrame(buffer.Bytes, 0, n);
@@ -315,7 +320,12 @@ namespace Viestac.Client
                             continue;
                         }
                         if (m == null) continue; // a message type this client does not know
-                        if (m is StateFrame) Interlocked.Increment(ref _states);
+                        if (m is StateFrame)
+                        {
+                            Interlocked.Increment(ref _states);
+                            if (_o.MeasureDecode)
+                                lock (_decodeUs) _decodeUs[_decodeCount++ % _decodeUs.Length] = (Stopwatch.GetTimestamp() - started) * 1e6 / Stopwatch.Frequency;
+                        }
                         if (m is Welcome) _o.Backoff.Reset();
                         var err = m as ErrorMessage;
                         if (err != null && (err.Code == "unauthorized" || err.Code == "unsupported_version"))
@@ -350,6 +360,18 @@ namespace Viestac.Client
                 catch (OperationCanceledException) { break; }
             }
             PostStatus(ConnectionStatus.Closed, "closed");
+        }
+
+        /// <summary>The last (up to 8192) state decode times in µs, with MeasureDecode set.</summary>
+        public double[] DecodeTimesUs()
+        {
+            lock (_decodeUs)
+            {
+                int n = Math.Min(_decodeCount, _decodeUs.Length);
+                var copy = new double[n];
+                Array.Copy(_decodeUs, copy, n);
+                return copy;
+            }
         }
 
         public void Dispose()
