@@ -20,7 +20,8 @@ mcs_ -target:exe -out:$out/ViestacConsole.exe -r:$out/Viestac.Client.dll -r:Syst
 mcs_ -target:library -out:$out/Viestac.Client.Tests.dll -r:$out/Viestac.Client.dll -r:$nunit -r:System.Net.Http.dll Tests/*.cs
 [ "${1:-}" = "--build-only" ] && { echo "built into clients/unity/$out"; exit 0; }
 
-args=(-nologo -labels -xml=$out/TestResult.xml)
+rm -f $out/TestResult.xml
+args=(-nologo -xml=TestResult.xml)
 [ "${1:-}" = "--no-live" ] && args+=(-exclude=live)
 set +e
 (cd $out && nunit-console "${args[@]}" Viestac.Client.Tests.dll)
