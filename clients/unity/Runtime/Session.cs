@@ -374,6 +374,8 @@ namespace Viestac.Client
             }
         }
 
+        public void ResetDecodeTimes() { lock (_decodeUs) _decodeCount = 0; }
+
         public void Dispose()
         {
             _stop.Cancel();

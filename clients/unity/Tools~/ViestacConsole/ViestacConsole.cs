@@ -14,7 +14,9 @@ static class ViestacConsole
   --token       the access token (default: the VIESTAC_TOKEN environment variable)
   --path arc    sweep the HIP along the contact-angle dome (-70..70 degrees), needs the control lease
   --take-lease  request the control lease first (REST /api/lease; an admin or experimenter token)
-  --bench       print the state frames received per second and the decode cost per frame (p50/p99/max)";
+  --bench       print the state frames received per second and the decode cost per frame (p50/p99/max;
+                the first second is left out: JIT compilation)
+  --decode-bench N   decode a state frame like the contact-angle scenario's N times, no server";
 
     static int Main(string[] args)
     {
@@ -33,6 +35,7 @@ static class ViestacConsole
                 case "--every": every = double.Parse(next(), CultureInfo.InvariantCulture); break;
                 case "--path": path = next(); break;
                 case "--bench": bench = true; break;
+                case "--decode-bench": return DecodeBench(int.Parse(next(), CultureInfo.InvariantCulture));
                 case "--take-lease": takeLease = true; break;
                 default: Console.Error.WriteLine(Usage); return 2;
             }
@@ -73,13 +76,49 @@ static class ViestacConsole
                 double r = 0.6 + 0.06 - 0.003, a = angle * Math.PI / 180;
                 session.SendTracker(new Vec3(0, r * Math.Sin(a), r * Math.Cos(a)));
             }
-            if (bench && benchFrom < 0 && haveState) { benchFrom = t; statesAtBenchStart = session.StatesReceived; }
+            if (bench && benchFrom < 0 && haveState && t > 1) { benchFrom = t; statesAtBenchStart = session.StatesReceived; session.ResetDecodeTimes(); }
             if (!bench && haveState && t >= nextPrint) { nextPrint = t + every; PrintState(last); }
             Thread.Sleep(5);
         }
         if (bench) PrintBench(session, clock.Elapsed.TotalSeconds - benchFrom, session.StatesReceived - statesAtBenchStart);
         session.Dispose();
         return haveState ? 0 : 1;
+    }
+
+    /// <summary>The decode cost without a network: a state frame with the fields the contact-angle
+    /// scenario sends in contact (one contact, a tilt cue, values, telemetry), decoded N times.</summary>
+    static int DecodeBench(int n)
+    {
+        var frame = new System.Collections.Generic.Dictionary<string, object>
+        {
+            { "type", "state" }, { "frame", 123456L }, { "tick", 2057123L }, { "t", 26086.348123456 }, { "scene", "787b867bd84bf2b8" },
+            { "hip", new object[] { 0L, -0.500123456, 0.425987654 } }, { "proxy", new object[] { 0L, -0.502412345, 0.427965432 } },
+            { "force", new object[] { 0L, -2.283812, 1.945312 } }, { "contact", true },
+            { "contacts", new object[] { new object[] { "hemisphere", new object[] { 0L, -0.761234, 0.648321 }, 0.003001234 } } },
+            { "objects", new object[0] },
+            { "cues", new object[] { new System.Collections.Generic.Dictionary<string, object> { { "kind", "tilt" }, { "direction_deg", 49.57561234 }, { "magnitude_pct", 100L } } } },
+            { "hud", "Angle -50°" }, { "values", new System.Collections.Generic.Dictionary<string, object> { { "angle_deg", -49.57561234 }, { "in_contact", true } } },
+            { "telemetry", new System.Collections.Generic.Dictionary<string, object> { { "period_p50_us", 1000.2 }, { "period_p99_us", 1084.7 }, { "period_max_us", 1520.1 }, { "overruns", 4L }, { "tick_cost_p99_us", 61.3 }, { "ticks", 2057123L }, { "rt", true } } },
+            { "visible", new System.Collections.Generic.Dictionary<string, object>() }, { "events", new object[0] },
+            { "driver", new object[] { 1L, 5123L } },
+        };
+        var w = new MsgPackWriter();
+        w.WriteValue(frame);
+        var bytes = w.ToArray();
+        var reader = new MsgPackReader();
+        var reuse = new StateFrame();
+        var us = new double[n];
+        for (int i = 0; i < 2000; i++) Protocol.Parse(reader.ReadFrame(bytes), reuse); // JIT and caches warm
+        for (int i = 0; i < n; i++)
+        {
+            long start = System.Diagnostics.Stopwatch.GetTimestamp();
+            Protocol.Parse(reader.ReadFrame(bytes), reuse);
+            us[i] = (System.Diagnostics.Stopwatch.GetTimestamp() - start) * 1e6 / System.Diagnostics.Stopwatch.Frequency;
+        }
+        Array.Sort(us);
+        Console.WriteLine(string.Format(CultureInfo.InvariantCulture, "decode-bench: {0}-byte state frame, {1} decodes: p50 {2:0.0} µs, p99 {3:0.0} µs, max {4:0.0} µs",
+            bytes.Length, n, us[n / 2], us[Math.Min(n - 1, (int)(0.99 * n))], us[n - 1]));
+        return 0;
     }
 
     static string F(double v) { return v.ToString("0.####", CultureInfo.InvariantCulture); }
