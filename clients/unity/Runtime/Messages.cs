@@ -106,6 +106,8 @@ namespace Viestac.Client
         public long Frame, Tick;
         /// <summary>Server monotonic time of the tick, seconds.</summary>
         public double T;
+        /// <summary>When the session received the frame, on its clock (ViestacSession.NowS).</summary>
+        public double ReceivedS;
         public string SceneHash, Hud;
         public Vec3 Hip, Proxy, Force;
         public bool Contact;
@@ -148,7 +150,7 @@ namespace Viestac.Client
         public void CopyTo(StateFrame other)
         {
             other.Reset();
-            other.Frame = Frame; other.Tick = Tick; other.T = T; other.SceneHash = SceneHash; other.Hud = Hud;
+            other.Frame = Frame; other.Tick = Tick; other.T = T; other.ReceivedS = ReceivedS; other.SceneHash = SceneHash; other.Hud = Hud;
             other.Hip = Hip; other.Proxy = Proxy; other.Force = Force; other.Contact = Contact;
             other.Contacts.AddRange(Contacts); other.Objects.AddRange(Objects);
             foreach (var c in Cues) { var d = other.RentCue(); d.Kind = c.Kind; foreach (var kv in c.Fields) d.Fields[kv.Key] = kv.Value; other.Cues.Add(d); }

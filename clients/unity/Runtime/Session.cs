@@ -92,6 +92,10 @@ namespace Viestac.Client
 
         double Now { get { return _clock.Elapsed.TotalSeconds; } }
 
+        /// <summary>The session's clock (seconds, monotonic): StateFrame.ReceivedS is on it, so
+        /// StateBuffer.Add(frame, frame.ReceivedS) and Sample(session.NowS, ...) match.</summary>
+        public double NowS { get { return Now; } }
+
         public void Start()
         {
             if (_run != null) return;
@@ -322,6 +326,7 @@ namespace Viestac.Client
                         if (m == null) continue; // a message type this client does not know
                         if (m is StateFrame)
                         {
+                            ((StateFrame)m).ReceivedS = Now;
                             Interlocked.Increment(ref _states);
                             if (_o.MeasureDecode)
                                 lock (_decodeUs) _decodeUs[_decodeCount++ % _decodeUs.Length] = (Stopwatch.GetTimestamp() - started) * 1e6 / Stopwatch.Frequency;

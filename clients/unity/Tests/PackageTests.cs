@@ -37,6 +37,8 @@ namespace Viestac.Client.Tests
             Assert.IsEmpty(core, "the core compiles without Unity; only Runtime/Unity uses it");
             var unity = typeof(ViestacSession).Assembly.GetReferencedAssemblies().Select(a => a.Name).ToList();
             CollectionAssert.DoesNotContain(unity, "UnityEngine");
+            // what .NET Standard 2.0 (and so Unity 2021+) provides: no Mono-only assembly
+            CollectionAssert.IsSubsetOf(unity, new[] { "mscorlib", "System", "System.Core", "System.Net.Http" });
         }
 
         [Test]

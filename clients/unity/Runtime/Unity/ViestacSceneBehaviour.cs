@@ -50,7 +50,7 @@ namespace Viestac.Unity
         {
             Session.Drain();
             if (!_haveState) return;
-            if (interpolate && _buffer.Sample(Time.realtimeSinceStartup, _sample))
+            if (interpolate && _buffer.Sample(Session.NowS, _sample))
             {
                 Place(_hip, _sample.Hip);
                 Place(_proxy, _sample.Proxy);
@@ -175,10 +175,11 @@ namespace Viestac.Unity
 
         void OnState(StateFrame s)
         {
+            if (Scene == null) return; // the server sends the scene first; a state before it has nothing to apply to
             s.CopyTo(_latest);
             Latest = _latest;
             _haveState = true;
-            _buffer.Add(s, Time.realtimeSinceStartup);
+            _buffer.Add(s, s.ReceivedS); // stamped on arrival, not when Update got to it
             // visibility, scales and the HUD follow the newest frame (complete sets: absent = the scene's)
             foreach (var o in Scene.Objects) SetActive(o.Id, s.Visible, o.Visible);
             foreach (var o in Scene.Overlays) SetActive(o.Id, s.Visible, o.Visible);
