@@ -121,9 +121,11 @@ namespace Viestac.Client
         public readonly Dictionary<string, Vec3> Scales = new Dictionary<string, Vec3>();
         public readonly Dictionary<string, double> Stiffness = new Dictionary<string, double>();
         public readonly Dictionary<string, bool> Haptic = new Dictionary<string, bool>();
-        /// <summary>The driver's client id (a long for a /ws client, "udp:HOST:PORT" for a bridge), or null when nobody drives.</summary>
-        public object Driver;
-        public long DriverSeq;
+        /// <summary>Whether a source drives the HIP (`driver` not null); then either DriverClientId
+        /// (a /ws client's welcome id) or DriverBridge ("udp:HOST:PORT") names it.</summary>
+        public bool HasDriver;
+        public long DriverClientId, DriverSeq;
+        public string DriverBridge;
 
         readonly List<Cue> _cuePool = new List<Cue>();
 
@@ -139,13 +141,16 @@ namespace Viestac.Client
         {
             Contacts.Clear(); Objects.Clear(); Values.Clear(); Visible.Clear(); Events.Clear();
             Scales.Clear(); Stiffness.Clear(); Haptic.Clear();
-            _cuePool.AddRange(Cues);
+            for (int i = 0; i < Cues.Count; i++) _cuePool.Add(Cues[i]); // AddRange would copy through a new array
             Cues.Clear();
-            Driver = null; DriverSeq = 0; Telemetry = default(Telemetry); Hud = ""; Contact = false;
+            HasDriver = false; DriverClientId = 0; DriverBridge = null; DriverSeq = 0; Telemetry = default(Telemetry); Hud = ""; Contact = false;
         }
 
         /// <summary>Whether this client's own tracker drives the HIP (`driver[0]` is its welcome's client id).</summary>
-        public bool DrivenBy(long clientId) { return Driver is long && (long)Driver == clientId; }
+        public bool DrivenBy(long clientId) { return HasDriver && DriverBridge == null && DriverClientId == clientId; }
+
+        // the last box of each `values` entry: an unchanged number is not boxed again
+        internal readonly Dictionary<string, object> ValueBoxes = new Dictionary<string, object>();
 
         public void CopyTo(StateFrame other)
         {
@@ -161,7 +166,7 @@ namespace Viestac.Client
             foreach (var kv in Scales) other.Scales[kv.Key] = kv.Value;
             foreach (var kv in Stiffness) other.Stiffness[kv.Key] = kv.Value;
             foreach (var kv in Haptic) other.Haptic[kv.Key] = kv.Value;
-            other.Driver = Driver; other.DriverSeq = DriverSeq;
+            other.HasDriver = HasDriver; other.DriverClientId = DriverClientId; other.DriverBridge = DriverBridge; other.DriverSeq = DriverSeq;
         }
     }
 

@@ -8,6 +8,14 @@ using System.Text;
 
 namespace Viestac.Client
 {
+    /// <summary>float32 ↔ its bits without allocating (BitConverter.GetBytes would).</summary>
+    [System.Runtime.InteropServices.StructLayout(System.Runtime.InteropServices.LayoutKind.Explicit)]
+    struct FloatBits
+    {
+        [System.Runtime.InteropServices.FieldOffset(0)] public int I;
+        [System.Runtime.InteropServices.FieldOffset(0)] public float F;
+    }
+
     /// <summary>A frame the protocol refuses, with its error code (`bad_encoding`, `bad_message`, `non_finite`, ...).</summary>
     public sealed class ProtocolException : Exception
     {
@@ -89,7 +97,7 @@ namespace Viestac.Client
         public void WriteFloat32(float v)
         {
             Byte(0xca);
-            BigEndian((uint)BitConverter.ToInt32(BitConverter.GetBytes(v), 0), 4);
+            BigEndian((uint)new FloatBits { F = v }.I, 4);
         }
 
         /// <summary>The canonical number rule: integral and below 2^53 in magnitude → int, else float64.
@@ -143,12 +151,14 @@ namespace Viestac.Client
     }
 
     /// <summary>Returns the same string instance for the same short UTF-8 bytes (map keys, object
-    /// ids, cue kinds), so steady-state frames allocate no strings for them.</summary>
+    /// ids, cue kinds, the scene hash, the HUD), so steady-state frames allocate no strings for
+    /// them. Four-way: a string that shares a slot with another still stays.</summary>
     public sealed class StringCache
     {
-        const int Slots = 512, MaxBytes = 48;
+        const int Slots = 1024, Ways = 4, MaxBytes = 96;
         readonly byte[][] _bytes = new byte[Slots][];
         readonly string[] _strings = new string[Slots];
+        int _evict;
         static readonly UTF8Encoding Utf8 = new UTF8Encoding(false, true);
 
         public string Get(byte[] buf, int offset, int count)
@@ -156,17 +166,20 @@ namespace Viestac.Client
             if (count > MaxBytes) return Decode(buf, offset, count);
             uint h = 2166136261;
             for (int i = 0; i < count; i++) h = (h ^ buf[offset + i]) * 16777619;
-            int slot = (int)(h % Slots);
-            var cached = _bytes[slot];
-            if (cached != null && cached.Length == count)
+            int set = (int)(h % (Slots / Ways)) * Ways, free = -1;
+            for (int w = 0; w < Ways; w++)
             {
+                var cached = _bytes[set + w];
+                if (cached == null) { if (free < 0) free = set + w; continue; }
+                if (cached.Length != count) continue;
                 bool same = true;
                 for (int i = 0; i < count && same; i++) same = cached[i] == buf[offset + i];
-                if (same) return _strings[slot];
+                if (same) return _strings[set + w];
             }
             var s = Decode(buf, offset, count);
             var copy = new byte[count];
             Array.Copy(buf, offset, copy, 0, count);
+            int slot = free >= 0 ? free : set + (_evict++ & (Ways - 1));
             _bytes[slot] = copy;
             _strings[slot] = s;
             return s;
@@ -203,6 +216,179 @@ namespace Viestac.Client
 
         public object ReadFrame(byte[] frame) { return ReadFrame(frame, 0, frame.Length); }
 
+        static readonly object True = true, False = false; // one box each, not one per value
+
+        // ---- cursor: typed decoding (Protocol's state frames) without building a tree ----------
+
+        public void Begin(byte[] buf, int offset, int count) { _buf = buf; _pos = offset; _end = offset + count; }
+        public int Position { get { return _pos; } set { _pos = value; } }
+
+        public void EndFrame()
+        {
+            if (_pos != _end) throw new ProtocolException("bad_encoding", "bytes after the msgpack value");
+        }
+
+        public bool TryReadNil()
+        {
+            Need(1);
+            if (_buf[_pos] != 0xc0) return false;
+            _pos++;
+            return true;
+        }
+
+        public bool IsString { get { Need(1); byte b = _buf[_pos]; return (b >= 0xa0 && b <= 0xbf) || (b >= 0xd9 && b <= 0xdb); } }
+        public bool IsMap { get { Need(1); byte b = _buf[_pos]; return (b >= 0x80 && b <= 0x8f) || b == 0xde || b == 0xdf; } }
+
+        static ProtocolException Bad(string what) { return new ProtocolException("bad_message", what); }
+
+        public int ReadMapHeader(string what)
+        {
+            Need(1);
+            byte b = _buf[_pos];
+            int n;
+            if (b >= 0x80 && b <= 0x8f) { _pos++; n = b & 0x0f; }
+            else if (b == 0xde) { _pos++; n = (int)Big(2); }
+            else if (b == 0xdf) { _pos++; n = Len32(); }
+            else throw Bad(what + " is a map");
+            Need(2 * n);
+            return n;
+        }
+
+        public int ReadArrayHeader(string what)
+        {
+            Need(1);
+            byte b = _buf[_pos];
+            int n;
+            if (b >= 0x90 && b <= 0x9f) { _pos++; n = b & 0x0f; }
+            else if (b == 0xdc) { _pos++; n = (int)Big(2); }
+            else if (b == 0xdd) { _pos++; n = Len32(); }
+            else throw Bad(what + " is an array");
+            Need(n);
+            return n;
+        }
+
+        public string ReadString(string what)
+        {
+            if (!IsString) throw Bad(what + " is a string");
+            return (string)ReadValue(0);
+        }
+
+        public bool ReadBool(string what)
+        {
+            Need(1);
+            byte b = _buf[_pos];
+            if (b != 0xc2 && b != 0xc3) throw Bad(what + " is a bool");
+            _pos++;
+            return b == 0xc3;
+        }
+
+        public bool IsBool { get { Need(1); return _buf[_pos] == 0xc2 || _buf[_pos] == 0xc3; } }
+
+        public bool IsNumber
+        {
+            get { Need(1); byte b = _buf[_pos]; return b <= 0x7f || b >= 0xe0 || (b >= 0xca && b <= 0xd3); }
+        }
+
+        /// <summary>An int or float as a double, without boxing it.</summary>
+        public double ReadNumber(string what)
+        {
+            if (!IsNumber) throw Bad(what + " is a number");
+            byte b = _buf[_pos];
+            if (b == 0xca) { _pos++; return Finite(new FloatBits { I = (int)(uint)Big(4) }.F); }
+            if (b == 0xcb) { _pos++; return Finite(BitConverter.Int64BitsToDouble((long)Big(8))); }
+            if (b == 0xcf)
+            {
+                _pos++;
+                return Big(8); // ulong → double: beyond long it is out of range for the field check anyway
+            }
+            return ReadInt64Raw();
+        }
+
+        /// <summary>Any value, as ReadFrame gives it, at nesting level `depth`; a number equal to
+        /// `previous` (same kind) returns `previous` itself, so unchanged values allocate nothing.</summary>
+        public object ReadValue(int depth, object previous)
+        {
+            Need(1);
+            byte b = _buf[_pos];
+            if (previous is long && (b <= 0x7f || b >= 0xe0 || (b >= 0xcc && b <= 0xd3)))
+            {
+                int at = _pos;
+                long v = ReadInt64Raw();
+                if (v == (long)previous) return previous;
+                _pos = at;
+            }
+            else if (previous is double && b == 0xcb)
+            {
+                int at = _pos;
+                _pos++;
+                long bits = (long)Big(8);
+                if (bits == BitConverter.DoubleToInt64Bits((double)previous)) return previous;
+                _pos = at;
+            }
+            return ReadValue(depth);
+        }
+
+        long ReadInt64Raw()
+        {
+            byte b = _buf[_pos++];
+            if (b <= 0x7f) return b;
+            if (b >= 0xe0) return (sbyte)b;
+            switch (b)
+            {
+                case 0xcc: return (long)Big(1);
+                case 0xcd: return (long)Big(2);
+                case 0xce: return (long)Big(4);
+                case 0xcf: { ulong u = Big(8); return u > long.MaxValue ? long.MinValue : (long)u; }
+                case 0xd0: return (sbyte)Big(1);
+                case 0xd1: return (short)Big(2);
+                case 0xd2: return (int)Big(4);
+                default: return (long)Big(8);
+            }
+        }
+
+        /// <summary>Passes over one value with the checks ReadFrame makes (finite floats, UTF-8,
+        /// nesting), allocating nothing.</summary>
+        public void Skip(int depth)
+        {
+            Need(1);
+            byte b = _buf[_pos];
+            int n;
+            if (b <= 0x7f || b >= 0xe0 || b == 0xc0 || b == 0xc2 || b == 0xc3) { _pos++; return; }
+            if ((b >= 0xa0 && b <= 0xbf) || (b >= 0xd9 && b <= 0xdb))
+            {
+                _pos++;
+                n = b <= 0xbf ? b & 0x1f : b == 0xd9 ? (int)Big(1) : b == 0xda ? (int)Big(2) : Len32();
+                Need(n);
+                try { StrictUtf8.GetCharCount(_buf, _pos, n); }
+                catch (DecoderFallbackException) { throw new ProtocolException("bad_encoding", "a string is not valid UTF-8"); }
+                _pos += n;
+                return;
+            }
+            if ((b >= 0x80 && b <= 0x8f) || b == 0xde || b == 0xdf)
+            {
+                if (depth + 1 > MaxDepth) throw Bad("nested deeper than 32");
+                n = ReadMapHeader("");
+                for (int i = 0; i < n; i++)
+                {
+                    if (!IsString) throw Bad("a map key is not a string");
+                    Skip(depth + 1); Skip(depth + 1);
+                }
+                return;
+            }
+            if ((b >= 0x90 && b <= 0x9f) || b == 0xdc || b == 0xdd)
+            {
+                if (depth + 1 > MaxDepth) throw Bad("nested deeper than 32");
+                n = ReadArrayHeader("");
+                for (int i = 0; i < n; i++) Skip(depth + 1);
+                return;
+            }
+            if (b == 0xca) { _pos++; var bits = (int)(uint)Big(4); Finite(new FloatBits { I = bits }.F); return; }
+            if (b == 0xcb) { _pos++; Finite(BitConverter.Int64BitsToDouble((long)Big(8))); return; }
+            ReadValue(depth); // the other ints, bin, and the refusals
+        }
+
+        static readonly UTF8Encoding StrictUtf8 = new UTF8Encoding(false, true);
+
         void Need(int n)
         {
             if (_end - _pos < n) throw new ProtocolException("bad_encoding", "the msgpack frame is truncated");
@@ -234,15 +420,15 @@ namespace Viestac.Client
             switch (b)
             {
                 case 0xc0: return null;
-                case 0xc2: return false;
-                case 0xc3: return true;
+                case 0xc2: return False;
+                case 0xc3: return True;
                 case 0xc4: return Bin((int)Big(1));
                 case 0xc5: return Bin((int)Big(2));
                 case 0xc6: return Bin(Len32());
                 case 0xca:
                 {
                     var bits = (int)(uint)Big(4);
-                    return Finite(BitConverter.ToSingle(BitConverter.GetBytes(bits), 0));
+                    return Finite(new FloatBits { I = bits }.F);
                 }
                 case 0xcb: return Finite(BitConverter.Int64BitsToDouble((long)Big(8)));
                 case 0xcc: return (long)Big(1);

@@ -74,6 +74,50 @@ namespace Viestac.Client
             }
         }
 
+        /// <summary>Decodes and checks one frame. A `state` is read straight into `reuse` (no tree,
+        /// no allocation in steady state); other messages through the plain-object tree.</summary>
+        public static ServerMessage Decode(MsgPackReader r, byte[] buf, int offset, int count, StateFrame reuse)
+        {
+            r.Begin(buf, offset, count);
+            if (reuse != null && PeekType(r) == "state")
+            {
+                try
+                {
+                    r.Begin(buf, offset, count);
+                    StateReader.Read(r, reuse);
+                    r.EndFrame();
+                    return reuse;
+                }
+                catch (ProtocolException e) when (e.Code == "bad_message")
+                {
+                    // The whole frame's encoding errors (non_finite, bad_encoding) come first, as
+                    // for the server's codec: the tree reader finds them, or the refusal stands.
+                    r.ReadFrame(buf, offset, count);
+                    throw;
+                }
+            }
+            return Parse(r.ReadFrame(buf, offset, count), reuse);
+        }
+
+        /// <summary>The `type` of the map at the cursor (encoders write it first), or null.</summary>
+        static string PeekType(MsgPackReader r)
+        {
+            try
+            {
+                if (!r.IsMap) return null;
+                int n = r.ReadMapHeader("a message");
+                for (int i = 0; i < n; i++)
+                {
+                    if (!r.IsString) return null;
+                    var key = r.ReadString("a key");
+                    if (key == "type") return r.IsString ? r.ReadString("type") : null;
+                    r.Skip(1);
+                }
+            }
+            catch (ProtocolException) { /* the tree reader reports it */ }
+            return null;
+        }
+
         static Welcome ParseWelcome(Dictionary<string, object> m)
         {
             var w = new Welcome
@@ -176,8 +220,9 @@ namespace Viestac.Client
             {
                 var d = driver as List<object>;
                 if (d == null || d.Count != 2) throw Bad("state.driver is [client_id, seq] or null");
-                if (d[0] is string) s.Driver = d[0];
-                else s.Driver = AsInt(d[0], "state.driver[0]", 1);
+                s.HasDriver = true;
+                if (d[0] is string) s.DriverBridge = (string)d[0];
+                else s.DriverClientId = AsInt(d[0], "state.driver[0]", 1);
                 s.DriverSeq = AsInt(d[1], "state.driver[1]", 0);
             }
             return s;

@@ -312,9 +312,8 @@ namespace Viestac.Client
                         long started = Stopwatch.GetTimestamp();
                         try
                         {
-                            var decoded = reader.ReadFrame(buffer.Bytes, 0, n);
                             var pooled = RentState();
-                            m = Protocol.Parse(decoded, pooled);
+                            m = Protocol.Decode(reader, buffer.Bytes, 0, n, pooled);
                             if (!(m is StateFrame)) lock (_statePool) _statePool.Push(pooled);
                         }
                         catch (ProtocolException e)

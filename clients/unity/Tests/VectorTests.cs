@@ -166,11 +166,79 @@ namespace Viestac.Client.Tests
             Assert.That(n, Is.GreaterThanOrEqualTo(2));
         }
 
+        /// <summary>The session's path: Protocol.Decode (states read straight into a pooled frame).</summary>
         static string Refusal(MsgPackReader r, string hex)
         {
-            try { Protocol.Parse(r.ReadFrame(TestPaths.Hex(hex))); }
+            var bytes = TestPaths.Hex(hex);
+            try { Protocol.Decode(r, bytes, 0, bytes.Length, new StateFrame()); }
             catch (ProtocolException e) { return e.Code; }
             return "(accepted)";
+        }
+
+        [Test]
+        public void EveryRefusedServerFrameGetsItsCodeFromTheTreePathToo()
+        {
+            var r = new MsgPackReader();
+            foreach (var v in Vectors("invalid.json", "server_frames"))
+            {
+                string code = "(accepted)";
+                try { Protocol.Parse(r.ReadFrame(TestPaths.Hex((string)v["msgpack_hex"]))); }
+                catch (ProtocolException e) { code = e.Code; }
+                Assert.AreEqual((string)v["code"], code, (string)v["name"]);
+            }
+        }
+
+        [Test]
+        public void TheDirectStateReaderAgreesWithTheTreePath()
+        {
+            var r = new MsgPackReader();
+            var frames = Vectors("messages.json", "vectors").Concat(Vectors("messages.json", "received"))
+                .Where(v => (string)v["type"] == "state").Select(v => TestPaths.Hex((string)v["msgpack_hex"])).ToList();
+            Assert.That(frames.Count, Is.GreaterThanOrEqualTo(4));
+            var direct = new StateFrame();
+            foreach (var bytes in frames)
+            {
+                var viaTree = (StateFrame)Protocol.Parse(r.ReadFrame(bytes));
+                Assert.AreSame(direct, Protocol.Decode(r, bytes, 0, bytes.Length, direct));
+                Assert.AreEqual(Json.Write(Describe(viaTree)), Json.Write(Describe(direct)));
+            }
+        }
+
+        static Dictionary<string, object> Describe(StateFrame s)
+        {
+            return new Dictionary<string, object>
+            {
+                { "frame", s.Frame }, { "tick", s.Tick }, { "t", s.T }, { "scene", s.SceneHash }, { "hud", s.Hud }, { "contact", s.Contact },
+                { "hip", new List<object> { s.Hip.X, s.Hip.Y, s.Hip.Z } }, { "proxy", new List<object> { s.Proxy.X, s.Proxy.Y, s.Proxy.Z } },
+                { "force", new List<object> { s.Force.X, s.Force.Y, s.Force.Z } },
+                { "contacts", s.Contacts.Select(c => (object)new List<object> { c.ObjectId, c.Normal.X, c.Normal.Y, c.Normal.Z, c.Depth }).ToList() },
+                { "objects", s.Objects.Select(o => (object)new List<object> { o.Id, o.Pos.X, o.Pos.Y, o.Pos.Z, o.Rot.W, o.Rot.X, o.Rot.Y, o.Rot.Z }).ToList() },
+                { "cues", s.Cues.Select(c => (object)new List<object> { c.Kind, Json.Write(c.Fields.OrderBy(kv => kv.Key).Select(kv => (object)new List<object> { kv.Key, kv.Value }).ToList()) }).ToList() },
+                { "values", s.Values.ToDictionary(kv => kv.Key, kv => kv.Value) },
+                { "telemetry", new List<object> { s.Telemetry.PeriodP50Us, s.Telemetry.PeriodP99Us, s.Telemetry.PeriodMaxUs, s.Telemetry.TickCostP99Us, s.Telemetry.Overruns, s.Telemetry.Ticks, s.Telemetry.Rt } },
+                { "visible", s.Visible.ToDictionary(kv => kv.Key, kv => (object)kv.Value) },
+                { "haptic", s.Haptic.ToDictionary(kv => kv.Key, kv => (object)kv.Value) },
+                { "stiffness", s.Stiffness.ToDictionary(kv => kv.Key, kv => (object)kv.Value) },
+                { "scales", s.Scales.ToDictionary(kv => kv.Key, kv => (object)new List<object> { kv.Value.X, kv.Value.Y, kv.Value.Z }) },
+                { "events", s.Events.Cast<object>().ToList() },
+                { "driver", new List<object> { s.HasDriver, s.DriverClientId, s.DriverBridge, s.DriverSeq } },
+            };
+        }
+
+        [Test]
+        public void DecodingStatesInSteadyStateLeavesNoGarbage()
+        {
+            // A frame with every field (values included) decoded many times into the same pooled
+            // frame: were it to allocate even a few bytes a frame, the nursery would fill and collect.
+            var v = Vectors("messages.json", "vectors").First(x => (string)x["name"] == "state-free-moving-objects");
+            var bytes = TestPaths.Hex((string)v["msgpack_hex"]);
+            var r = new MsgPackReader();
+            var s = new StateFrame();
+            for (int i = 0; i < 1000; i++) Protocol.Decode(r, bytes, 0, bytes.Length, s);
+            int before = GC.CollectionCount(0);
+            for (int i = 0; i < 300000; i++) Protocol.Decode(r, bytes, 0, bytes.Length, s);
+            Assert.AreEqual(before, GC.CollectionCount(0), "collections while decoding");
+            Assert.That(s.Objects.Count, Is.GreaterThan(0));
         }
 
         static double[] Nums(object list) { return ((List<object>)list).Select(Convert.ToDouble).ToArray(); }
