@@ -165,6 +165,47 @@ namespace Viestac.Client.Tests
         static CancellationToken TimeoutToken() { return new CancellationTokenSource(3000).Token; }
 
         [Test]
+        public void AQuietConnectionIsDroppedAndReplaced()
+        {
+            // keepalive: no frame for ReceiveTimeoutS (states come at 60 Hz) means a dead connection
+            var transports = new BlockingCollection<FakeTransport>();
+            var s = new ViestacSession(new SessionOptions
+            {
+                Url = new Uri("ws://x/ws"), Log = _ => { }, ReceiveTimeoutS = 0.2,
+                Backoff = new Backoff { InitialS = 0.01, MaxS = 0.02 },
+                TransportFactory = () => { var f = new FakeTransport(); transports.Add(f); return f; },
+            });
+            string why = null;
+            s.StatusChanged += (st, reason) => { if (st == ConnectionStatus.Reconnecting && reason.Length > 0) why = reason; };
+            s.Start();
+            var first = transports.Take(TimeoutToken());
+            first.Push(Vector("welcome"));
+            first.Push(State(1));
+            Assert.IsNotNull(transports.Take(TimeoutToken()), "a second connection after the silence");
+            Assert.IsTrue(WaitFor(() => { s.Drain(); return why != null; }));
+            StringAssert.Contains("no frame for 0.2 s", why);
+            s.Dispose();
+        }
+
+        [Test]
+        public void StatesAreStampedOnArrivalOnTheSessionClock()
+        {
+            var t = new FakeTransport();
+            var s = new ViestacSession(new SessionOptions { Url = new Uri("ws://x/ws"), TransportFactory = () => t, Log = _ => { } });
+            var stamps = new List<double>();
+            s.StateReceived += st => stamps.Add(st.ReceivedS);
+            s.Start();
+            t.Push(Vector("welcome")); t.Push(State(1));
+            Assert.IsTrue(WaitFor(() => s.Pending >= 2));
+            Thread.Sleep(100); // dispatched later than it arrived
+            double drainedAt = s.NowS;
+            s.Drain();
+            Assert.AreEqual(1, stamps.Count);
+            Assert.That(stamps[0], Is.GreaterThan(0).And.LessThan(drainedAt - 0.05));
+            s.Dispose();
+        }
+
+        [Test]
         public void ReconnectsAfterADropAndStopsWhenRefused()
         {
             var transports = new BlockingCollection<FakeTransport>();
