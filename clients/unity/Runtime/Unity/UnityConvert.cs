@@ -20,6 +20,19 @@ namespace Viestac.Unity
             return c;
         }
 
+        /// <summary>The Standard shader's "Fade" mode: a colour's alpha shows only with blending on.</summary>
+        public static void MakeTransparent(UnityEngine.Material m)
+        {
+            m.SetFloat("_Mode", 2);
+            m.SetInt("_SrcBlend", (int)UnityEngine.Rendering.BlendMode.SrcAlpha);
+            m.SetInt("_DstBlend", (int)UnityEngine.Rendering.BlendMode.OneMinusSrcAlpha);
+            m.SetInt("_ZWrite", 0);
+            m.DisableKeyword("_ALPHATEST_ON");
+            m.EnableKeyword("_ALPHABLEND_ON");
+            m.DisableKeyword("_ALPHAPREMULTIPLY_ON");
+            m.renderQueue = (int)UnityEngine.Rendering.RenderQueue.Transparent;
+        }
+
         public static Mesh Mesh(ShapeMesh sceneMesh)
         {
             var u = sceneMesh.ToUnity();

@@ -148,7 +148,7 @@ namespace Viestac.Unity
             var go = new GameObject(name);
             go.transform.SetParent(Root, false);
             go.AddComponent<MeshFilter>().sharedMesh = UnityConvert.Mesh(ShapeMesh.For(new Shape { Type = "sphere", Radius = radius }));
-            var m = MaterialFor(new Client.Material { Color = "#ffffff" });
+            var m = MaterialFor(new Client.Material { Color = "#ffffff", Opacity = colour.a });
             m.color = colour;
             go.AddComponent<MeshRenderer>().sharedMaterial = m;
             go.SetActive(radius > 0);
@@ -159,6 +159,7 @@ namespace Viestac.Unity
         {
             var mat = baseMaterial != null ? new UnityEngine.Material(baseMaterial) : new UnityEngine.Material(Shader.Find("Standard"));
             mat.color = UnityConvert.Colour(m.Color, m.Opacity);
+            if (m.Opacity < 1) UnityConvert.MakeTransparent(mat);
             return mat;
         }
 

@@ -124,6 +124,11 @@ namespace UnityEngine
         public Material(Shader shader) { }
         public Material(Material source) { }
         public Color color;
+        public int renderQueue;
+        public void SetFloat(string name, float value) { }
+        public void SetInt(string name, int value) { }
+        public void EnableKeyword(string keyword) { }
+        public void DisableKeyword(string keyword) { }
     }
 
     public sealed class Mesh : Object
@@ -169,4 +174,6 @@ namespace UnityEngine
 namespace UnityEngine.Rendering
 {
     public enum IndexFormat { UInt16, UInt32 }
+    public enum BlendMode { Zero = 0, One = 1, SrcAlpha = 5, OneMinusSrcAlpha = 10 }
+    public enum RenderQueue { Transparent = 3000 }
 }
