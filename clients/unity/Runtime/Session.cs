@@ -160,11 +160,12 @@ namespace Viestac.Client
         // ---- sending (any thread) -------------------------------------------------------
 
         /// <summary>Sends the HIP's pose (scene frame); only the newest sample waiting is sent.
-        /// `tMs` defaults to this machine's epoch milliseconds.</summary>
+        /// `tMs` defaults to this machine's epoch milliseconds. Throws ProtocolException
+        /// (`out_of_range` outside the ±10 workspace, `bad_message`, `non_finite`) as the server would.</summary>
         public void SendTracker(Vec3 pos, Quat? quat = null, double tMs = double.NaN)
         {
-            if (Math.Abs(pos.X) > Protocol.WorkspaceHalfExtent || Math.Abs(pos.Y) > Protocol.WorkspaceHalfExtent || Math.Abs(pos.Z) > Protocol.WorkspaceHalfExtent)
-                throw new ArgumentOutOfRangeException("pos", "a tracked point lies within ±10 scene units (docs/protocol.md \"Bounds\")");
+            // refused here with the server's code rather than answered with an error frame later
+            ClientChecks.CheckTracker(0, double.IsNaN(tMs) ? 0 : tMs, pos, quat);
             lock (_sendLock)
             {
                 _trackerPos = pos;
@@ -186,9 +187,11 @@ namespace Viestac.Client
             return true;
         }
 
-        /// <summary>A key or command (`input`); `value` null, a number, a bool or a string.</summary>
+        /// <summary>A key or command (`input`); `value` null, a number, a bool or a string (≤ 200
+        /// characters). Throws ProtocolException for what the server would refuse.</summary>
         public void SendInput(string key, string action, object value = null)
         {
+            ClientChecks.CheckInput(key, action, value);
             lock (_sendLock) _inputs.Enqueue(new[] { key, action, value });
             _sendSignal.Release();
         }

@@ -157,7 +157,8 @@ namespace Viestac.Client.Tests
             Assert.AreEqual("tracker", tracker["type"]);
             CollectionAssert.AreEqual(new object[] { 0.1, 0.2, 0.3 }, (List<object>)tracker["pos"]);
             Assert.AreEqual(5L, tracker["t"]);
-            Assert.Throws<ArgumentOutOfRangeException>(() => s.SendTracker(new Vec3(11, 0, 0)));
+            Assert.AreEqual("out_of_range", Assert.Throws<ProtocolException>(() => s.SendTracker(new Vec3(11, 0, 0))).Code);
+            Assert.AreEqual("bad_message", Assert.Throws<ProtocolException>(() => s.SendInput("r", "hold")).Code);
             Assert.IsFalse(s.SendTrackerPoint("left.palm", new Vec3(0, 0, 0)), "v1.3 carries only the HIP");
             s.Dispose();
         }

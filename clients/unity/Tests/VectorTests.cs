@@ -167,6 +167,25 @@ namespace Viestac.Client.Tests
         }
 
         /// <summary>The session's path: Protocol.Decode (states read straight into a pooled frame).</summary>
+        [Test]
+        public void EveryFrameTheServerRefusesTheClientsChecksRefuseWithTheSameCode()
+        {
+            var r = new MsgPackReader();
+            int n = 0;
+            foreach (var v in Vectors("invalid.json", "frames"))
+            {
+                string got = "(accepted)";
+                try { ClientChecks.Check(r.ReadFrame(TestPaths.Hex((string)v["msgpack_hex"]))); }
+                catch (ProtocolException e) { got = e.Code; }
+                Assert.AreEqual((string)v["code"], got, (string)v["name"]);
+                n++;
+            }
+            Assert.That(n, Is.GreaterThanOrEqualTo(40));
+            foreach (var v in Vectors("messages.json", "vectors").Concat(Vectors("messages.json", "received"))
+                         .Where(x => (string)x["direction"] == "client_to_server"))
+                Assert.DoesNotThrow(() => ClientChecks.Check(r.ReadFrame(TestPaths.Hex((string)v["msgpack_hex"]))), (string)v["name"]);
+        }
+
         static string Refusal(MsgPackReader r, string hex)
         {
             var bytes = TestPaths.Hex(hex);
