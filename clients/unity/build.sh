@@ -12,7 +12,7 @@ nunit=/usr/lib/cli/nunit.framework-2.6.3/nunit.framework.dll
 [ -f "$nunit" ] || nunit=$(ls /usr/lib/cli/nunit.framework-*/nunit.framework.dll | head -1)
 mcs_() { mcs -langversion:7.2 -nologo -warnaserror+ -debug "$@"; }
 
-mcs_ -target:library -out:$out/Viestac.Client.dll -r:System.Net.Http.dll Runtime/*.cs
+mcs_ -target:library -out:$out/Viestac.Client.dll -r:System.Net.Http.dll -r:System.Numerics.dll Runtime/*.cs
 mcs_ -target:library -out:$out/UnityEngine.dll Tests/StandIn/*.cs
 mcs_ -target:library -out:$out/Viestac.Unity.dll -r:$out/Viestac.Client.dll -r:$out/UnityEngine.dll Runtime/Unity/*.cs
 mcs_ -target:library -out:$out/Viestac.Samples.dll -r:$out/Viestac.Client.dll -r:$out/Viestac.Unity.dll -r:$out/UnityEngine.dll $(find Samples~ -name '*.cs')

@@ -63,6 +63,8 @@ namespace Viestac.Client
         public Scene Scene;
         /// <summary>The decoded scene map, as the hash is computed over it.</summary>
         public Dictionary<string, object> Raw;
+        /// <summary>Whether `Hash` is the hash of the scene received (SceneHash.Of(Raw)).</summary>
+        public bool HashVerified;
     }
 
     public struct Contact

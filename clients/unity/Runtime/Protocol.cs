@@ -149,7 +149,8 @@ namespace Viestac.Client
         {
             var raw = Field(m, "scene") as Dictionary<string, object>;
             if (raw == null) throw Bad("scene.scene is a map");
-            return new SceneMessage { V = Int(m, "scene", "v", 1), Hash = Str(m, "scene", "hash"), Raw = raw, Scene = Scene.FromMap(raw) };
+            var hash = Str(m, "scene", "hash");
+            return new SceneMessage { V = Int(m, "scene", "v", 1), Hash = hash, Raw = raw, Scene = Scene.FromMap(raw), HashVerified = SceneHash.Of(raw) == hash };
         }
 
         static StateFrame ParseState(Dictionary<string, object> m, StateFrame s)

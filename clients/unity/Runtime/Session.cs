@@ -334,6 +334,9 @@ namespace Viestac.Client
                                 lock (_decodeUs) _decodeUs[_decodeCount++ % _decodeUs.Length] = (Stopwatch.GetTimestamp() - started) * 1e6 / Stopwatch.Frequency;
                         }
                         if (m is Welcome) _o.Backoff.Reset();
+                        var sc = m as SceneMessage;
+                        if (sc != null && !sc.HashVerified)
+                            _o.Log("ViestacSession: scene '" + sc.Scene.Name + "' does not hash to " + sc.Hash + " (docs/protocol.md \"Scene hash\"): drawn anyway");
                         var err = m as ErrorMessage;
                         if (err != null && (err.Code == "unauthorized" || err.Code == "unsupported_version"))
                         {

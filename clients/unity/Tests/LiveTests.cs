@@ -48,6 +48,7 @@ namespace Viestac.Client.Tests
                 Assert.That(s.Welcome.Minor, Is.GreaterThanOrEqualTo(3), "a v1.3 server or later");
                 Assert.AreEqual("admin", s.Welcome.Identity.Role);
                 Assert.IsNotNull(s.Scene.Scene.Objects.FirstOrDefault(o => o.Shape.Type == "hemisphere"));
+                Assert.IsTrue(s.Scene.HashVerified, "the server's scene hashes to its hash here too");
                 Assert.IsTrue(states.All(h => h == s.Scene.Hash), "every state names the scene received");
                 Assert.AreEqual(0, s.ProtocolErrors);
             }
@@ -104,6 +105,7 @@ namespace Viestac.Client.Tests
                 {
                     Assert.IsTrue(Pump(s, () => s.Scene.Hash != before && lastStateScene == s.Scene.Hash), "a new scene and states naming it");
                     Assert.AreNotEqual("contact-angle", s.Scene.Scene.Name);
+                    Assert.IsTrue(s.Scene.HashVerified, "the new scene hashes to its hash");
                 }
                 finally
                 {

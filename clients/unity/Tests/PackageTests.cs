@@ -38,7 +38,7 @@ namespace Viestac.Client.Tests
             var unity = typeof(ViestacSession).Assembly.GetReferencedAssemblies().Select(a => a.Name).ToList();
             CollectionAssert.DoesNotContain(unity, "UnityEngine");
             // what .NET Standard 2.0 (and so Unity 2021+) provides: no Mono-only assembly
-            CollectionAssert.IsSubsetOf(unity, new[] { "mscorlib", "System", "System.Core", "System.Net.Http" });
+            CollectionAssert.IsSubsetOf(unity, new[] { "mscorlib", "System", "System.Core", "System.Net.Http", "System.Numerics" });
         }
 
         [Test]
