@@ -165,9 +165,9 @@ namespace Viestac.Unity
 
         void ApplyCamera(SceneCamera c)
         {
+            // placed, not parented: the scene root is destroyed when the next scene comes
             var t = sceneCamera.transform;
-            t.SetParent(Root, false);
-            t.localPosition = UnityConvert.Position(c.Position);
+            t.position = Root.TransformPoint(UnityConvert.Position(c.Position));
             t.LookAt(Root.TransformPoint(UnityConvert.Position(c.Target)), Root.TransformDirection(UnityConvert.Position(c.Up)));
             sceneCamera.orthographic = c.Projection == "orthographic";
             if (sceneCamera.orthographic) sceneCamera.orthographicSize = (float)(c.Height / 2);
