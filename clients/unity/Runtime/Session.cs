@@ -300,6 +300,7 @@ namespace Viestac.Client
                 {
                     await t.ConnectAsync(_o.Url, Protocol.MsgPackSubprotocol, ct).ConfigureAwait(false);
                     Interlocked.Increment(ref _connections);
+                    lock (_sendLock) _trackerPending = false; // a sample from before the drop is stale now
                     hello.Clear();
                     Protocol.WriteHello(hello, _o.Role, _o.ClientName, _o.Token);
                     await t.SendAsync(hello.Segment, ct).ConfigureAwait(false);
