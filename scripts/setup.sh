@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Idempotent setup on Debian 12 (Python 3.11, Node 20): system packages, the Python venv in
 # .venv, and the browser client's npm packages. `--test` adds what the tests need (Chromium for
-# the browser tests, the test extras). Safe to run again: it skips what is already there.
+# the browser tests, Mono and NUnit for the C# client, the test extras). Safe to run again: it
+# skips what is already there.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -17,6 +18,11 @@ command -v make >/dev/null || apt_packages+=(make)
 if [ "$want_test" = 1 ]; then
   command -v chromium >/dev/null || apt_packages+=(chromium)
   command -v g++ >/dev/null || apt_packages+=(g++)  # compile-checks the ESP32 sketches
+  # the C# (Unity-style) client: Mono's C# 7.2 compiler, the .NET Standard facades, NUnit 2.6
+  command -v mcs >/dev/null || apt_packages+=(mono-mcs)
+  [ -f /usr/lib/mono/4.5/Facades/netstandard.dll ] || apt_packages+=(mono-devel)
+  command -v nunit-console >/dev/null || apt_packages+=(nunit-console)
+  ls /usr/lib/cli/nunit.framework-*/nunit.framework.dll >/dev/null 2>&1 || apt_packages+=(libnunit-cil-dev)
 fi
 if [ "${#apt_packages[@]}" -gt 0 ]; then
   echo "setup: installing Debian packages: ${apt_packages[*]}"

@@ -1,0 +1,106 @@
+// The checks the server makes of a client's message (docs/protocol.md "Client → server",
+// "Bounds"), made before sending: a bad tracker sample or input fails here, with the code the
+// server would answer, instead of costing an error frame. Tested against every refused frame of
+// tests/vectors/invalid.json.
+using System;
+using System.Collections.Generic;
+
+namespace Viestac.Client
+{
+    public static class ClientChecks
+    {
+        public const int MaxClientName = 64, MaxToken = 200, MaxKey = 32, MaxValueText = 200;
+
+        /// <summary>Checks a decoded client message; throws ProtocolException with the server's code.</summary>
+        public static void Check(object decoded)
+        {
+            var m = decoded as Dictionary<string, object>;
+            if (m == null) throw Protocol.Bad("a message is a map");
+            var type = Protocol.Field(m, "type") as string;
+            if (type == null) throw Protocol.Bad("a message has a string `type`");
+            switch (type)
+            {
+                case "hello":
+                    long v = Protocol.AsInt(Protocol.Field(m, "v"), "hello.v", long.MinValue);
+                    CheckHello(Protocol.Field(m, "role") as string, Protocol.Field(m, "client"), Protocol.Field(m, "token"));
+                    if (v != Protocol.Version) throw new ProtocolException("unsupported_version", "this server speaks protocol v1");
+                    break;
+                case "tracker":
+                {
+                    long seq = Protocol.AsInt(Protocol.Field(m, "seq"), "tracker.seq", 0);
+                    var t = Protocol.Field(m, "t");
+                    double tMs = Protocol.AsNum(t, "tracker.t");
+                    var pos = Protocol.Vec(Protocol.Field(m, "pos"), "tracker.pos");
+                    var quat = Protocol.Field(m, "quat");
+                    Quat? q = null;
+                    if (quat != null)
+                    {
+                        var a = quat as List<object>;
+                        if (a == null || a.Count != 4) throw Protocol.Bad("tracker.quat is [w, x, y, z]");
+                        q = new Quat(Protocol.AsNum(a[0], "tracker.quat"), Protocol.AsNum(a[1], "tracker.quat"),
+                                     Protocol.AsNum(a[2], "tracker.quat"), Protocol.AsNum(a[3], "tracker.quat"));
+                    }
+                    CheckTracker(seq, tMs, pos, q);
+                    break;
+                }
+                case "input":
+                    CheckInput(Protocol.Field(m, "key") as string, Protocol.Field(m, "action") as string, Protocol.Field(m, "value"));
+                    break;
+                default: throw new ProtocolException("unknown_type", "no client message of type '" + type + "'");
+            }
+        }
+
+        public static void CheckHello(string role, object client, object token)
+        {
+            if (role != Roles.Participant && role != Roles.Operator && role != Roles.Observer)
+                throw Protocol.Bad("hello.role is participant, operator or observer");
+            if (client != null && !(client is string && CodePoints((string)client) <= MaxClientName))
+                throw Protocol.Bad("hello.client is a string of at most 64 characters");
+            if (token != null && !(token is string && CodePoints((string)token) <= MaxToken))
+                throw Protocol.Bad("hello.token is a string of at most 200 characters");
+        }
+
+        public static void CheckTracker(long seq, double tMs, Vec3 pos, Quat? quat)
+        {
+            if (seq < 0) throw Protocol.Bad("tracker.seq is ≥ 0");
+            if (seq > Protocol.MaxSafeInteger) throw new ProtocolException("out_of_range", "tracker.seq is beyond 2^53 − 1");
+            if (double.IsNaN(tMs) || double.IsInfinity(tMs) || double.IsNaN(pos.X + pos.Y + pos.Z) || double.IsInfinity(pos.X + pos.Y + pos.Z))
+                throw new ProtocolException("non_finite", "NaN or Infinity in a number");
+            if (Math.Abs(tMs) > Protocol.MaxSafeInteger) throw new ProtocolException("out_of_range", "tracker.t is beyond ±(2^53 − 1) ms");
+            double h = Protocol.WorkspaceHalfExtent;
+            if (Math.Abs(pos.X) > h || Math.Abs(pos.Y) > h || Math.Abs(pos.Z) > h)
+                throw new ProtocolException("out_of_range", "tracker.pos lies outside the workspace (±10 scene units)");
+            if (quat.HasValue)
+            {
+                double n = quat.Value.Norm;
+                if (double.IsNaN(n) || double.IsInfinity(n)) throw new ProtocolException("non_finite", "NaN or Infinity in a number");
+                if (!(n >= 0.5 && n <= 2)) throw Protocol.Bad("tracker.quat has a norm in [0.5, 2]");
+            }
+        }
+
+        public static void CheckInput(string key, string action, object value)
+        {
+            if (key == null || CodePoints(key) < 1 || CodePoints(key) > MaxKey) throw Protocol.Bad("input.key is a string of 1..32 characters");
+            if (action != InputActions.Down && action != InputActions.Up && action != InputActions.Press)
+                throw Protocol.Bad("input.action is down, up or press");
+            if (value == null || value is bool || value is long || value is int) return;
+            if (value is double || value is float)
+            {
+                double d = Convert.ToDouble(value);
+                if (double.IsNaN(d) || double.IsInfinity(d)) throw new ProtocolException("non_finite", "NaN or Infinity in a number");
+                return;
+            }
+            var s = value as string;
+            if (s == null) throw Protocol.Bad("input.value is a number, a bool or a string");
+            if (CodePoints(s) > MaxValueText) throw Protocol.Bad("input.value is at most 200 characters");
+        }
+
+        /// <summary>Unicode code points (the protocol counts them; C# strings count UTF-16 units).</summary>
+        public static int CodePoints(string s)
+        {
+            int n = 0;
+            foreach (char c in s) if (!char.IsLowSurrogate(c)) n++;
+            return n;
+        }
+    }
+}

@@ -1,0 +1,237 @@
+// The session against an in-memory transport: the main-thread pump, the undrained warning, the
+// SynchronizationContext path, latest-wins tracker sending, reconnect and refusal.
+using System;
+using System.Collections.Concurrent;
+using System.Collections.Generic;
+using System.Linq;
+using System.Threading;
+using System.Threading.Tasks;
+using NUnit.Framework;
+
+namespace Viestac.Client.Tests
+{
+    /// <summary>A transport the test feeds: Push() a frame from "the server", Close() to drop it.</summary>
+    sealed class FakeTransport : ITransport
+    {
+        readonly BlockingCollection<byte[]> _frames = new BlockingCollection<byte[]>();
+        public readonly BlockingCollection<byte[]> Sent = new BlockingCollection<byte[]>();
+        public int CloseCode { get; private set; }
+        public string CloseReason { get; private set; }
+
+        public Task ConnectAsync(Uri uri, string subprotocol, CancellationToken ct)
+        {
+            Assert.AreEqual(Protocol.MsgPackSubprotocol, subprotocol);
+            return Task.FromResult(0);
+        }
+
+        public Task SendAsync(ArraySegment<byte> frame, CancellationToken ct)
+        {
+            Sent.Add(frame.ToArray());
+            return Task.FromResult(0);
+        }
+
+        public Task<int> ReceiveAsync(FrameBuffer buffer, CancellationToken ct)
+        {
+            return Task.Run(() =>
+            {
+                var f = _frames.Take(ct);
+                if (f.Length == 0) { CloseCode = 1001; CloseReason = "going away"; return -1; }
+                Array.Copy(f, buffer.Bytes, f.Length);
+                return f.Length;
+            });
+        }
+
+        public void Push(object message) { var w = new MsgPackWriter(); w.WriteValue(message); _frames.Add(w.ToArray()); }
+        public void Close() { _frames.Add(new byte[0]); }
+        public void Dispose() { }
+    }
+
+    [TestFixture]
+    public class SessionTests
+    {
+        static Dictionary<string, object> Vector(string name)
+        {
+            var root = (Dictionary<string, object>)TestPaths.LoadVectors("messages.json");
+            return (Dictionary<string, object>)((List<object>)root["vectors"]).Cast<Dictionary<string, object>>().First(v => (string)v["name"] == name)["message"];
+        }
+
+        static Dictionary<string, object> State(long frame)
+        {
+            var m = new Dictionary<string, object>(Vector("state-free-moving-objects"));
+            m["frame"] = frame;
+            m["t"] = 10.0 + frame / 60.0;
+            return m;
+        }
+
+        static bool WaitFor(Func<bool> condition, double seconds = 3)
+        {
+            var end = DateTime.UtcNow.AddSeconds(seconds);
+            while (DateTime.UtcNow < end) { if (condition()) return true; Thread.Sleep(5); }
+            return condition();
+        }
+
+        static Dictionary<string, object> Decode(byte[] frame) { return (Dictionary<string, object>)new MsgPackReader().ReadFrame(frame); }
+
+        [Test]
+        public void SendsHelloWithTokenAndDispatchesOnlyInDrainInOrder()
+        {
+            var t = new FakeTransport();
+            var log = new List<string>();
+            var s = new ViestacSession(new SessionOptions { Url = new Uri("ws://x/ws"), Token = "secret", Role = Roles.Operator, TransportFactory = () => t, Log = log.Add });
+            var seen = new List<string>();
+            s.Welcomed += w => seen.Add("welcome " + w.ClientId);
+            s.SceneReceived += sc => seen.Add("scene " + sc.Hash);
+            s.StateReceived += st => seen.Add("state " + st.Frame);
+            s.Start();
+            var hello = Decode(t.Sent.Take());
+            Assert.AreEqual("hello", hello["type"]); Assert.AreEqual("secret", hello["token"]); Assert.AreEqual("operator", hello["role"]);
+            t.Push(Vector("welcome")); t.Push(Vector("scene-minimal")); t.Push(State(1)); t.Push(State(2));
+            Assert.IsTrue(WaitFor(() => s.Pending >= 4));
+            Assert.IsEmpty(seen, "nothing fires before Drain()");
+            int mainThread = Thread.CurrentThread.ManagedThreadId, handlerThread = -1;
+            s.StateReceived += _ => handlerThread = Thread.CurrentThread.ManagedThreadId;
+            Assert.That(s.Drain(), Is.GreaterThanOrEqualTo(4));
+            var welcome = (long)Vector("welcome")["client_id"];
+            CollectionAssert.AreEqual(new[] { "welcome " + welcome, "scene " + Vector("scene-minimal")["hash"], "state 1", "state 2" }, seen);
+            Assert.AreEqual(mainThread, handlerThread);
+            Assert.AreEqual(ConnectionStatus.Connected, s.Status);
+            s.Dispose();
+        }
+
+        [Test]
+        public void WarnsWhenNobodyDrainsAndDropsTheOldestStatesBeyondTheCap()
+        {
+            var t = new FakeTransport();
+            var log = new List<string>();
+            var s = new ViestacSession(new SessionOptions { Url = new Uri("ws://x/ws"), TransportFactory = () => t, Log = m => { lock (log) log.Add(m); }, WarnQueueLength = 10, MaxQueueLength = 20 });
+            s.Start();
+            t.Push(Vector("welcome"));
+            for (int i = 0; i < 40; i++) t.Push(State(i));
+            Assert.IsTrue(WaitFor(() => s.StatesReceived == 40));
+            lock (log) Assert.IsTrue(log.Any(m => m.Contains("Drain()") && m.Contains("undrained")), string.Join("\n", log));
+            Assert.That(s.Pending, Is.LessThanOrEqualTo(20));
+            Assert.That(s.DroppedStates, Is.GreaterThan(0));
+            var frames = new List<long>();
+            s.StateReceived += st => frames.Add(st.Frame);
+            s.Drain();
+            Assert.AreEqual(39, frames.Last(), "the newest states survive");
+            s.Dispose();
+        }
+
+        sealed class QueueContext : SynchronizationContext
+        {
+            public readonly BlockingCollection<Action> Work = new BlockingCollection<Action>();
+            public override void Post(SendOrPostCallback d, object state) { Work.Add(() => d(state)); }
+        }
+
+        [Test]
+        public void ASynchronizationContextGetsTheMessagesWithoutDrain()
+        {
+            var t = new FakeTransport();
+            var ctx = new QueueContext();
+            var s = new ViestacSession(new SessionOptions { Url = new Uri("ws://x/ws"), TransportFactory = () => t, Context = ctx, Log = _ => { } });
+            var frames = new List<long>();
+            s.StateReceived += st => frames.Add(st.Frame);
+            s.Start();
+            t.Push(Vector("welcome")); t.Push(State(5));
+            Action work;
+            var end = DateTime.UtcNow.AddSeconds(3);
+            while (frames.Count == 0 && DateTime.UtcNow < end)
+                if (ctx.Work.TryTake(out work, 50)) work();
+            CollectionAssert.AreEqual(new long[] { 5 }, frames);
+            s.Dispose();
+        }
+
+        [Test]
+        public void SendsTheNewestTrackerSampleAndEveryInput()
+        {
+            var t = new FakeTransport();
+            var s = new ViestacSession(new SessionOptions { Url = new Uri("ws://x/ws"), TransportFactory = () => t, Log = _ => { } });
+            s.Start();
+            t.Sent.Take(); // hello
+            s.SendInput("r", InputActions.Press);
+            s.SendTracker(new Vec3(0.1, 0.2, 0.3), null, 5);
+            var input = Decode(t.Sent.Take(TimeoutToken()));
+            Assert.AreEqual("input", input["type"]); Assert.AreEqual("press", input["action"]);
+            var tracker = Decode(t.Sent.Take(TimeoutToken()));
+            Assert.AreEqual("tracker", tracker["type"]);
+            CollectionAssert.AreEqual(new object[] { 0.1, 0.2, 0.3 }, (List<object>)tracker["pos"]);
+            Assert.AreEqual(5L, tracker["t"]);
+            Assert.AreEqual("out_of_range", Assert.Throws<ProtocolException>(() => s.SendTracker(new Vec3(11, 0, 0))).Code);
+            Assert.AreEqual("bad_message", Assert.Throws<ProtocolException>(() => s.SendInput("r", "hold")).Code);
+            Assert.IsFalse(s.SendTrackerPoint("left.palm", new Vec3(0, 0, 0)), "v1.3 carries only the HIP");
+            s.Dispose();
+        }
+
+        static CancellationToken TimeoutToken() { return new CancellationTokenSource(3000).Token; }
+
+        [Test]
+        public void AQuietConnectionIsDroppedAndReplaced()
+        {
+            // keepalive: no frame for ReceiveTimeoutS (states come at 60 Hz) means a dead connection
+            var transports = new BlockingCollection<FakeTransport>();
+            var s = new ViestacSession(new SessionOptions
+            {
+                Url = new Uri("ws://x/ws"), Log = _ => { }, ReceiveTimeoutS = 0.2,
+                Backoff = new Backoff { InitialS = 0.01, MaxS = 0.02 },
+                TransportFactory = () => { var f = new FakeTransport(); transports.Add(f); return f; },
+            });
+            string why = null;
+            s.StatusChanged += (st, reason) => { if (st == ConnectionStatus.Reconnecting && reason.Length > 0) why = reason; };
+            s.Start();
+            var first = transports.Take(TimeoutToken());
+            first.Push(Vector("welcome"));
+            first.Push(State(1));
+            Assert.IsNotNull(transports.Take(TimeoutToken()), "a second connection after the silence");
+            Assert.IsTrue(WaitFor(() => { s.Drain(); return why != null; }));
+            StringAssert.Contains("no frame for 0.2 s", why);
+            s.Dispose();
+        }
+
+        [Test]
+        public void StatesAreStampedOnArrivalOnTheSessionClock()
+        {
+            var t = new FakeTransport();
+            var s = new ViestacSession(new SessionOptions { Url = new Uri("ws://x/ws"), TransportFactory = () => t, Log = _ => { } });
+            var stamps = new List<double>();
+            s.StateReceived += st => stamps.Add(st.ReceivedS);
+            s.Start();
+            t.Push(Vector("welcome")); t.Push(State(1));
+            Assert.IsTrue(WaitFor(() => s.Pending >= 2));
+            Thread.Sleep(100); // dispatched later than it arrived
+            double drainedAt = s.NowS;
+            s.Drain();
+            Assert.AreEqual(1, stamps.Count);
+            Assert.That(stamps[0], Is.GreaterThan(0).And.LessThan(drainedAt - 0.05));
+            s.Dispose();
+        }
+
+        [Test]
+        public void ReconnectsAfterADropAndStopsWhenRefused()
+        {
+            var transports = new BlockingCollection<FakeTransport>();
+            var s = new ViestacSession(new SessionOptions
+            {
+                Url = new Uri("ws://x/ws"), Log = _ => { },
+                Backoff = new Backoff { InitialS = 0.01, MaxS = 0.02 },
+                TransportFactory = () => { var f = new FakeTransport(); transports.Add(f); return f; },
+            });
+            var statuses = new List<ConnectionStatus>();
+            s.StatusChanged += (st, _) => statuses.Add(st);
+            s.Start();
+            var first = transports.Take(TimeoutToken());
+            first.Push(Vector("welcome"));
+            first.Close();
+            var second = transports.Take(TimeoutToken());
+            Assert.AreEqual("hello", Decode(second.Sent.Take(TimeoutToken()))["type"], "a new hello on the new connection");
+            second.Push(Vector("error-unauthorized"));
+            second.Close();
+            Assert.IsTrue(WaitFor(() => { s.Drain(); return s.Status == ConnectionStatus.Refused; }));
+            Thread.Sleep(100);
+            Assert.AreEqual(0, transports.Count, "no reconnect after unauthorized");
+            Assert.AreEqual(2, s.Connections);
+            CollectionAssert.IsSubsetOf(new[] { ConnectionStatus.Connected, ConnectionStatus.Reconnecting, ConnectionStatus.Refused }, statuses);
+            s.Dispose();
+        }
+    }
+}

@@ -1,0 +1,311 @@
+// Every shared protocol vector (tests/vectors/messages.json, invalid.json): byte-exact encoding,
+// decoding to the same map, and the client's refusals with their codes.
+using System;
+using System.Collections.Generic;
+using System.Linq;
+using NUnit.Framework;
+
+namespace Viestac.Client.Tests
+{
+    [TestFixture]
+    public class VectorTests
+    {
+        static Dictionary<string, object> Messages { get { return (Dictionary<string, object>)TestPaths.LoadVectors("messages.json"); } }
+        static Dictionary<string, object> Invalid { get { return (Dictionary<string, object>)TestPaths.LoadVectors("invalid.json"); } }
+
+        static IEnumerable<Dictionary<string, object>> Vectors(string file, string section)
+        {
+            var root = file == "messages.json" ? Messages : Invalid;
+            return ((List<object>)root[section]).Cast<Dictionary<string, object>>();
+        }
+
+        [Test]
+        public void EveryVectorMapEncodesToItsExactBytes()
+        {
+            var w = new MsgPackWriter();
+            int n = 0;
+            foreach (var v in Vectors("messages.json", "vectors"))
+            {
+                w.Clear();
+                w.WriteValue(v["message"]);
+                Assert.AreEqual((string)v["msgpack_hex"], TestPaths.ToHex(w.ToArray()), (string)v["name"]);
+                n++;
+            }
+            Assert.That(n, Is.GreaterThanOrEqualTo(30));
+        }
+
+        [Test]
+        public void EveryVectorDecodesToItsMapWithIntsAndFloatsApart()
+        {
+            var r = new MsgPackReader();
+            foreach (var v in Vectors("messages.json", "vectors"))
+            {
+                var decoded = r.ReadFrame(TestPaths.Hex((string)v["msgpack_hex"]));
+                AssertSame(v["message"], decoded, (string)v["name"]);
+            }
+        }
+
+        [Test]
+        public void EveryServerVectorParsesAsItsType()
+        {
+            var r = new MsgPackReader();
+            foreach (var v in Vectors("messages.json", "vectors").Where(v => (string)v["direction"] == "server_to_client"))
+            {
+                var message = Protocol.Parse(r.ReadFrame(TestPaths.Hex((string)v["msgpack_hex"])));
+                Assert.IsNotNull(message, (string)v["name"]);
+                Assert.AreEqual((string)v["type"], message.Type.ToString().ToLowerInvariant(), (string)v["name"]);
+            }
+        }
+
+        [Test]
+        public void TypedClientMessagesWriteTheVectorBytes()
+        {
+            var w = new MsgPackWriter();
+            int n = 0;
+            foreach (var v in Vectors("messages.json", "vectors").Where(v => (string)v["direction"] == "client_to_server"))
+            {
+                var m = (Dictionary<string, object>)v["message"];
+                w.Clear();
+                switch ((string)m["type"])
+                {
+                    case "hello":
+                        Protocol.WriteHello(w, (string)m["role"], (string)m["client"], m.ContainsKey("token") ? (string)m["token"] : null);
+                        break;
+                    case "tracker":
+                        Quat? q = null;
+                        if (m.ContainsKey("quat")) { var a = Nums(m["quat"]); q = new Quat(a[0], a[1], a[2], a[3]); }
+                        var p = Nums(m["pos"]);
+                        Protocol.WriteTracker(w, Convert.ToInt64(m["seq"]), Convert.ToDouble(m["t"]), new Vec3(p[0], p[1], p[2]), q);
+                        break;
+                    case "input":
+                        Protocol.WriteInput(w, (string)m["key"], (string)m["action"], m.ContainsKey("value") ? m["value"] : null);
+                        break;
+                    default: Assert.Fail("a client message of type " + m["type"]); break;
+                }
+                Assert.AreEqual((string)v["msgpack_hex"], TestPaths.ToHex(w.ToArray()), (string)v["name"]);
+                n++;
+            }
+            Assert.That(n, Is.GreaterThanOrEqualTo(15));
+        }
+
+        [Test]
+        public void StateVectorFieldsReachTheTypedFrame()
+        {
+            var v = Vectors("messages.json", "vectors").First(x => (string)x["name"] == "state-in-contact");
+            var m = (Dictionary<string, object>)v["message"];
+            var s = (StateFrame)Protocol.Parse(new MsgPackReader().ReadFrame(TestPaths.Hex((string)v["msgpack_hex"])));
+            Assert.AreEqual(Convert.ToInt64(m["frame"]), s.Frame);
+            Assert.AreEqual(Convert.ToDouble(m["t"]), s.T);
+            var hip = Nums(m["hip"]);
+            Assert.AreEqual(hip[2], s.Hip.Z);
+            Assert.AreEqual(((List<object>)m["contacts"]).Count, s.Contacts.Count);
+            Assert.AreEqual(((List<object>)m["cues"]).Count, s.Cues.Count);
+            var cue = (Dictionary<string, object>)((List<object>)m["cues"])[0];
+            Assert.AreEqual((string)cue["kind"], s.Cues[0].Kind);
+            Assert.IsTrue(s.Contact);
+        }
+
+        [Test]
+        public void ReceivedServerFramesAreUnderstoodAsExpected()
+        {
+            var r = new MsgPackReader();
+            int n = 0;
+            foreach (var v in Vectors("messages.json", "received").Where(v => (string)v["direction"] == "server_to_client"))
+            {
+                var decoded = r.ReadFrame(TestPaths.Hex((string)v["msgpack_hex"]));
+                Assert.IsNotNull(Protocol.Parse(decoded), (string)v["name"]);
+                foreach (var kv in (Dictionary<string, object>)v["expect"])
+                    AssertClose(kv.Value, ((Dictionary<string, object>)decoded)[kv.Key], v["name"] + "." + kv.Key);
+                n++;
+            }
+            Assert.That(n, Is.GreaterThanOrEqualTo(3));
+        }
+
+        [Test]
+        public void ReceivedClientFramesDecode()
+        {
+            // What a server must accept (integral floats, unnormalised quaternions) the reader reads.
+            var r = new MsgPackReader();
+            foreach (var v in Vectors("messages.json", "received").Where(v => (string)v["direction"] == "client_to_server"))
+            {
+                var decoded = (Dictionary<string, object>)r.ReadFrame(TestPaths.Hex((string)v["msgpack_hex"]));
+                Assert.AreEqual(((Dictionary<string, object>)v["expect"])["type"], decoded["type"], (string)v["name"]);
+            }
+        }
+
+        [Test]
+        public void EveryRefusedServerFrameGetsItsCode()
+        {
+            var r = new MsgPackReader();
+            int n = 0;
+            foreach (var v in Vectors("invalid.json", "server_frames"))
+            {
+                var code = Refusal(r, (string)v["msgpack_hex"]);
+                Assert.AreEqual((string)v["code"], code, (string)v["name"]);
+                n++;
+            }
+            Assert.That(n, Is.GreaterThanOrEqualTo(30));
+        }
+
+        [Test]
+        public void ClientFramesTheServerRefusesForEncodingAreRefusedByTheReaderToo()
+        {
+            // bad_encoding and non_finite are properties of the bytes: the reader says the same.
+            var r = new MsgPackReader();
+            int n = 0;
+            foreach (var v in Vectors("invalid.json", "frames"))
+            {
+                var code = (string)v["code"];
+                if (code != "bad_encoding" && code != "non_finite") continue;
+                string got = null;
+                try { r.ReadFrame(TestPaths.Hex((string)v["msgpack_hex"])); }
+                catch (ProtocolException e) { got = e.Code; }
+                Assert.AreEqual(code, got, (string)v["name"]);
+                n++;
+            }
+            Assert.That(n, Is.GreaterThanOrEqualTo(2));
+        }
+
+        /// <summary>The session's path: Protocol.Decode (states read straight into a pooled frame).</summary>
+        [Test]
+        public void EveryFrameTheServerRefusesTheClientsChecksRefuseWithTheSameCode()
+        {
+            var r = new MsgPackReader();
+            int n = 0;
+            foreach (var v in Vectors("invalid.json", "frames"))
+            {
+                string got = "(accepted)";
+                try { ClientChecks.Check(r.ReadFrame(TestPaths.Hex((string)v["msgpack_hex"]))); }
+                catch (ProtocolException e) { got = e.Code; }
+                Assert.AreEqual((string)v["code"], got, (string)v["name"]);
+                n++;
+            }
+            Assert.That(n, Is.GreaterThanOrEqualTo(40));
+            foreach (var v in Vectors("messages.json", "vectors").Concat(Vectors("messages.json", "received"))
+                         .Where(x => (string)x["direction"] == "client_to_server"))
+                Assert.DoesNotThrow(() => ClientChecks.Check(r.ReadFrame(TestPaths.Hex((string)v["msgpack_hex"]))), (string)v["name"]);
+        }
+
+        static string Refusal(MsgPackReader r, string hex)
+        {
+            var bytes = TestPaths.Hex(hex);
+            try { Protocol.Decode(r, bytes, 0, bytes.Length, new StateFrame()); }
+            catch (ProtocolException e) { return e.Code; }
+            return "(accepted)";
+        }
+
+        [Test]
+        public void EveryRefusedServerFrameGetsItsCodeFromTheTreePathToo()
+        {
+            var r = new MsgPackReader();
+            foreach (var v in Vectors("invalid.json", "server_frames"))
+            {
+                string code = "(accepted)";
+                try { Protocol.Parse(r.ReadFrame(TestPaths.Hex((string)v["msgpack_hex"]))); }
+                catch (ProtocolException e) { code = e.Code; }
+                Assert.AreEqual((string)v["code"], code, (string)v["name"]);
+            }
+        }
+
+        [Test]
+        public void TheDirectStateReaderAgreesWithTheTreePath()
+        {
+            var r = new MsgPackReader();
+            var frames = Vectors("messages.json", "vectors").Concat(Vectors("messages.json", "received"))
+                .Where(v => (string)v["type"] == "state").Select(v => TestPaths.Hex((string)v["msgpack_hex"])).ToList();
+            Assert.That(frames.Count, Is.GreaterThanOrEqualTo(4));
+            var direct = new StateFrame();
+            foreach (var bytes in frames)
+            {
+                var viaTree = (StateFrame)Protocol.Parse(r.ReadFrame(bytes));
+                Assert.AreSame(direct, Protocol.Decode(r, bytes, 0, bytes.Length, direct));
+                Assert.AreEqual(Json.Write(Describe(viaTree)), Json.Write(Describe(direct)));
+            }
+        }
+
+        static Dictionary<string, object> Describe(StateFrame s)
+        {
+            return new Dictionary<string, object>
+            {
+                { "frame", s.Frame }, { "tick", s.Tick }, { "t", s.T }, { "scene", s.SceneHash }, { "hud", s.Hud }, { "contact", s.Contact },
+                { "hip", new List<object> { s.Hip.X, s.Hip.Y, s.Hip.Z } }, { "proxy", new List<object> { s.Proxy.X, s.Proxy.Y, s.Proxy.Z } },
+                { "force", new List<object> { s.Force.X, s.Force.Y, s.Force.Z } },
+                { "contacts", s.Contacts.Select(c => (object)new List<object> { c.ObjectId, c.Normal.X, c.Normal.Y, c.Normal.Z, c.Depth }).ToList() },
+                { "objects", s.Objects.Select(o => (object)new List<object> { o.Id, o.Pos.X, o.Pos.Y, o.Pos.Z, o.Rot.W, o.Rot.X, o.Rot.Y, o.Rot.Z }).ToList() },
+                { "cues", s.Cues.Select(c => (object)new List<object> { c.Kind, Json.Write(c.Fields.OrderBy(kv => kv.Key).Select(kv => (object)new List<object> { kv.Key, kv.Value }).ToList()) }).ToList() },
+                { "values", s.Values.ToDictionary(kv => kv.Key, kv => kv.Value) },
+                { "telemetry", new List<object> { s.Telemetry.PeriodP50Us, s.Telemetry.PeriodP99Us, s.Telemetry.PeriodMaxUs, s.Telemetry.TickCostP99Us, s.Telemetry.Overruns, s.Telemetry.Ticks, s.Telemetry.Rt } },
+                { "visible", s.Visible.ToDictionary(kv => kv.Key, kv => (object)kv.Value) },
+                { "haptic", s.Haptic.ToDictionary(kv => kv.Key, kv => (object)kv.Value) },
+                { "stiffness", s.Stiffness.ToDictionary(kv => kv.Key, kv => (object)kv.Value) },
+                { "scales", s.Scales.ToDictionary(kv => kv.Key, kv => (object)new List<object> { kv.Value.X, kv.Value.Y, kv.Value.Z }) },
+                { "events", s.Events.Cast<object>().ToList() },
+                { "driver", new List<object> { s.HasDriver, s.DriverClientId, s.DriverBridge, s.DriverSeq } },
+            };
+        }
+
+        [Test]
+        public void DecodingStatesInSteadyStateLeavesNoGarbage()
+        {
+            // A frame with every field (values included) decoded many times into the same pooled
+            // frame: were it to allocate even a few bytes a frame, the nursery would fill and collect.
+            var v = Vectors("messages.json", "vectors").First(x => (string)x["name"] == "state-free-moving-objects");
+            var bytes = TestPaths.Hex((string)v["msgpack_hex"]);
+            var r = new MsgPackReader();
+            var s = new StateFrame();
+            for (int i = 0; i < 1000; i++) Protocol.Decode(r, bytes, 0, bytes.Length, s);
+            int before = GC.CollectionCount(0);
+            for (int i = 0; i < 300000; i++) Protocol.Decode(r, bytes, 0, bytes.Length, s);
+            Assert.AreEqual(before, GC.CollectionCount(0), "collections while decoding");
+            Assert.That(s.Objects.Count, Is.GreaterThan(0));
+        }
+
+        static double[] Nums(object list) { return ((List<object>)list).Select(Convert.ToDouble).ToArray(); }
+
+        /// <summary>Same value and same kind of number (an int stays an int, a float a float).</summary>
+        internal static void AssertSame(object expected, object actual, string at)
+        {
+            if (expected is Dictionary<string, object>)
+            {
+                var e = (Dictionary<string, object>)expected;
+                var a = actual as Dictionary<string, object>;
+                Assert.IsNotNull(a, at + ": a map");
+                CollectionAssert.AreEqual(e.Keys.ToList(), a.Keys.ToList(), at + ": keys in order");
+                foreach (var kv in e) AssertSame(kv.Value, a[kv.Key], at + "." + kv.Key);
+            }
+            else if (expected is List<object>)
+            {
+                var e = (List<object>)expected;
+                var a = actual as List<object>;
+                Assert.IsNotNull(a, at + ": an array");
+                Assert.AreEqual(e.Count, a.Count, at + ": length");
+                for (int i = 0; i < e.Count; i++) AssertSame(e[i], a[i], at + "[" + i + "]");
+            }
+            else
+            {
+                Assert.AreEqual(expected == null ? null : expected.GetType(), actual == null ? null : actual.GetType(), at + ": type");
+                Assert.AreEqual(expected, actual, at);
+            }
+        }
+
+        static void AssertClose(object expected, object actual, string at)
+        {
+            if (expected is long || expected is double)
+            {
+                Assert.That(actual is long || actual is double, at + " is a number");
+                Assert.AreEqual(Convert.ToDouble(expected), Convert.ToDouble(actual), 1e-12, at);
+            }
+            else if (expected is List<object>)
+            {
+                var e = (List<object>)expected; var a = (List<object>)actual;
+                Assert.AreEqual(e.Count, a.Count, at);
+                for (int i = 0; i < e.Count; i++) AssertClose(e[i], a[i], at + "[" + i + "]");
+            }
+            else if (expected is Dictionary<string, object>)
+            {
+                foreach (var kv in (Dictionary<string, object>)expected) AssertClose(kv.Value, ((Dictionary<string, object>)actual)[kv.Key], at + "." + kv.Key);
+            }
+            else Assert.AreEqual(expected, actual, at);
+        }
+    }
+}
