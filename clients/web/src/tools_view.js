@@ -11,7 +11,7 @@ import { PRIMARY_POINT, handFrame } from './hand.js';
 // two fingers on one object are told apart at a glance.
 const FINGER_COLORS = { thumb: '#35c4e8', index: null, middle: '#b57cff', ring: '#7cd992', pinky: '#ff9f43' };
 const OTHER_COLOR = '#cccccc';
-export const CONTACT_COLOR = '#ff6a00'; // emissive glow of a tool in contact
+export const FREE_PROXY_COLOR = '#8a8f98'; // a proxy apart from its HIP without (debounced) contact
 export const LOST_OPACITY = 0.25; // a lost tool fades: it renders nothing until its source returns
 export const PROXY_COLOR = '#ff2d55';
 const SAME_POINT = 1e-6; // proxy within this distance of the HIP is hidden
@@ -82,9 +82,15 @@ export class ToolMarker {
     this.proxy.visible = !tool.lost && distance(tool.proxy, tool.hip) > SAME_POINT;
     this.contact = tool.contact && !tool.lost;
     this.lost = tool.lost;
-    this.hip.material.emissive.set(this.contact ? CONTACT_COLOR : '#000000');
-    this.hip.material.emissiveIntensity = this.contact ? 0.8 : 0;
-    this.hip.material.transparent = tool.lost;
+    // Contact: the proxy takes the contact colour and the HIP glows in its own colour (a glow of
+    // another hue would wash out the finger's colour, which tells the fingers apart).
+    this.proxy.material.color.set(this.contact ? PROXY_COLOR : FREE_PROXY_COLOR);
+    this.hip.material.emissive.set(this.contact ? this.color ?? '#000000' : '#000000');
+    this.hip.material.emissiveIntensity = this.contact ? 0.35 : 0;
+    if (this.hip.material.transparent !== tool.lost) {
+      this.hip.material.transparent = tool.lost;
+      this.hip.material.needsUpdate = true; // three.js compiles transparency into the shader program
+    }
     this.hip.material.opacity = tool.lost ? LOST_OPACITY : 1;
     this.ghost.visible = !tool.lost;
   }

@@ -2,7 +2,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import * as THREE from 'three';
-import { CONTACT_COLOR, HandView, LOST_OPACITY, ToolMarker, lostSources, toolColor, toolsOf }
+import { FREE_PROXY_COLOR, HandView, LOST_OPACITY, PROXY_COLOR, ToolMarker, lostSources, toolColor, toolsOf }
   from '../src/tools_view.js';
 import { sceneToThree, threeToScene } from '../src/protocol.js';
 
@@ -35,17 +35,22 @@ test('toolColor: the primary keeps the scene\'s HIP colour, the thumb differs fr
   assert.match(toolColor('robot', '#ffd400'), /^#[0-9a-f]{6}$/);
 });
 
-test('a tool in contact glows; out of contact it does not; its proxy shows apart from the HIP', () => {
+test('a tool in contact glows in its colour with a contact-coloured proxy; its proxy shows apart from the HIP', () => {
   const m = new ToolMarker(INDEX.name);
   m.style(0.06, 0.06, '#ffd400');
   m.update(INDEX);
   near(threeToScene(m.hip.position.toArray()), INDEX.hip);
   near(threeToScene(m.proxy.position.toArray()), INDEX.proxy);
   assert.ok(m.hip.visible && m.proxy.visible && m.contact);
-  assert.equal(`#${m.hip.material.emissive.getHexString()}`, CONTACT_COLOR);
+  assert.equal(`#${m.hip.material.emissive.getHexString()}`, '#ffd400');
+  assert.ok(m.hip.material.emissiveIntensity > 0);
+  assert.equal(`#${m.proxy.material.color.getHexString()}`, PROXY_COLOR);
+  m.update({ ...INDEX, contact: false });
+  assert.ok(m.proxy.visible && `#${m.proxy.material.color.getHexString()}` === FREE_PROXY_COLOR,
+    'apart from the HIP without debounced contact: shown, not in the contact colour');
   m.update({ ...INDEX, contact: false, proxy: INDEX.hip });
   assert.ok(!m.proxy.visible, 'a free proxy sits on the HIP: hidden');
-  assert.equal(m.hip.material.emissive.getHex(), 0);
+  assert.equal(m.hip.material.emissiveIntensity, 0);
   assert.equal(m.hip.material.opacity, 1);
 });
 
