@@ -166,7 +166,7 @@ def test_a_drop_off_target_counts_and_the_block_can_be_grasped_again():
     d = Driver(sc)
     outs = carry_and_release(d, sc, (0.0, 0.0))
     assert sc.phase == "idle" and sc.drops == 1 and outs[-1].finished is None
-    assert sc.centre == (0.0, 0.0, HALF)
+    assert sc.centre == pytest.approx((0.0, 0.0, HALF), abs=1e-12)
     d.step(grip(sc.centre, 0.03))
     assert sc.phase == "held" and sc.t_grasp == 0.0, "time to grasp is the first grasp's"
 
