@@ -108,7 +108,7 @@ class PickPlace:
             SceneObject(BLOCK, Box((BLOCK_SIDE,) * 3), Pose((*BLOCK_START, half)), Material("#1f77b4")),
         )
         # from the front and above: the fingers close across y, which this view shows
-        camera = Camera("perspective", position=(3.2, 0.0, 2.2), target=(0.0, 0.0, 0.2), up=(0.0, 0.0, 1.0))
+        camera = Camera("perspective", position=(2.5, 0.0, 1.6), target=(0.0, 0.0, 0.15), up=(0.0, 0.0, 1.0))
         return Scene("pick_place", objects, camera, hud_text="Grasp the block between thumb and index")
 
     # -- state ------------------------------------------------------------------------------

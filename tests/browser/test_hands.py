@@ -99,3 +99,89 @@ def test_drawn_from_state_fields(open_client):
     g = graph(client)
     assert f"hip:{THUMB}" not in g, "a tool the frame no longer lists is not drawn"
     assert not client.page_errors, client.page_errors
+
+
+# -- live: the page sends a tracked hand (v1.4 tracker: point, points, ttl), the server says it ------
+
+STREAM = """([frames, periodMs, ttl]) => { const v = window.__viestac; let k = 0;
+    clearInterval(window.__stream);
+    window.__stream = setInterval(() => {
+      const f = frames[Math.min(k++, frames.length - 1)];
+      v.connection.sendTracker(f.index, null, { point: 'right.index.tip', points: f.points, ttl });
+    }, periodMs); }"""
+
+
+JOINT_AT = {"metacarpal": 0.15, "proximal": 0.45, "intermediate": 0.65, "distal": 0.82, "tip": 1.0}
+THUMB_AT = {"metacarpal": 0.2, "proximal": 0.45, "distal": 0.75, "tip": 1.0}
+
+
+def pinching_hand(index_tip, thumb_tip) -> dict[str, list[float]]:
+    """A right hand reaching down from above and in front to pinch with `index_tip` and
+    `thumb_tip`: each finger a chain from the wrist to its tip, knuckles bulging up; the other
+    fingers curled beside the index."""
+    ix, iy, iz = index_tip
+    wrist = (ix + 0.15, (iy + thumb_tip[1]) / 2 + 0.1, iz + 0.55)
+    tips = {"thumb": thumb_tip, "index": index_tip}
+    for k, f in enumerate(("middle", "ring", "pinky"), start=1):
+        tips[f] = (ix + 0.02 * k, iy + 0.07 * k, iz + 0.1 * k)
+    out = {"right.wrist": list(wrist)}
+    for f, tip in tips.items():
+        for j, at in (THUMB_AT if f == "thumb" else JOINT_AT).items():
+            bulge = 0.12 * 4 * at * (1 - at)
+            out[f"right.{f}.{j}"] = [w + at * (t - w) for w, t in zip(wrist, tip)]
+            out[f"right.{f}.{j}"][2] += bulge
+    out["right.palm"] = [w + 0.3 * (t - w) for w, t in zip(wrist, index_tip)]
+    assert set(out) == set(hand_points("right"))
+    return out
+
+
+def hand_frames(centre, gaps) -> list[dict]:
+    """A right hand pinching a block at `centre` across y: index on the +y face, thumb on the −y
+    face, each `gap` from touching (negative: pressed in)."""
+    from scenarios.pick_place import BLOCK_SIDE
+    touch = BLOCK_SIDE / 2 + 0.06
+    frames = []
+    for gap in gaps:
+        x, y, z = centre
+        index, thumb = [x, y + touch + gap, z], [x, y - touch - gap, z]
+        hand = pinching_hand(index, thumb)
+        hand.pop(INDEX)
+        frames.append({"index": index, "points": hand})
+    return frames
+
+
+def test_live_two_fingers_grasp_hand_and_tracking_loss(open_client, live_server, contact_angle_after):
+    from tests.browser.test_web_client import switch_scenario
+
+    client = open_client()
+    page = client.page
+    client.wait_rebuilt(switch_scenario(live_server, "pick-place"))
+    from scenarios.pick_place import BLOCK_SIDE, BLOCK_START
+    centre = (*BLOCK_START, BLOCK_SIDE / 2)
+    gaps = [0.1 - k * 0.13 / 40 for k in range(41)]  # from 0.1 outside to 0.03 pressed in, over 0.4 s
+    page.evaluate(STREAM, [hand_frames(centre, gaps), 10, 60])
+    wait_for(lambda: live_server.get("/api/state")["values"].get("phase") == "held", timeout=10,
+             what="the server to see the grasp")
+    wait_for(lambda: graph(client).get(f"hip:{THUMB}", {}).get("contact"), what="the thumb drawn in contact")
+    g = graph(client)
+    assert g["hip"]["tool"] == INDEX and g["hip"]["contact"]
+    assert g["hand"]["visible"] and len(g["hand"]["joints"]) == 26, "the hand's joints and both tools' tips"
+    assert page.locator("#tracking").is_hidden()
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(ARTIFACTS / "pick_place_grasp.png"))
+
+    # the source stops: within its ttl the server calls it lost; the page says so
+    page.evaluate("clearInterval(window.__stream)")
+    page.locator("#tracking").wait_for(state="visible", timeout=5000)
+    g = graph(client)
+    assert g["hip"]["lost"] and g[f"hip:{THUMB}"]["lost"] and not g["hip"]["contact"]
+    assert live_server.get("/api/state")["values"].get("phase") == "idle", "the block was dropped"
+    page.screenshot(path=str(ARTIFACTS / "pick_place_tracking_lost.png"))
+
+    # it sends again: tracking is back
+    page.evaluate(STREAM, [hand_frames(centre, [0.1]), 10, 60])
+    page.locator("#tracking").wait_for(state="hidden", timeout=5000)
+    assert not graph(client)["hip"]["lost"]
+    page.evaluate("clearInterval(window.__stream)")
+    assert not client.page_errors, client.page_errors
+    assert client.hook("stats.lastError") is None, client.hook("stats.lastError")
