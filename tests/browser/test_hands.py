@@ -13,8 +13,11 @@ import pytest
 
 from server.core.points import FINGERS, finger_joints, hand_points
 from tests.browser.conftest import ARTIFACTS
-from tests.browser.test_web_client import (  # noqa: F401  (fixtures)
-    VIEWPORT, chroma, contact_angle_after, hex_rgb, open_client, screenshot_pixels, wait_for)
+from tests.browser import test_web_client as web
+from tests.browser.test_web_client import chroma, hex_rgb, screenshot_pixels, switch_scenario, wait_for
+
+open_client = web.open_client  # the web client tests' fixtures: a page on the live server, and
+contact_angle_after = web.contact_angle_after  # putting the server back on contact-angle
 
 pytestmark = pytest.mark.browser
 
@@ -151,8 +154,6 @@ def hand_frames(centre, gaps) -> list[dict]:
 
 
 def test_live_two_fingers_grasp_hand_and_tracking_loss(open_client, live_server, contact_angle_after):
-    from tests.browser.test_web_client import switch_scenario
-
     client = open_client()
     page = client.page
     client.wait_rebuilt(switch_scenario(live_server, "pick-place"))
