@@ -87,6 +87,7 @@ async function main() {
     skins: () => ({ pending: view.skins.pending, failed: [...view.skins.failed] }),
     panelKeys: () => panel?.keys() ?? null,
     sceneGraph: () => view.sceneGraph(),
+    hand: () => view.handGraph(),
     screenPosition: (scenePos) => view.screenPosition(scenePos),
     hipTarget: () => pointer.position(),
     depth: () => pointer.depth,

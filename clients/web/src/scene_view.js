@@ -424,10 +424,13 @@ export class SceneView {
       out.push({ id: 'proxy', type: 'proxy', tool: PRIMARY_POINT, visible: m.proxy.visible,
         position: m.proxy.position.toArray(), color: PROXY_COLOR, radius: m.proxy.scale.x });
     }
-    const { joints, bones } = this.hand.last;
-    out.push({ id: 'hand', type: 'hand', visible: joints.length > 0, joints: joints.map(([n]) => n),
-      bones: bones.map(([a, b]) => [a, b]) });
     return out;
+  }
+
+  /** The tracked hand as drawn: {visible, joints: [name], bones: [[from, to]]}. */
+  handGraph() {
+    const { joints, bones } = this.hand.last;
+    return { visible: joints.length > 0, joints: joints.map(([n]) => n), bones: bones.map(([a, b]) => [a, b]) };
   }
 
   /** CSS pixel position (relative to the viewport) of a scene-frame point. */
