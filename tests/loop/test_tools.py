@@ -272,3 +272,58 @@ def test_v14_tracker_fields_reach_the_loop_record_through_the_udp_port():
                                                      {"right.palm": [0.0, 0.1, 1.0]}, 40.0]
     plain = msgpack.packb({"type": "tracker", "seq": 4, "t": 1.5, "pos": [0, 0, 1]})
     assert parse_datagram(plain, "udp:x", 9) == ["tracker", "udp:x", 4, 1.5, [0.0, 0.0, 1.0], None, 9]
+
+
+# -- recording every tool's tracked point -------------------------------------------------------
+
+def test_no_point_rows_with_one_tool_and_no_hand():
+    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    core.apply(["record", 1], 0)
+    state = core.tick([tracker(1, 0, DOME_TOP)], 0).state
+    assert len(state["trajectory"]) == 1 and "point_rows" not in state
+
+
+def test_the_recorder_keeps_every_tracked_point_and_the_loss_and_export_writes_a_multipoint_csv(tmp_path):
+    import csv
+
+    from server.experiment.export import export
+    from server.experiment.recorder import Recorder
+    from tests.experiment.test_export import PLAN, clock, new_session
+
+    from server.experiment.store import Store
+    store = Store(tmp_path / "db.sqlite", clock())
+    ids = new_session(store, "s1", "P01", PLAN)
+    trial = store.transition(ids[1], "running")
+    recorder = Recorder(store)
+    recorder.begin("s1", trial.id, trial.attempt, "main", 0)
+    core = two_fingers()
+    core.apply(["record", 10], 0)
+    out = core.tick([["trial", {"phase": "main", "params": {"angle_deg": 10.0}, "index": 0}],
+                     tracker("udp:h", 1, DOME_TOP, points={THUMB: FREE_SIDE, "right.wrist": (0, 0, 1.5)}, ttl=30)], 0)
+    for _ in range(60):
+        for record in out.records:
+            recorder.on_record(record)
+        if out.state is not None:
+            recorder.on_record(["state", out.state])
+        out = core.tick((), core.sim.tick * MS)
+    recorder.end()
+    rows = store.point_samples(trial.id, trial.attempt)
+    assert [tick for tick, _ in rows] == list(range(0, 60, 10))
+    dome_top = [round(v, 9) for v in DOME_TOP]  # recorded to 9 decimals, as the state's positions
+    assert rows[0][1] == {PRIMARY_POINT: dome_top, THUMB: list(FREE_SIDE), "right.wrist": [0, 0, 1.5]}
+    home = [round(v, 9) for v in home_position(core.sim.scene)]
+    assert rows[-1][1] == {PRIMARY_POINT: home, THUMB: home}, "lost: the tools home, the wrist gone"
+    lost = [e for e in store.events("s1", trial.id) if e["body"].get("name") == "tracker_lost"]
+    assert [(e["kind"], e["tick"], e["body"]["source"], e["body"]["tools"]) for e in lost] == [
+        ("tracker", 30, "udp:h", [PRIMARY_POINT, THUMB])]
+
+    export(store.path, tmp_path / "out", "s1")
+    path = tmp_path / "out" / "demo_P01_s1" / "trajectories" / f"trial_1_attempt_{trial.attempt}_points.csv"
+    with path.open() as f:
+        table = list(csv.reader(f))
+    assert table[0] == ["t", "right.wrist.x", "right.wrist.y", "right.wrist.z", "right.thumb.tip.x",
+                        "right.thumb.tip.y", "right.thumb.tip.z", "right.index.tip.x", "right.index.tip.y",
+                        "right.index.tip.z"]
+    assert [float(v) for v in table[1]] == [0.0, 0, 0, 1.5, *FREE_SIDE, *dome_top]
+    assert table[-1][:4] == ["0.05", "", "", ""]
+    store.close()
