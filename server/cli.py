@@ -269,7 +269,7 @@ def _render(args: argparse.Namespace) -> int:
     from server.render import TrajectoryError, make_simulation, read_trajectory, render
 
     try:
-        sim = make_simulation(args.scene)
+        sim = make_simulation(args.scene, tools=tuple(args.tool))
         samples = read_trajectory(args.trajectory)
     except (SceneError, TrajectoryError, UnknownScenario, OSError, ValueError) as exc:
         print(f"viestac render: {exc}", file=sys.stderr)
@@ -585,7 +585,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     render = sub.add_parser("render", help="run a recorded HIP trajectory through a scene (virtual clock)")
     render.add_argument("--scene", required=True, help="a scenario name (e.g. contact-angle) or a scene JSON file")
-    render.add_argument("--trajectory", required=True, help="CSV with columns t,x,y,z")
+    render.add_argument("--trajectory", required=True,
+                        help="CSV with columns t,x,y,z, or t and NAME.x,NAME.y,NAME.z per tracked point (what "
+                             "export writes for several fingers)")
+    render.add_argument("--tool", action="append", default=[], metavar="POINT",
+                        help="also simulate this tracked point as a tool (e.g. right.thumb.tip; repeatable); "
+                             "the primary point and the scenario's fingers always are")
     render.add_argument("--out", required=True, help="output CSV, one row per tick")
     render.set_defaults(func=_render)
 
