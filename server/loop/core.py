@@ -122,6 +122,7 @@ class LoopCore:
         self._faults: list[list] = []  # this tick's `fault` / `recovered` records (TickOutput.faults)
         self.record_every = 0        # trajectory sampling: every Nth tick while an experiment records; 0 = off
         self.trajectory: list[list] = []  # rows since the last state record (server/core/records.py TRAJECTORY_COLUMNS)
+        self.point_rows: list[list] = []  # [tick, {point: [x, y, z]}] with them, when several points are tracked
         self._device_cues: tuple | None = None  # what the devices were last given; None: unknown (start)
         self._device_tool_cues: Mapping | None = None  # and the other tools' devices (ScenarioOutput.tool_cues)
         self._out = TickOutput()
@@ -231,6 +232,7 @@ class LoopCore:
         elif kind == "record":  # ["record", every_n_ticks]: trajectory rows ride with the state records
             self.record_every = max(0, int(record[1]))
             self.trajectory = []
+            self.point_rows = []
         elif kind == "devices":  # the device manager's refusals, for the scenario (TickContext.refusals)
             self.sim.refusals = tuple(str(text) for text in record[1].get("refusals", ()))
 
@@ -348,9 +350,15 @@ class LoopCore:
 
     def _record_trajectory(self, r: TickResult) -> None:
         held = r.output.held
-        pose = self.sim.moved.get(held) if held else None
+        sim = self.sim
+        pose = sim.moved.get(held) if held else None
         self.trajectory.append([r.tick, *_round(r.hip), *_round(r.proxy), int(r.contact), held,
                                 *(_round(pose.pos) if pose else (None, None, None))])
+        if len(sim.tools) > 1 or sim.points:  # several points: every one, for replay (records.py POINT_ROW)
+            points = {tool.name: _round(tool.tracked) for tool in sim.tools}
+            for name, position in sim.points.items():
+                points[name] = _round(position)
+            self.point_rows.append([r.tick, points])
 
     def unsent(self, state: dict) -> None:
         """The driver could not hand `state` over (the hub's end of the mailbox is full): what it
@@ -358,6 +366,7 @@ class LoopCore:
         samples) goes out with the next state record instead of being lost."""
         self.states_unsent += 1
         self.trajectory[:0] = state["trajectory"]
+        self.point_rows[:0] = state.get("point_rows", ())
         self.tracker_applied[:0] = state["trackers"]
         sim = self.sim
         sim.events[:0] = state["events"]
@@ -400,6 +409,9 @@ class LoopCore:
             "trajectory": self.trajectory,
             "finished": sim.finished,
         }
+        if self.point_rows:  # several tracked points recorded (records.py POINT_ROW); absent: none
+            record["point_rows"] = self.point_rows
+            self.point_rows = []
         if self.failures:  # ticks failed since the loop started; absent means 0
             record["failures"] = self.failures
         self.samples = array("q")
