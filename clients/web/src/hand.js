@@ -1,7 +1,7 @@
 // Tracked point names and how a hand is drawn from them: this client's copy of
 // server/core/points.py (names follow the WebXR Hand Input joints: `right.index.tip`, plus
 // `HAND.palm`), tested against tests/vectors/hand_points.json, which the Python side writes.
-// Pure: no three.js, no DOM.
+// The colour of each finger's tool is here too. Pure: no three.js, no DOM.
 
 export const HANDS = ['left', 'right'];
 export const FINGERS = ['thumb', 'index', 'middle', 'ring', 'pinky'];
@@ -35,6 +35,18 @@ export function bones(hand) {
 export function handOf(name) {
   const hand = typeof name === 'string' ? name.split('.')[0] : null;
   return HANDS.includes(hand) ? hand : null;
+}
+
+// Colours by finger: the primary (the index) keeps the scene's HIP colour; the thumb is cyan, so
+// two fingers on one object are told apart at a glance (the view and the console's plots).
+const FINGER_COLORS = { thumb: '#35c4e8', middle: '#b57cff', ring: '#7cd992', pinky: '#ff9f43' };
+const OTHER_COLOR = '#cccccc';
+
+/** A tool's drawn colour: the scene's HIP colour for an index finger, else one per finger. */
+export function toolColor(name, hipColor) {
+  const finger = typeof name === 'string' ? name.split('.')[1] : null;
+  if (finger === 'index') return hipColor;
+  return FINGER_COLORS[finger] ?? OTHER_COLOR;
 }
 
 const isVec3 = (p) => Array.isArray(p) && p.length === 3 && p.every(Number.isFinite);

@@ -5,12 +5,10 @@
 
 import * as THREE from 'three';
 import { sceneToThree } from './protocol.js';
-import { PRIMARY_POINT, handFrame } from './hand.js';
+import { PRIMARY_POINT, handFrame, toolColor } from './hand.js';
 
-// Colours by finger: the primary (index) keeps the scene's HIP colour; the thumb is cyan, so
-// two fingers on one object are told apart at a glance.
-const FINGER_COLORS = { thumb: '#35c4e8', index: null, middle: '#b57cff', ring: '#7cd992', pinky: '#ff9f43' };
-const OTHER_COLOR = '#cccccc';
+export { toolColor }; // the colour scheme lives with the names (hand.js), so the console shares it without three.js
+
 export const FREE_PROXY_COLOR = '#8a8f98'; // a proxy apart from its HIP without (debounced) contact
 export const LOST_OPACITY = 0.25; // a lost tool fades: it renders nothing until its source returns
 export const PROXY_COLOR = '#ff2d55';
@@ -34,13 +32,6 @@ export function toolsOf(state) {
 export function lostSources(state) {
   const lost = state?.tracking?.lost;
   return Array.isArray(lost) ? lost.filter((s) => typeof s === 'string' || typeof s === 'number') : [];
-}
-
-/** A tool's drawn colour: the scene's HIP colour for the primary point, else by finger. */
-export function toolColor(name, hipColor) {
-  if (name === PRIMARY_POINT) return hipColor;
-  const finger = typeof name === 'string' ? name.split('.')[1] : null;
-  return FINGER_COLORS[finger] ?? (finger === 'index' ? hipColor : OTHER_COLOR);
 }
 
 const distance = (a, b) => Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
