@@ -409,7 +409,8 @@ export class SceneView {
         position: sceneToThree(spec.centre ?? spec.pos), color: spec.color ?? null, labels: object3d.userData.labels });
     }
     // The primary tool is `hip`/`proxy` (as before several tools); every other is `hip:NAME`/`proxy:NAME`.
-    this.toolOrder.forEach((name, i) => {
+    const order = this.toolOrder.length ? this.toolOrder : [PRIMARY_POINT]; // before the first state frame
+    order.forEach((name, i) => {
       const m = this.tools.get(name);
       const suffix = i === 0 ? '' : `:${name}`;
       out.push({ id: `hip${suffix}`, type: 'hip', tool: name, visible: m.hip.visible, position: m.hip.position.toArray(),
@@ -417,13 +418,6 @@ export class SceneView {
       out.push({ id: `proxy${suffix}`, type: 'proxy', tool: name, visible: m.proxy.visible,
         position: m.proxy.position.toArray(), color: PROXY_COLOR, radius: m.proxy.scale.x });
     });
-    if (this.toolOrder.length === 0) {
-      const m = this.tools.get(PRIMARY_POINT);
-      out.push({ id: 'hip', type: 'hip', tool: PRIMARY_POINT, visible: m.hip.visible,
-        position: m.hip.position.toArray(), color: m.color, radius: m.hip.scale.x, contact: false, lost: false });
-      out.push({ id: 'proxy', type: 'proxy', tool: PRIMARY_POINT, visible: m.proxy.visible,
-        position: m.proxy.position.toArray(), color: PROXY_COLOR, radius: m.proxy.scale.x });
-    }
     return out;
   }
 
