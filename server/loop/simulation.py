@@ -93,6 +93,10 @@ class Simulation:
             Tool(home, self.scene.proxy_radius, gate if i == 0 else _gate_like(gate), name)
             for i, name in enumerate(names))
         self.tool_by_name = {tool.name: tool for tool in self.tools}
+        self._others = self.tools[1:]  # the tools besides the primary (none: the one-tool path stays short)
+        self._primary_view: ToolView | None = None  # the primary tool's last view and the step it showed
+        self._primary_step = None
+        self._tools_view: tuple[ToolView, ...] | None = None
         self.points: dict[str, Vec3] = {}  # latest tracked points that drive no tool (a hand, for drawing)
         self._point_source: dict[str, int | str] = {}  # who sent each of `points`
         self._deadlines: dict[int | str, float] = {}  # source → simulation time its last sample's ttl ends
@@ -234,11 +238,22 @@ class Simulation:
         proxy_step = tool.proxy_step(self.bodies, hip)
         contacts = proxy_step.contacts
         contact = tool.gate.update(t_s, bool(contacts), proxy_step.separation)
-        touching = frozenset(c.body_id for c in contacts)
-        views = [ToolView(tool.name, hip, proxy_step.proxy, contact, touching, proxy_step.force, tool.lost)]
-        for other in self.tools[1:]:
-            views.append(self._render(other, t_s))
-        tools = tuple(views)
+        last = self._primary_view
+        if proxy_step is self._primary_step and last.contact == contact and last.hip is hip and last.lost == tool.lost:
+            # Held between tracker samples at a fixed point of the god-object (Tool.proxy_step
+            # returned the same step): the view of the last tick is this tick's, built once.
+            view, touching = last, last.touching
+        else:
+            touching = frozenset(c.body_id for c in contacts)
+            view = ToolView(tool.name, hip, proxy_step.proxy, contact, touching, proxy_step.force, tool.lost)
+            self._primary_view, self._primary_step = view, proxy_step
+        others = self._others
+        if others:
+            tools = (view, *[self._render(other, t_s) for other in others])
+        elif view is not last or self._tools_view is None:
+            tools = self._tools_view = (view,)
+        else:
+            tools = self._tools_view
         nearest = self._nearest_body(hip) if contact else None
         ctx = TickContext(tick, t_s, hip, proxy_step.proxy, contact, touching, nearest, self.refusals,
                           tool.god.sticking, tools)
