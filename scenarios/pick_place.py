@@ -10,9 +10,14 @@ A grasp needs both:
 - squeeze: both HIPs pressed into the block by at least `squeeze` (the HIP-to-proxy distance,
   the god-object's penetration).
 Then the block follows the midpoint of the two fingers' HIPs (keeping the offset it had at the
-grasp, so it does not jump) and never sinks into the table. It is released when either finger
-leaves it, presses less than half the squeeze (hysteresis, so a grasp at the threshold does not
-chatter) or its tracker is lost; then it drops onto the table. Released over the target (its
+grasp, so it does not jump) and never sinks into the table. The grasp holds while both fingers
+stay in (debounced) contact and the grip stays closed: the two HIPs at least `squeeze` closer
+together than the two proxies were at the grasp (the two presses summed, half what the grasp
+needed: hysteresis, so a grasp at the threshold does not chatter). The grip, not each finger's
+own press, because the block follows the fingers one tick late: a tracker sample that moves the
+hand fast pushes the leading finger's HIP out of the block for that tick while the grip is
+unchanged. It is released when the grip opens, a finger leaves the block or its tracker is lost;
+then it drops onto the table. Released over the target (its
 centre within `tolerance` of the target's, on the table plane) it is placed: the trial ends.
 Released anywhere else it is a drop, and may be grasped again.
 
@@ -44,7 +49,7 @@ TARGET = "target"
 TARGET_RADIUS = 0.2             # the drawn pad
 TARGET_AT = (0.0, -0.9)         # default target (x, y)
 SQUEEZE = 0.02                  # scene units the HIPs must press into the block
-RELEASE_FRACTION = 0.5          # the grasp holds while both press at least this part of the squeeze
+RELEASE_FRACTION = 0.5          # the grasp holds while the grip keeps this part of the two presses
 OPPOSITE_DEG = 45.0
 TOLERANCE = 0.1
 TOUCH_PCT, GRIP_PCT = 40.0, 100.0  # vibration while a finger touches the block / while it is held
@@ -123,6 +128,7 @@ class PickPlace:
         self.phase = "idle"          # idle → held → (idle after a drop) → placed
         self.centre = (*BLOCK_START, BLOCK_SIDE / 2)
         self.offset = (0.0, 0.0, 0.0)  # block centre − fingers' midpoint, fixed at the grasp
+        self.rest_width = 0.0          # the two proxies' distance at the grasp: the grip's width at rest
         self.t_start = self.t_grasp = self.t_placed = None
         self.drops = 0
         self.error: float | None = None
@@ -166,10 +172,13 @@ class PickPlace:
                 and press_depth(index) >= self.squeeze and press_depth(thumb) >= self.squeeze
                 and opposite_angle_deg(self.centre, index.proxy, thumb.proxy) >= 180.0 - self.opposite_deg)
 
+    def grip(self, index, thumb) -> float:
+        """How far the grip is closed: the two HIPs' distance below the grasp's resting width."""
+        return self.rest_width - math.dist(index.hip, thumb.hip)
+
     def _holds(self, index, thumb) -> bool:
-        least = RELEASE_FRACTION * self.squeeze
-        return (touches(index, BLOCK) and touches(thumb, BLOCK)
-                and press_depth(index) >= least and press_depth(thumb) >= least)
+        in_contact = all(t.contact and not t.lost for t in (index, thumb))
+        return in_contact and self.grip(index, thumb) >= RELEASE_FRACTION * 2 * self.squeeze
 
     @staticmethod
     def _midpoint(index, thumb) -> tuple[float, float, float]:
@@ -179,6 +188,7 @@ class PickPlace:
         self.phase = "held"
         mid = self._midpoint(index, thumb)
         self.offset = tuple(c - m for c, m in zip(self.centre, mid))
+        self.rest_width = math.dist(index.proxy, thumb.proxy)
         if self.t_grasp is None:
             self.t_grasp = t
         self.pending.emit("grasp", press_index=round(press_depth(index), 6), press_thumb=round(press_depth(thumb), 6))
@@ -214,6 +224,7 @@ class PickPlace:
     def _values(self, index, thumb) -> dict:
         values: dict[str, Any] = {"phase": self.phase, "press_index": round(press_depth(index), 6),
                                   "press_thumb": round(press_depth(thumb), 6),
+                                  **({"grip": round(self.grip(index, thumb), 6)} if self.phase == "held" else {}),
                                   "distance": round(math.dist(self.centre[:2], self.target), 6)}
         if touches(index, BLOCK) and touches(thumb, BLOCK):
             values["opposite_deg"] = round(opposite_angle_deg(self.centre, index.proxy, thumb.proxy), 3)

@@ -202,3 +202,16 @@ def test_a_trial_moves_the_target():
     sc.set_trial(Trial.parse(PickPlace.TRIAL_PARAMS, "main", {"target_x": 0.6, "target_y": -1.3}))
     out = Driver(sc).step(away())
     assert out.poses["target"].pos == (0.6, -1.3, 0.0) and sc.target == (0.6, -1.3)
+
+
+def test_the_grasp_holds_on_the_grip_not_on_each_fingers_press_and_ends_when_a_finger_leaves():
+    sc = PickPlace(squeeze=0.02)
+    d = Driver(sc)
+    d.step(grip(START, 0.03))
+    assert sc.phase == "held"
+    lopsided = grip(START, 0.0)
+    lopsided[1] = grip(START, 0.025)[1]  # the index rests on its face, the thumb presses 0.025: grip 0.025
+    out = d.step(lopsided)
+    assert sc.phase == "held" and out.values["grip"] == pytest.approx(0.025)
+    d.step(grip(START, 0.03, **{INDEX: {"contact": False}}))
+    assert sc.phase == "idle" and sc.drops == 1, "a finger off the block lets it go"

@@ -120,3 +120,16 @@ def test_the_thumbs_tracker_lost_drops_the_block():
     assert lost and lost[-1]["reason"] == "tracking_lost"
     assert results[-1].output.cues == () and results[-1].output.tool_cues == {THUMB: ()}, "no cue stays on"
     assert sim.moved[BLOCK].pos[2] == HALF
+
+
+def test_a_fast_carry_at_a_trackers_rate_keeps_the_grasp():
+    """Samples at 120 Hz (held 8-9 ticks each) moving at 3 units/s: each sample jumps the HIPs
+    0.025 ahead of the block, which follows one tick later; the leading finger's own press dips
+    below the release depth in that tick, the grip (the two HIPs' distance) does not."""
+    sim, sc, hand = make()
+    grasp(hand)
+    start, end = (X0, Y0, HALF + 0.02), (X0, Y0 - 1.5, HALF + 0.02)
+    centres = [c for c in line(start, end, 60) for _ in range(8)]  # 60 samples over 0.48 s, 8 ticks each
+    hand.move(*zip(*(pinch(c, -0.03) for c in centres)))
+    assert sc.phase == "held" and sc.drops == 0
+    assert sim.moved[BLOCK].pos == pytest.approx(end, abs=1e-6)
