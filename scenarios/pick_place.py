@@ -10,19 +10,20 @@ A grasp needs both:
 - squeeze: both HIPs pressed into the block by at least `squeeze` (the HIP-to-proxy distance,
   the god-object's penetration).
 Then the block follows the midpoint of the two fingers' HIPs (keeping the offset it had at the
-grasp, so it does not jump) and never sinks into the table. The grasp holds while both fingers
-stay in (debounced) contact and the grip stays closed: the two HIPs at least `squeeze` closer
-together than the two proxies were at the grasp (the two presses summed, half what the grasp
-needed: hysteresis, so a grasp at the threshold does not chatter). The grip, not each finger's
-own press, because the block follows the fingers one tick late: a tracker sample that moves the
-hand fast pushes the leading finger's HIP out of the block for that tick while the grip is
-unchanged. It is released when the grip opens, a finger leaves the block or its tracker is lost;
-then it drops onto the table. Released over the target (its
-centre within `tolerance` of the target's, on the table plane) it is placed: the trial ends.
-Released anywhere else it is a drop, and may be grasped again.
+grasp, so it does not jump) and never sinks into the table. The grasp holds while the grip stays
+closed: the two HIPs at least `squeeze` closer together than the two proxies were at the grasp
+(the two presses summed, half what the grasp needed: hysteresis, so a grasp at the threshold does
+not chatter). The grip, not each finger's own press or contact, because the block follows the
+fingers one tick late: a tracker sample that moves the hand fast takes the leading finger out of
+the block for that tick (and its contact gate off) while the grip is unchanged; and a finger
+cannot slide off a block that follows the fingers. It is released when the grip opens or a
+finger's tracker is lost; then it drops onto the table. Released over the target (its centre within `tolerance` of the
+target's, on the table plane) it is placed: the trial ends. Released anywhere else it is a drop,
+and may be grasped again.
 
 Cues: each finger touching the block gets a vibration on its own finger's devices (the primary
-tool's in `cues`, the thumb's in `tool_cues`), stronger while the grasp holds.
+tool's in `cues`, the thumb's in `tool_cues`); while the grasp holds both get a stronger one, steady
+through the ticks a fast sample takes a finger off the face (no extra device command).
 
 Metrics (values, and at the placement `finished` with a `trial_done` event): time to grasp (trial
 start → first grasp), time to place (first grasp → placement), placement error (the block's
@@ -162,8 +163,10 @@ class PickPlace:
             else:
                 self._release(ctx.t_s, "tracking_lost" if index.lost or thumb.lost else "opened")
         held = self.phase == "held"
-        cue = (Vibration(GRIP_PCT if held else TOUCH_PCT),)
-        cues_of = {t.name: cue if touches(t, BLOCK) else () for t in (index, thumb)}
+        if held:
+            cues_of = dict.fromkeys((INDEX, THUMB), (Vibration(GRIP_PCT),))
+        else:
+            cues_of = {t.name: (Vibration(TOUCH_PCT),) if touches(t, BLOCK) else () for t in (index, thumb)}
         return self.pending.flush(cues=cues_of[INDEX], tool_cues={THUMB: cues_of[THUMB]}, hud=self._hud(ctx),
                                   values=self._values(index, thumb), held=BLOCK if held else None)
 
@@ -177,8 +180,8 @@ class PickPlace:
         return self.rest_width - math.dist(index.hip, thumb.hip)
 
     def _holds(self, index, thumb) -> bool:
-        in_contact = all(t.contact and not t.lost for t in (index, thumb))
-        return in_contact and self.grip(index, thumb) >= RELEASE_FRACTION * 2 * self.squeeze
+        tracked = not (index.lost or thumb.lost)
+        return tracked and self.grip(index, thumb) >= RELEASE_FRACTION * 2 * self.squeeze
 
     @staticmethod
     def _midpoint(index, thumb) -> tuple[float, float, float]:

@@ -133,3 +133,17 @@ def test_a_fast_carry_at_a_trackers_rate_keeps_the_grasp():
     hand.move(*zip(*(pinch(c, -0.03) for c in centres)))
     assert sc.phase == "held" and sc.drops == 0
     assert sim.moved[BLOCK].pos == pytest.approx(end, abs=1e-6)
+
+
+def test_the_grip_cue_stays_steady_through_a_fast_carry():
+    """4 units/s at 120 Hz: each sample jumps 0.033, more than the 0.03 pressed in, so the leading
+    finger's proxy leaves the face for a tick at every sample; the grasp and its cue hold."""
+    sim, sc, hand = make()
+    grasp(hand)
+    start, end = (X0, Y0, HALF + 0.02), (X0, Y0 - 1.5, HALF + 0.02)
+    centres = [c for c in line(start, end, 45) for _ in range(8)]
+    results = hand.move(*zip(*(pinch(c, -0.03) for c in centres)))
+    assert not any(r.cues_changed for r in results), "one cue all the way: no device command per sample"
+    assert {r.output.tool_cues[THUMB] for r in results} == {(Vibration(100.0),)}
+    assert sc.phase == "held"
+    assert any(BLOCK not in r.tools[1].touching for r in results), "the thumb did leave the face (the case)"
