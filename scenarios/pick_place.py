@@ -19,7 +19,7 @@ the block for that tick (and its contact gate off) while the grip is unchanged; 
 cannot slide off a block that follows the fingers. It is released when the grip opens or a
 finger's tracker is lost; then it drops onto the table. Released over the target (its centre within `tolerance` of the
 target's, on the table plane) it is placed: the trial ends. Released anywhere else it is a drop,
-and may be grasped again.
+and may be grasped again (beyond the table's edge it falls off and is put back at its start).
 
 Cues: each finger touching the block gets a vibration on its own finger's devices (the primary
 tool's in `cues`, the thumb's in `tool_cues`); while the grasp holds both get a stronger one, steady
@@ -202,10 +202,13 @@ class PickPlace:
         self.pending.poses[BLOCK] = Pose(self.centre)
 
     def _release(self, t: float, reason: str) -> None:
-        """Let go: the block drops onto the table; over the target it is placed, elsewhere dropped."""
-        self.centre = (self.centre[0], self.centre[1], BLOCK_SIDE / 2)
+        """Let go: the block drops onto the table; over the target it is placed, elsewhere dropped
+        (off the table's edge it falls and is put back at its start)."""
+        x, y, _ = self.centre
+        error = math.dist((x, y), self.target)
+        on_table = abs(x) <= TABLE[0] / 2 and abs(y) <= TABLE[1] / 2
+        self.centre = (x, y, BLOCK_SIDE / 2) if on_table else (*BLOCK_START, BLOCK_SIDE / 2)
         self.pending.poses[BLOCK] = Pose(self.centre)
-        error = math.dist(self.centre[:2], self.target)
         if error <= self.tolerance:
             self.phase, self.t_placed, self.error = "placed", t, error
             self.pending.emit("place", error=round(error, 9), reason=reason)
@@ -214,7 +217,7 @@ class PickPlace:
         else:
             self.phase = "idle"
             self.drops += 1
-            self.pending.emit("drop", error=round(error, 9), reason=reason)
+            self.pending.emit("drop", error=round(error, 9), reason=reason, off_table=not on_table)
 
     def metrics(self) -> dict:
         return {

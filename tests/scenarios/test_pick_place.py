@@ -171,6 +171,16 @@ def test_a_drop_off_target_counts_and_the_block_can_be_grasped_again():
     assert sc.phase == "held" and sc.t_grasp == 0.0, "time to grasp is the first grasp's"
 
 
+def test_a_drop_beyond_the_tables_edge_puts_the_block_back_at_its_start():
+    sc = PickPlace()
+    d = Driver(sc)
+    outs = carry_and_release(d, sc, (0.0, 2.3))  # the table reaches y = ±2
+    assert sc.phase == "idle" and sc.drops == 1 and sc.centre == START
+    assert outs[-1].poses[BLOCK].pos == START
+    (drop,) = outs[-1].events
+    assert drop["off_table"] is True and drop["error"] == pytest.approx(3.2)
+
+
 def test_tracking_lost_while_held_drops_the_block_and_says_why():
     sc = PickPlace()
     d = Driver(sc)
