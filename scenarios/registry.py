@@ -17,6 +17,7 @@ from scenarios.contact_angle import ContactAngle
 from scenarios.friction_temperature import FrictionTemperature
 from scenarios.hot_wire import HotWire
 from scenarios.peg_in_hole import PegInHole
+from scenarios.pick_place import PickPlace
 from scenarios.positioning import Positioning
 from scenarios.shape import ShapeScenario
 from scenarios.stiffness import StiffnessScenario
@@ -32,7 +33,7 @@ class ScenarioSpec:
 
 SCENARIOS = MappingProxyType({cls.id: ScenarioSpec(cls.id, cls.title, cls) for cls in (
     ContactAngle, TextureScenario, StiffnessScenario, ShapeScenario, FrictionTemperature, Positioning, PegInHole,
-    HotWire,
+    HotWire, PickPlace,
 )})
 
 

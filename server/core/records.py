@@ -6,3 +6,14 @@ the store does not load the loop, every scenario and trimesh."""
 # held_x/y/z its position.
 TRAJECTORY_COLUMNS = ("tick", "hip_x", "hip_y", "hip_z", "proxy_x", "proxy_y", "proxy_z", "contact",
                       "held", "held_x", "held_y", "held_z")
+
+# Several tracked points (more than one tool, or a hand's other joints): one row per recorded
+# tick, [tick, {point name: [x, y, z]}] of every tool's tracked point (not a position a scenario
+# holds it at) and every point that drives no tool; the primary tool is in the trajectory row too.
+# Export writes them as the multi-point CSV `viestac render` reads (server/render.py).
+POINT_ROW = ("tick", "points")
+
+
+def multipoint_columns(names) -> tuple[str, ...]:
+    """The multi-point CSV header for `names`: `t` (seconds), then NAME.x, NAME.y, NAME.z each."""
+    return ("t",) + tuple(f"{name}.{axis}" for name in names for axis in "xyz")

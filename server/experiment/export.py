@@ -5,6 +5,8 @@ Per session, into OUT/<study_id>_<participant>_<session_id>/:
                        the trial's own, then `param.*`, `scenario.*`, `response.*`, `metric.*`)
   responses_long.csv   one row per response
   trajectories/trial_<seq>_attempt_<n>.csv   the recorded samples of each attempt that has some
+  trajectories/trial_<seq>_attempt_<n>_points.csv   with several tracked points (fingers, a hand):
+                       every point of those samples, in the multi-point CSV `viestac render` reads
   cues.csv, events.csv the cue commands and the events
   audit.csv            the control actions on the session (who, what, when, the result), when the
                        data directory has an access log (access.sqlite, server/auth/)
@@ -43,6 +45,8 @@ from typing import Any, Iterable, Iterator
 
 from server import __version__
 from server.core.numbers import is_number
+from server.core.points import POINT_NAMES
+from server.core.records import multipoint_columns
 from server.experiment.store import SAMPLE_COLUMNS, SCHEMA_VERSION
 
 DB_NAME = "viestac.sqlite"
@@ -70,7 +74,7 @@ TRIAL_KEYS = ("id", "session_id", "seq", "task", "kind", "index", "condition", "
               "started_utc", "ended_utc", "started_tick", "ended_tick", "reason", "metrics")
 SESSION_FILES = ("trials_wide.csv", "responses_long.csv", "cues.csv", "events.csv", "session.json", "audit.csv")
 ALL_WIDE = "all_trials_wide.csv"
-_TRAJECTORY_FILE = re.compile(r"trial_\d+_attempt_\d+\.csv\Z")
+_TRAJECTORY_FILE = re.compile(r"trial_\d+_attempt_\d+(_points)?\.csv\Z")
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.-]")
 
 
@@ -239,6 +243,15 @@ class Reader:
                 else:
                     a["cues"] = r["n"]
         return out
+
+    def point_samples(self, trial_id: int, attempt: int) -> list[tuple[int, dict]]:
+        """[tick, {point: [x, y, z]}] of an attempt with several tracked points (none in a database
+        made before they were recorded)."""
+        if not self.db.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'point_samples'").fetchone():
+            return []
+        return [(r["tick"], json.loads(r["points_json"])) for r in self.db.execute(
+            "SELECT tick, points_json FROM point_samples WHERE trial_id = ? AND attempt = ? ORDER BY tick",
+            (trial_id, attempt))]
 
     def samples(self, trial_id: int, attempt: int) -> Iterator[sqlite3.Row]:
         return self.db.execute(f"SELECT {', '.join(SAMPLE_COLUMNS)} FROM samples WHERE trial_id = ? AND attempt = ? "
@@ -412,8 +425,21 @@ def _write_session(stage: _Staging, reader: Reader, data: SessionData) -> None:
     for t, a in data.trajectories:
         stage.csv(f"{d}/{a['trajectory']}", TRAJECTORY_HEADER,
                   ((r[0], round(r[0] / hz, 9), *tuple(r)[1:]) for r in reader.samples(t["id"], a["attempt"])))
+        point_rows = reader.point_samples(t["id"], a["attempt"])
+        if point_rows:
+            _write_points(stage, f"{d}/{a['trajectory'][:-len('.csv')]}_points.csv", point_rows, hz)
     stage.text(f"{d}/session.json", json.dumps(_finite(session_document(data)), indent=2, ensure_ascii=False,
                                                allow_nan=False) + "\n")
+
+
+def _write_points(stage: _Staging, name: str, rows: list[tuple[int, dict]], hz: float) -> None:
+    """The multi-point CSV (server/core/records.py): `t`, then x, y, z of every point that was
+    tracked in the attempt, in the order of server/core/points.py; empty where a point was not."""
+    seen = {point for _, points in rows for point in points}
+    names = [p for p in POINT_NAMES if p in seen]
+    stage.csv(name, multipoint_columns(names), (
+        (round(tick / hz, 9), *(v for p in names for v in (points.get(p) or (None, None, None))))
+        for tick, points in rows))
 
 
 def _commit(stage: _Staging, folders: list[str], force: bool) -> dict[str, dict[str, list[str]]]:

@@ -29,6 +29,10 @@ from dataclasses import dataclass, field
 from server.experiment.store import Store
 
 TRACKER_LOSS_TICKS = 250  # no tracker sample applied for this long (at 1 kHz: 0.25 s) → tracker_lost
+# The loop's own tracker-loss events (a source whose samples' ttl passed, and its return:
+# server/loop/simulation.py), recorded as kind "tracker" beside the watch below (which notices a
+# source without ttl, or any stop of applied samples, after TRACKER_LOSS_TICKS).
+LOOP_TRACKER_EVENTS = ("tracker_lost", "tracker_back")
 
 
 @dataclass
@@ -40,6 +44,7 @@ class Active:
     index: int = 0
     first_tick: int | None = None        # the tick the trial took effect (None: not yet announced)
     samples: list = field(default_factory=list)
+    point_rows: list = field(default_factory=list)  # [tick, {point: [x, y, z]}] when several points are tracked
     cues: list = field(default_factory=list)
     events: list = field(default_factory=list)
     last_cues: list | None = None
@@ -75,7 +80,7 @@ class Recorder:
                                     {"state_records": done.dropped_records, "samples": done.dropped_samples,
                                      "reason": "state records of ticks before the trial's first tick"}))
         if done is not None:
-            self._write(done, done.samples, done.cues, done.events)
+            self._write(done, done.samples, done.cues, done.events, done.point_rows)
         return done
 
     # -- records from the loop (hub listener) -------------------------------------------------
@@ -117,6 +122,7 @@ class Recorder:
             a.dropped_samples += len(rows)
             return
         a.samples.extend(row for row in rows if row[0] >= first)
+        a.point_rows.extend(row for row in rec.get("point_rows", ()) if row[0] >= first)
         a.last_tick = tick
         if rec["cues"] != a.last_cues:
             a.cues.append((tick, rec["cues"]))
@@ -124,7 +130,8 @@ class Recorder:
         for event in rec.get("events") or ():
             if event.get("tick", tick) < first:
                 continue
-            kind = "input" if event.get("name") == "input" else "scenario"
+            name = event.get("name")
+            kind = "input" if name == "input" else "tracker" if name in LOOP_TRACKER_EVENTS else "scenario"
             a.events.append((a.session_id, a.trial_id, a.attempt, event.get("tick"), kind, event))
         for done in rec.get("finished") or ():
             if done["tick"] >= first:
@@ -148,11 +155,12 @@ class Recorder:
             a = self.active
             if a is None:
                 return
-            rows = a.samples, a.cues, a.events
-            a.samples, a.cues, a.events = [], [], []
+            rows = a.samples, a.cues, a.events, a.point_rows
+            a.samples, a.cues, a.events, a.point_rows = [], [], [], []
         self._write(a, *rows)
 
-    def _write(self, a: Active, samples: list, cues: list, events: list) -> None:
+    def _write(self, a: Active, samples: list, cues: list, events: list, point_rows: list = ()) -> None:
         self.store.add_samples(a.trial_id, a.attempt, samples)
+        self.store.add_point_samples(a.trial_id, a.attempt, point_rows)
         self.store.add_cues(a.trial_id, a.attempt, cues)
         self.store.add_events(events)

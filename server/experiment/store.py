@@ -87,6 +87,10 @@ CREATE TABLE IF NOT EXISTS cues (         -- device cue commands, whenever they 
     trial_id INTEGER NOT NULL, attempt INTEGER NOT NULL, tick INTEGER NOT NULL, cues_json TEXT NOT NULL,
     PRIMARY KEY (trial_id, attempt, tick)
 ) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS point_samples (  -- several tracked points (fingers, a hand): server/core/records.py
+    trial_id INTEGER NOT NULL, attempt INTEGER NOT NULL, tick INTEGER NOT NULL, points_json TEXT NOT NULL,
+    PRIMARY KEY (trial_id, attempt, tick)
+) WITHOUT ROWID;
 CREATE INDEX IF NOT EXISTS events_by_trial ON events (trial_id, attempt);
 CREATE INDEX IF NOT EXISTS trials_by_status ON trials (session_id, status);
 """
@@ -376,6 +380,19 @@ class Store:
             with self._tx() as db:
                 db.executemany(f"INSERT OR IGNORE INTO samples VALUES (?, ?, {', '.join('?' * len(SAMPLE_COLUMNS))})",
                                [(trial_id, attempt, *r) for r in rows])
+
+    def add_point_samples(self, trial_id: int, attempt: int, rows) -> None:
+        """[tick, {point: [x, y, z]}] rows (server/core/records.py POINT_ROW); a tick twice keeps its first."""
+        if rows:
+            with self._tx() as db:
+                db.executemany("INSERT OR IGNORE INTO point_samples VALUES (?, ?, ?, ?)",
+                               [(trial_id, attempt, tick, _dumps(points)) for tick, points in rows])
+
+    def point_samples(self, trial_id: int, attempt: int) -> list[tuple[int, dict]]:
+        with self._lock:
+            return [(r["tick"], json.loads(r["points_json"])) for r in self.db.execute(
+                "SELECT tick, points_json FROM point_samples WHERE trial_id = ? AND attempt = ? ORDER BY tick",
+                (trial_id, attempt))]
 
     def add_cues(self, trial_id: int, attempt: int, rows: list[tuple[int, list]]) -> None:
         if rows:

@@ -328,6 +328,7 @@ SCENARIOS = [
     ("hot-wire-v1", {}),
     ("hot-wire-v1", {"path": "circle"}),
     ("hot-wire-v1", {"path": "spiral", "target_speed": 0.2}),
+    ("pick-place-v1", {}),
 ]
 
 

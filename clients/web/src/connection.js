@@ -110,15 +110,16 @@ export class Connection {
   /**
    * Send one HIP sample (scene frame). Returns true if sent. Skips the send (returns false) when
    * the socket still has unsent bytes: a slow link drops samples rather than building a queue.
+   * `extra`: the v1.4 fields `point`, `points` (a tracked hand's other joints) and `ttl` (ms).
    */
-  sendTracker(pos, quat = null) {
+  sendTracker(pos, quat = null, extra = {}) {
     if (!this.isOpen || !this.canSend) return false;
     const seq = this.seq++;
     if (this.ws.bufferedAmount > 0) {
       this.dropped++;
       return false;
     }
-    this._send(protocol.tracker(seq, this.now(), pos, quat));
+    this._send(protocol.tracker(seq, this.now(), pos, quat, extra));
     this.sent++;
     return true;
   }

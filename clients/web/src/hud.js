@@ -1,4 +1,5 @@
-// DOM overlay: scenario HUD text, connection status, the server's health and a telemetry line.
+// DOM overlay: scenario HUD text, connection status, the server's health, a "tracking lost"
+// banner and a telemetry line.
 // Desktop only (DOM labels do not show inside an immersive WebXR session; that client draws into
 // the scene).
 
@@ -37,6 +38,14 @@ export function healthLine(health) {
   return `Tactile feedback paused — ${words.length ? words.join(', ') : 'server problem'}`;
 }
 
+/** The banner while a tracker source is lost (state.tracking.lost): '' when none. A participant
+ * is told what to do; operators and observers also see which sources. */
+export function trackingLine(lost, { names = false } = {}) {
+  if (!Array.isArray(lost) || lost.length === 0) return '';
+  const which = names ? ` (${lost.map(String).join(', ')})` : '';
+  return `Tracking lost${which} — move your hand back into the tracker's view`;
+}
+
 export class Hud {
   /**
    * @param {{hud: HTMLElement, status: HTMLElement, telemetry: HTMLElement, values?: HTMLElement,
@@ -69,6 +78,16 @@ export class Hud {
     this.els.health.textContent = line;
     this.els.health.hidden = line === '';
     this.els.health.title = (health?.reasons ?? []).map((r) => r.message).join('\n');
+  }
+
+  /** Tracker sources lost right now (state.tracking.lost): a banner while any is, hidden otherwise. */
+  setTracking(lost) {
+    if (!this.els.tracking) return;
+    const line = trackingLine(lost, { names: this.showValues });
+    if (line === this._tracking) return;
+    this._tracking = line;
+    this.els.tracking.textContent = line;
+    this.els.tracking.hidden = line === '';
   }
 
   /** Telemetry line: the server loop's p99 period and overruns, our fps and state rate. */

@@ -14,6 +14,7 @@ import { OperatorPanel, httpBase } from './operator_panel.js';
 import { ROLES } from './protocol.js';
 import { TokenStore, redeemFragment, authHeaders } from './auth.js';
 import { waitingState } from './waiting.js';
+import { lostSources } from './tools_view.js';
 
 const CLIENT_NAME = 'viestac-web/0.1';
 
@@ -48,6 +49,7 @@ async function main() {
     values: document.getElementById('values'),
     events: document.getElementById('events'),
     health: document.getElementById('health'),
+    tracking: document.getElementById('tracking'),
   }, { showValues: opts.role !== 'participant' });
 
   const stats = { framesReceived: 0, trackerSent: 0, trackerDropped: 0, lastStateFrame: null, lastError: null };
@@ -85,6 +87,7 @@ async function main() {
     skins: () => ({ pending: view.skins.pending, failed: [...view.skins.failed] }),
     panelKeys: () => panel?.keys() ?? null,
     sceneGraph: () => view.sceneGraph(),
+    hand: () => view.handGraph(),
     screenPosition: (scenePos) => view.screenPosition(scenePos),
     hipTarget: () => pointer.position(),
     depth: () => pointer.depth,
@@ -140,6 +143,7 @@ async function main() {
     hud.setText(s.hud || sceneHudText); // an empty state hud shows the scene's hud text
     hud.setValues(s.values);
     hud.addEvents(s.events);
+    hud.setTracking(lostSources(s));
     lastTelemetry = s.telemetry;
   };
   conn.onHealth = (h) => {

@@ -1,6 +1,6 @@
 // three.js view of a ViESTac scene: builds meshes and overlays from a `scene` message and applies
-// `state` frames (HIP, proxy, moved objects, visibility). It draws what the server says and
-// decides nothing.
+// `state` frames (every tool's HIP and proxy, the tracked hand, moved objects, visibility). It
+// draws what the server says and decides nothing.
 //
 // Frames: the wire is in the scene frame (x toward the viewer, y right, z up); three.js is
 // (X right, Y up, Z toward the viewer). Poses go through protocol.sceneToThree/quatSceneToThree.
@@ -12,12 +12,12 @@ import { sceneToThree, quatSceneToThree, SHAPE_TYPES, checkMesh } from './protoc
 import { buildOverlay } from './overlays.js';
 import { makeMaterials, SkinLoader } from './skins.js';
 import { Visibility } from './visibility.js';
+import { ToolMarker, HandView, toolsOf, toolColor, PROXY_COLOR } from './tools_view.js';
+import { PRIMARY_POINT } from './hand.js';
 
 const SEGMENTS = 64;
 const DEFAULT_HIP = { radius: 0.06, color: '#ffd400' };
-const PROXY_COLOR = '#ff2d55';
 const PROXY_SCALE = 0.5; // a point proxy (proxy_radius 0) is drawn at half the HIP radius
-const SAME_POINT = 1e-6; // proxy within this distance of the HIP is hidden
 const HIP_RENDER_ORDER = 3; // after the overlays (overlays.RENDER_ORDER), which skip the depth test
 
 /** Thickness of the slab drawn for a `plane` shape (its top face is at local z = 0). */
@@ -220,21 +220,14 @@ export class SceneView {
     this.scene.add(this.keyLight, this.keyLight.target);
     this.scene.add(this.world);
 
-    // HIP and proxy. The HIP also gets a faint ghost drawn over everything, so the participant
-    // sees where the finger is while it is inside an object.
-    this.hip = new THREE.Mesh(new THREE.SphereGeometry(1, 32, 16), new THREE.MeshStandardMaterial({ roughness: 0.5 }));
-    this.hipGhost = new THREE.Mesh(this.hip.geometry,
-      new THREE.MeshBasicMaterial({ transparent: true, opacity: 0.4, depthTest: false, depthWrite: false }));
-    this.hipGhost.renderOrder = 10;
-    this.hip.add(this.hipGhost);
-    this.proxy = new THREE.Mesh(new THREE.SphereGeometry(1, 24, 12),
-      new THREE.MeshStandardMaterial({ color: new THREE.Color(PROXY_COLOR), roughness: 0.4 }));
-    this.hip.renderOrder = HIP_RENDER_ORDER;
-    this.proxy.renderOrder = HIP_RENDER_ORDER;
-    this.hip.visible = false;
-    this.proxy.visible = false;
-    this.scene.add(this.hip, this.proxy);
+    // One marker (HIP, proxy) per tool, made when a state frame first names the tool; the
+    // primary one always exists (`hip`/`proxy` of the scene graph).
     this.hipSpec = { ...DEFAULT_HIP };
+    this.tools = new Map(); // name → ToolMarker
+    this.toolOrder = []; // the last frame's tools, primary first
+    this.hand = new HandView();
+    this.scene.add(this.hand.group);
+    this._marker(PRIMARY_POINT);
     this.resize();
   }
 
@@ -272,14 +265,8 @@ export class SceneView {
     }
 
     this.hipSpec = { ...DEFAULT_HIP, ...(spec.hip ?? {}) };
-    const r = this.hipSpec.radius > 0 ? this.hipSpec.radius : DEFAULT_HIP.radius;
-    this.hip.scale.setScalar(r);
-    this.hip.material.color.set(this.hipSpec.color);
-    this.hipGhost.material.color.set(this.hipSpec.color);
-    // The proxy is the centre of a sphere of proxy_radius resting on the surface: drawn at that
-    // radius it touches the surface; a point proxy gets a small marker.
-    const pr = this.hipSpec.proxy_radius > 0 ? this.hipSpec.proxy_radius : r * PROXY_SCALE;
-    this.proxy.scale.setScalar(pr);
+    for (const marker of this.tools.values()) this._style(marker);
+    this.hand.setRadius(this._hipRadius());
 
     this._setCamera(spec.camera);
     // Ground planes are meant to run off-screen; everything else should stay in view.
@@ -287,6 +274,42 @@ export class SceneView {
       .concat([...this.overlays.values()]).map((e) => e.object3d);
     this.contentHalfWidth = halfWidthAcross(fitted, this.camera, this.cameraTarget);
     this.built = true;
+  }
+
+  _hipRadius() {
+    return this.hipSpec.radius > 0 ? this.hipSpec.radius : DEFAULT_HIP.radius;
+  }
+
+  /** Size and colour a tool marker from the scene's `hip` spec. The proxy is the centre of a
+   * sphere of proxy_radius resting on the surface: drawn at that radius it touches the surface;
+   * a point proxy gets a small marker. */
+  _style(marker) {
+    const r = this._hipRadius();
+    const pr = this.hipSpec.proxy_radius > 0 ? this.hipSpec.proxy_radius : r * PROXY_SCALE;
+    marker.style(r, pr, toolColor(marker.name, this.hipSpec.color));
+  }
+
+  /** The marker of tool `name`, made (and added to the scene) the first time. */
+  _marker(name) {
+    let marker = this.tools.get(name);
+    if (!marker) {
+      marker = new ToolMarker(name);
+      marker.hip.renderOrder = HIP_RENDER_ORDER;
+      marker.proxy.renderOrder = HIP_RENDER_ORDER;
+      this._style(marker);
+      this.scene.add(marker.hip, marker.proxy);
+      this.tools.set(name, marker);
+    }
+    return marker;
+  }
+
+  /** The primary tool's HIP and proxy meshes (the HIP of a one-finger rig). */
+  get hip() {
+    return this.tools.get(this.toolOrder[0] ?? PRIMARY_POINT).hip;
+  }
+
+  get proxy() {
+    return this.tools.get(this.toolOrder[0] ?? PRIMARY_POINT).proxy;
   }
 
   _setCamera(cam) {
@@ -328,13 +351,16 @@ export class SceneView {
     this.camera.updateProjectionMatrix();
   }
 
-  /** Apply one `state` frame: HIP, proxy, poses of moved objects, visibility overrides. */
+  /** Apply one `state` frame: every tool, the tracked hand, poses of moved objects, visibility
+   * overrides. A tool the frame no longer lists is hidden (its marker is kept for when it returns). */
   applyState(state) {
-    this.hip.position.fromArray(sceneToThree(state.hip));
-    this.proxy.position.fromArray(sceneToThree(state.proxy));
-    this.hip.visible = true;
-    const d = Math.hypot(state.proxy[0] - state.hip[0], state.proxy[1] - state.hip[1], state.proxy[2] - state.hip[2]);
-    this.proxy.visible = d > SAME_POINT;
+    const tools = toolsOf(state);
+    this.toolOrder = tools.map((t) => t.name);
+    for (const tool of tools) this._marker(tool.name).update(tool);
+    for (const [name, marker] of this.tools) {
+      if (!this.toolOrder.includes(name)) marker.hip.visible = marker.proxy.visible = false;
+    }
+    this.hand.update(state.points ?? {}, tools);
     for (const [id, pos, quat] of state.objects ?? []) {
       const entry = this.objects.get(id);
       if (entry) setPose(entry.object3d, pos, quat);
@@ -382,11 +408,23 @@ export class SceneView {
       out.push({ id, type: 'overlay', kind: spec.kind, visible: object3d.visible,
         position: sceneToThree(spec.centre ?? spec.pos), color: spec.color ?? null, labels: object3d.userData.labels });
     }
-    out.push({ id: 'hip', type: 'hip', visible: this.hip.visible, position: this.hip.position.toArray(),
-      color: this.hipSpec.color, radius: this.hip.scale.x });
-    out.push({ id: 'proxy', type: 'proxy', visible: this.proxy.visible, position: this.proxy.position.toArray(),
-      color: PROXY_COLOR, radius: this.proxy.scale.x });
+    // The primary tool is `hip`/`proxy` (as before several tools); every other is `hip:NAME`/`proxy:NAME`.
+    const order = this.toolOrder.length ? this.toolOrder : [PRIMARY_POINT]; // before the first state frame
+    order.forEach((name, i) => {
+      const m = this.tools.get(name);
+      const suffix = i === 0 ? '' : `:${name}`;
+      out.push({ id: `hip${suffix}`, type: 'hip', tool: name, visible: m.hip.visible, position: m.hip.position.toArray(),
+        color: m.color, radius: m.hip.scale.x, contact: m.contact, lost: m.lost });
+      out.push({ id: `proxy${suffix}`, type: 'proxy', tool: name, visible: m.proxy.visible,
+        position: m.proxy.position.toArray(), color: PROXY_COLOR, radius: m.proxy.scale.x });
+    });
     return out;
+  }
+
+  /** The tracked hand as drawn: {visible, joints: [name], bones: [[from, to]]}. */
+  handGraph() {
+    const { joints, bones } = this.hand.last;
+    return { visible: joints.length > 0, joints: joints.map(([n]) => n), bones: bones.map(([a, b]) => [a, b]) };
   }
 
   /** CSS pixel position (relative to the viewport) of a scene-frame point. */

@@ -90,6 +90,20 @@ describe('Connection', () => {
     assert.equal(c.dropped, 1);
   });
 
+  test('sendTracker carries a hand: the point, its other joints and a ttl', () => {
+    const { c } = make();
+    c.connect();
+    const ws = FakeSocket.instances[0];
+    ws.open();
+    ws.sent.length = 0;
+    const points = { 'right.thumb.tip': [0, 0.2, 1], 'right.wrist': [0, 0.4, 0.6] };
+    assert.equal(c.sendTracker([0, 0.5, 1], null, { point: 'right.index.tip', points, ttl: 40 }), true);
+    assert.deepStrictEqual(ws.decoded()[0],
+      { type: 'tracker', seq: 0, t: 1000.5, pos: [0, 0.5, 1], point: 'right.index.tip', points, ttl: 40 });
+    assert.throws(() => c.sendTracker([0, 0, 1], null, { points: { 'right.elbow': [0, 0, 0] } }),
+      /points/, 'a name that is no tracked point is refused before it is sent');
+  });
+
   test('observers send hello but no tracker or input', () => {
     const { c } = make({ role: 'observer' });
     c.connect();

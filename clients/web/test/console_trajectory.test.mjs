@@ -64,3 +64,36 @@ test('niceLength: 1, 2 or 5 times a power of ten', () => {
   assert.equal(niceLength(3), 2);
   assert.equal(niceLength(0), 1);
 });
+
+describe('several tools (state.tools, a thumb besides the index)', async () => {
+  const { drawTrajectory, otherTrails } = await import('../src/console/trajectory.js');
+  const THUMB = 'right.thumb.tip';
+  const frame = (t, contact) => ({ t, hip: [0, 0.2, 0.5], proxy: [0, 0.2, 0.5], contact: false,
+    tools: [{ name: 'right.index.tip', hip: [0, 0.2, 0.5], proxy: [0, 0.2, 0.5], contact: false, lost: false },
+      { name: THUMB, hip: [0, -0.1 * t, 0.4], proxy: [0, -0.1 * t, 0.4], contact, lost: false }] });
+
+  test('trajSample keeps the other tools, otherTrails gathers each one\'s trail', () => {
+    const samples = [trajSample(frame(1, false)), trajSample(frame(2, true))];
+    assert.deepEqual(samples[1].others, [{ name: THUMB, hip: [0, -0.2, 0.4], contact: true }]);
+    assert.deepEqual([...otherTrails(samples).get(THUMB)].map((p) => [p.t, p.contact]), [[1, false], [2, true]]);
+    assert.equal(trajSample({ t: 0, hip: [0, 0, 0], proxy: [0, 0, 0], tools: [frame(0).tools[0]] }).others, undefined,
+      'one tool: the sample is as before');
+  });
+
+  test('the thumb\'s trail and dot are drawn in its colour, thicker in contact', () => {
+    const strokes = [];
+    const fills = [];
+    let path = [];
+    const ctx = {
+      clearRect() {}, fillRect() {}, fillText() {}, setLineDash() {}, arc(x, y) { path.push([x, y]); },
+      beginPath() { path = []; }, moveTo(x, y) { path.push([x, y]); }, lineTo(x, y) { path.push([x, y]); },
+      stroke() { strokes.push({ color: this.strokeStyle, width: this.lineWidth }); },
+      fill() { fills.push(this.fillStyle); },
+    };
+    const samples = [1, 2, 3].map((t) => trajSample(frame(t, t === 3)));
+    drawTrajectory(ctx, samples, VIEWS.side, { width: 200, height: 100, now: 3 });
+    const thumb = strokes.filter((s) => s.color === '#35c4e8');
+    assert.deepEqual(thumb.map((s) => s.width), [1.5, 3]);
+    assert.ok(fills.includes('#35c4e8'), 'the newest thumb position is a dot');
+  });
+});

@@ -29,3 +29,19 @@ test('participants see neither values nor events', () => {
   assert.equal(e.values.textContent, undefined);
   assert.equal(e.events.textContent, undefined);
 });
+
+test('tracking lost: a banner while any source is lost; operators see which', async () => {
+  const { trackingLine } = await import('../src/hud.js');
+  assert.equal(trackingLine([]), '');
+  assert.equal(trackingLine(undefined), '');
+  assert.match(trackingLine(['leap']), /^Tracking lost — /);
+  assert.match(trackingLine(['leap', 3], { names: true }), /^Tracking lost \(leap, 3\) — /);
+  const e = { ...els(), tracking: {} };
+  const participant = new Hud(e);
+  participant.setTracking(['leap']);
+  assert.equal(e.tracking.hidden, false);
+  assert.doesNotMatch(e.tracking.textContent, /leap/, 'a participant is told what to do, not the source');
+  participant.setTracking([]);
+  assert.equal(e.tracking.hidden, true);
+  assert.equal(e.tracking.textContent, '');
+});

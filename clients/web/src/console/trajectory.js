@@ -1,11 +1,15 @@
 // Live trajectory plot: the HIP (and the god-object proxy where it differs) of the last seconds,
+// with the trails of the other tools (a thumb besides the index) in their fingers' colours,
 // seen from the side (y right, z up) and from the top (y right, x toward the viewer = down), in
 // scene units (docs/protocol.md: x toward the viewer, y right, z up).
 //
 // Pure part: trajSample, VIEWS, toView, fitBounds (with hysteresis, so the plot does not jitter),
 // projector (equal scale on both axes). DOM part: drawTrajectory on a 2D canvas context.
 
+import { toolColor } from '../hand.js';
+
 export const WINDOW_S = 10;
+const HIP_COLOR = '#ffd400';
 
 /** The two views: which scene axis runs right (h) and which up (v), with its sign. */
 export const VIEWS = Object.freeze({
@@ -13,9 +17,26 @@ export const VIEWS = Object.freeze({
   top: { id: 'top', label: 'top (y →, x ↓ toward viewer)', h: 1, v: 0, vSign: -1, hName: 'y', vName: 'x' },
 });
 
-/** A state frame reduced to what the plot needs. */
+/** A state frame reduced to what the plot needs; `others`: the tools after the primary (only
+ * when the frame has some), each {name, hip, contact}. */
 export function trajSample(state) {
-  return { t: state.t, hip: state.hip, proxy: state.proxy, contact: !!state.contact };
+  const sample = { t: state.t, hip: state.hip, proxy: state.proxy, contact: !!state.contact };
+  if (Array.isArray(state.tools) && state.tools.length > 1) {
+    sample.others = state.tools.slice(1).map((t) => ({ name: t.name, hip: t.hip, contact: !!t.contact && !t.lost }));
+  }
+  return sample;
+}
+
+/** The trail of one other tool: [{t, hip, contact}] of the samples that have it. */
+export function otherTrails(samples) {
+  const trails = new Map();
+  for (const s of samples) {
+    for (const o of s.others ?? []) {
+      if (!trails.has(o.name)) trails.set(o.name, []);
+      trails.get(o.name).push({ t: s.t, hip: o.hip, contact: o.contact });
+    }
+  }
+  return trails;
 }
 
 /** A scene point [x, y, z] in a view's 2D frame [h, v] (v grows upward). */
@@ -83,9 +104,28 @@ export function niceLength(target) {
 
 // ---- drawing -------------------------------------------------------------------------------
 
+/** One tool's trail fading with age, thicker (and a darker shade of the HIP's yellow for the
+ * primary) in contact. */
+function drawTrail(ctx, trail, color, map, view, age) {
+  for (let i = 1; i < trail.length; i++) {
+    const a = trail[i - 1];
+    const b = trail[i];
+    ctx.globalAlpha = 1 - 0.85 * age(b.t);
+    ctx.strokeStyle = b.contact && color === HIP_COLOR ? '#ffb020' : color;
+    ctx.lineWidth = b.contact ? 3 : 1.5;
+    const [ax, ay] = map(toView(a.hip, view));
+    const [bx, by] = map(toView(b.hip, view));
+    ctx.beginPath();
+    ctx.moveTo(ax, ay);
+    ctx.lineTo(bx, by);
+    ctx.stroke();
+  }
+}
+
 /**
  * Draw one view of `samples` (already windowed): the HIP trail fading with age, contact parts
- * thicker in orange, the proxy in red where it is away from the HIP, the newest HIP as a dot,
+ * thicker in orange, the proxy in red where it is away from the HIP, the newest HIP as a dot, the
+ * other tools' trails and newest positions in their fingers' colours (thicker in contact),
  * the ground line (z = 0) in the side view, axis names and a scale bar. Returns the bounds used
  * (pass them back as `prev` next time).
  */
@@ -97,6 +137,7 @@ export function drawTrajectory(ctx, samples, view, { width, height, now, windowS
   for (const s of samples) {
     pts.push(toView(s.hip, view));
     if (s.proxy) pts.push(toView(s.proxy, view));
+    for (const o of s.others ?? []) pts.push(toView(o.hip, view));
   }
   const bounds = fitBounds(pts, prev);
   const { map, scale } = projector(bounds, width, height, 14);
@@ -134,25 +175,21 @@ export function drawTrajectory(ctx, samples, view, { width, height, now, windowS
     ctx.lineTo(bx, by);
     ctx.stroke();
   }
-  // HIP trail
-  for (let i = 1; i < samples.length; i++) {
-    const a = samples[i - 1];
-    const b = samples[i];
-    ctx.globalAlpha = 1 - 0.85 * age(b.t);
-    ctx.strokeStyle = b.contact ? '#ffb020' : '#ffd400';
-    ctx.lineWidth = b.contact ? 3 : 1.5;
-    const [ax, ay] = map(toView(a.hip, view));
-    const [bx, by] = map(toView(b.hip, view));
-    ctx.beginPath();
-    ctx.moveTo(ax, ay);
-    ctx.lineTo(bx, by);
-    ctx.stroke();
-  }
+  // other tools' trails (under the primary's), then the HIP trail
+  for (const [name, trail] of otherTrails(samples)) drawTrail(ctx, trail, toolColor(name, HIP_COLOR), map, view, age);
+  drawTrail(ctx, samples, HIP_COLOR, map, view, age);
   ctx.globalAlpha = 1;
   const last = samples[samples.length - 1];
+  for (const o of last?.others ?? []) {
+    const [x, y] = map(toView(o.hip, view));
+    ctx.fillStyle = toolColor(o.name, HIP_COLOR);
+    ctx.beginPath();
+    ctx.arc(x, y, 4, 0, 2 * Math.PI);
+    ctx.fill();
+  }
   if (last) {
     const [x, y] = map(toView(last.hip, view));
-    ctx.fillStyle = '#ffd400';
+    ctx.fillStyle = HIP_COLOR;
     ctx.beginPath();
     ctx.arc(x, y, 4, 0, 2 * Math.PI);
     ctx.fill();
