@@ -47,7 +47,7 @@ def _serve(args: argparse.Namespace) -> int:
                             tls_cert=Path(args.tls_cert) if args.tls_cert else None,
                             tls_key=Path(args.tls_key) if args.tls_key else None,
                             allowed_hosts=tuple(args.allow_host), allowed_origins=tuple(args.allow_origin),
-                            login_link=not args.no_login_link)
+                            login_link=not args.no_login_link, trackers=tuple(args.tracker))
     except (ParamError, ProfileError, ValueError) as exc:
         print(f"viestac serve: {exc}", file=sys.stderr)
         return 2
@@ -249,6 +249,10 @@ def _devices(args: argparse.Namespace) -> int:
 
 
 def _emulate(args: argparse.Namespace) -> int:
+    if args.rest[:1] == ["leap"]:  # the Leap Motion service's WebSocket (server/tracking/leap_emulator.py)
+        from server.tracking.leap_emulator import main as leap_main
+
+        return leap_main(args.rest[1:])
     from devices.emulator import main as emulate_main
 
     return emulate_main(args.rest)
@@ -525,6 +529,10 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--tracker-udp", default="auto", metavar="HOST:PORT|PORT|auto|off",
                        help="the UDP port the 1 kHz loop reads tracker samples from, the shortest tracker -> device "
                             "path (docs/protocol.md); auto = the HTTP host and port + 1 (a free one with --port 0)")
+    serve.add_argument("--tracker", action="append", default=[], metavar="SPEC",
+                       help="a tracker source, repeatable: leap[:URL], replay:FILE.csv[:loop|:once], scripted:NAME "
+                            "(tap, circle, pinch); run by the tracker host, sent to the tracker UDP port "
+                            "(docs/trackers.md)")
     serve.add_argument("--overrun-threshold", type=int, default=10, metavar="N",
                        help="/api/health is degraded above N loop overruns (periods > 1.5 ms) in 10 s (default 10)")
     serve.add_argument("--lease-ttl", type=float, default=60.0, metavar="SECONDS",

@@ -58,9 +58,10 @@ class SourcePipeline:
             f = self._filters[name] = OneEuro3(self.filter_params)
         return f(p, t_s)
 
-    def process(self, raw_points: dict, t_s: float) -> dict | None:
-        """The datagram's map for one sample at `t_s` (seconds, the source's clock); None when
-        the sample has no usable point."""
+    def process(self, raw_points: dict, t_s: float, *, stamp_ms: float | None = None) -> dict | None:
+        """The datagram's map for one sample at `t_s` (seconds, the source's clock: what the
+        filters see); `stamp_ms` is the message's `t` (default t_s in ms). None when the sample
+        has no usable point."""
         self.last_raw = dict(raw_points)
         scene = {}
         for name, p in raw_points.items():
@@ -75,7 +76,7 @@ class SourcePipeline:
                 self.outside += 1
             return None
         self.seq += 1
-        message = {"type": "tracker", "seq": self.seq, "t": round(t_s * 1000.0, 3), "pos": list(scene[pos_name]),
+        message = {"type": "tracker", "seq": self.seq, "t": round(t_s * 1000.0 if stamp_ms is None else stamp_ms, 3), "pos": list(scene[pos_name]),
                    "point": pos_name, "ttl": self.ttl}
         others = {n: list(p) for n, p in scene.items() if n != pos_name}
         if others:
