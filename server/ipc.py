@@ -12,7 +12,8 @@ ticks where the hub wrote nothing: the hub bumps the counter after each send, th
 once per tick (one memory read, never in a loop) and drains only when it changed. Measured on
 this machine, the empty non-blocking `recv` alone was p50 5 µs / p99 34 µs of a tick.
 
-Records, hub → loop: ["tracker", client_id, seq, t_ms, [x,y,z], quat|None, recv_ns],
+Records, hub → loop: ["tracker", client_id, seq, t_ms, [x,y,z], quat|None, recv_ns] (+ [point,
+points, ttl_ms] for a v1.4 sample with any of them: server/wire/messages.py Tracker.loop_record),
 ["input", client_id, key, action, value?], ["trial", body|None], ["scenario", name, params, seed],
 ["devices", report], ["record", every_n_ticks], ["tracker_gone", client_id] (a /ws client that
 sent tracker samples left: the HIP it drove goes home), ["stop"].

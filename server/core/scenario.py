@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, ClassVar, Mapping, Protocol
+from typing import Any, ClassVar, Mapping, NamedTuple, Protocol
 
 from server.core.cues import Cue
 from server.core.haptics.primitives import Pose
@@ -176,6 +176,38 @@ class Trial:
         return f"{'Practice' if self.phase == 'trial' else 'Trial'} {self.index + 1}"
 
 
+class ToolView(NamedTuple):
+    """One tool (a tracked point and its god-object) as the scenario sees it in a tick. Tools are
+    named by the point that drives them (server/core/points.py), e.g. "right.thumb.tip"."""
+    name: str
+    hip: Vec3              # tracked (or held) position
+    proxy: Vec3            # god-object proxy
+    contact: bool          # debounced contact (this tool's own gate)
+    touching: frozenset[str]  # bodies its proxy touches this tick (raw)
+    force: Vec3            # k·(proxy − hip), newtons
+    lost: bool             # its tracker source stopped (ttl passed): the tool is home, out of contact
+
+
+class _NoToolCues(Mapping):
+    """The empty, immutable (so shareable) default of ScenarioOutput.tool_cues."""
+    __slots__ = ()
+
+    def __getitem__(self, key: str) -> tuple[Cue, ...]:
+        raise KeyError(key)
+
+    def __iter__(self):
+        return iter(())
+
+    def __len__(self) -> int:
+        return 0
+
+    def __hash__(self) -> int:
+        return 0
+
+
+NO_TOOL_CUES: Mapping[str, tuple[Cue, ...]] = _NoToolCues()
+
+
 @dataclass(frozen=True)
 class TickContext:
     tick: int              # loop tick counter
@@ -187,11 +219,13 @@ class TickContext:
     nearest: str | None    # haptic body nearest to the HIP
     refusals: tuple[str, ...] = ()  # cues a connected device refused, with reasons (devices.encoder)
     sticking: bool = False  # the proxy is held by static friction (god-object friction cone)
+    # Every tool, primary first (tools[0] is hip/proxy/contact/touching above); one per rig point.
+    tools: tuple[ToolView, ...] = ()
 
 
 @dataclass(frozen=True)
 class ScenarioOutput:
-    cues: tuple[Cue, ...] = ()
+    cues: tuple[Cue, ...] = ()   # the primary tool's devices' cues
     hud: str = ""
     values: dict = field(default_factory=dict)
     poses: dict[str, Pose] = field(default_factory=dict)        # objects moved this tick
@@ -203,6 +237,9 @@ class ScenarioOutput:
     events: tuple[dict, ...] = ()  # things worth recording with their tick (key presses, taps)
     held: str | None = None  # the object the participant carries (recorded with the trajectory)
     finished: Mapping[str, Any] | None = None  # the running trial ended this tick: its metrics (recorded)
+    # Cues for the devices of other tools, by tool name (a rig file's `finger`); a tool not named
+    # here gets none. The primary tool's cues are `cues` (a key naming it here is ignored).
+    tool_cues: Mapping[str, tuple[Cue, ...]] = NO_TOOL_CUES
 
 
 class Pending:
@@ -246,6 +283,9 @@ class Pending:
 class Scenario(Protocol):
     id: str      # versioned id, e.g. "contact-angle-v1"
     title: str
+    # The tools (point names, server/core/points.py) the scenario needs besides what the rig has,
+    # e.g. ("right.index.tip", "right.thumb.tip") for a grasp; empty: whatever the rig has.
+    fingers: ClassVar[tuple[str, ...]]
     PARAMS: ClassVar[tuple[Param, ...]]
     TRIAL_PARAMS: ClassVar[tuple[Param, ...]]
     CONTROLS: ClassVar[tuple[Control, ...]]

@@ -2,14 +2,17 @@
 
 A tool owns the tracked position (the HIP: the latest applied tracker sample), the position a
 scenario holds it at instead (the experimenter's "tap"), the god-object proxy and its radius, the
-contact gate, and the tracker rule: which source drives it. The simulation owns a tuple of tools;
-today one (the HIP), so several tracked fingers later are several tools, each with its own driver.
+contact gate, and the tracker rule: which source drives it. A tool is named by the tracked point
+that drives it (server/core/points.py, e.g. "right.thumb.tip"). The simulation owns a tuple of
+tools, one per rig point, the primary (the HIP, "right.index.tip") first; each has its own driver
+and god-object, and tools do not collide with each other.
 
 Tracker rule (docs/protocol.md): one source drives a tool at a time. A sample is applied when the
 tool has no driver, or it comes from the driver, or the driver has sent nothing for
 DRIVER_QUIET_S (then the new source takes over). Samples from other sources are ignored and
-counted per source. When the driver leaves (`release`), the tool returns home (free space, so
-no contact and no contact cue stays on) and has no driver.
+counted per source. When the driver leaves (`release`) or stops sending (`lose`: its samples'
+ttl passed), the tool returns home (free space), its contact gate is off at once (no dwell holds
+a contact cue on) and it has no driver.
 
 Pure: time comes in as an argument (simulation seconds), no clock is read.
 """
@@ -20,6 +23,7 @@ from server.core.haptics.contact_gate import ContactGate
 from server.core.haptics.god_object import GodObject, ProxyStep
 from server.core.haptics.primitives import Body
 from server.core.haptics.vec import Vec3
+from server.core.points import PRIMARY_POINT
 from server.core.workspace import clamp_to_workspace, in_workspace
 
 DEFAULT_PROXY_RADIUS = 0.06  # scene units: the fingertip sphere the scenes are built around
@@ -27,7 +31,9 @@ DRIVER_QUIET_S = 1.0         # a driver silent this long loses the tool to the n
 
 
 class Tool:
-    def __init__(self, home: Vec3, proxy_radius: float = DEFAULT_PROXY_RADIUS, gate: ContactGate | None = None):
+    def __init__(self, home: Vec3, proxy_radius: float = DEFAULT_PROXY_RADIUS, gate: ContactGate | None = None,
+                 name: str = PRIMARY_POINT):
+        self.name = name                 # the point that drives it
         self.home = home
         self.tracked: Vec3 = home        # latest applied tracker sample (zero-order hold between samples)
         self.held: Vec3 | None = None    # where the scenario holds the tool, overriding the tracker
@@ -36,6 +42,7 @@ class Tool:
         self.driver: int | str | None = None  # the source whose samples move the tool
         self.seq: int | None = None      # seq of the driver's last applied sample
         self.ignored: dict[int | str, int] = {}  # samples refused per source (someone else drove)
+        self.lost = False                # its driver's samples stopped (ttl): home until a sample arrives
         self._driver_t = 0.0             # simulation time of the driver's last applied sample
         # (hip, ProxyStep) of a verified fixed point of the god-object; reused while nothing moves
         self._settled: tuple[Vec3, ProxyStep] | None = None
@@ -60,6 +67,7 @@ class Tool:
             self.ignored[source] = self.ignored.get(source, 0) + 1
             return False
         self.driver, self.seq, self._driver_t = source, seq, t_s
+        self.lost = False
         self.place(position)
         return True
 
@@ -73,12 +81,24 @@ class Tool:
             return False
         self.driver = self.seq = None
         self.tracked = self.home
+        # Out of contact at once: the god-object starts from home (not dragged out of a surface)
+        # and the gate's minimum on-dwell does not hold a contact cue on for a finger that is gone.
+        self.reset_proxy()
+        self.gate.reset()
+        return True
+
+    def lose(self, source: int | str) -> bool:
+        """`source` stopped sending (its samples' ttl passed): released as above, and marked lost
+        until a sample moves it again."""
+        if not self.release(source):
+            return False
+        self.lost = True
         return True
 
     def take_driver(self, other: Tool) -> None:
         """Keep who drives across a rebuilt simulation (a scenario switch), not where it was."""
         self.driver, self.seq, self._driver_t = other.driver, other.seq, other._driver_t
-        self.ignored = other.ignored
+        self.ignored, self.lost = other.ignored, other.lost
 
     # -- rendering -------------------------------------------------------------------------------
     def proxy_step(self, bodies: list[Body], hip: Vec3) -> ProxyStep:

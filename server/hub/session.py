@@ -228,8 +228,7 @@ class Session:
             self._driving = True
             self.tracker_count += 1
             self.last_tracker = {"seq": message.seq, "t": message.t_ms, "pos": list(message.pos)}
-            record = ["tracker", self.id, message.seq, message.t_ms, list(message.pos),
-                      list(message.quat) if message.quat else None, now_ns]
+            record = message.loop_record(self.id, now_ns)
             return [ToLoop(record, busy="the loop's input mailbox is full; tracker sample dropped")]
         if isinstance(message, messages.Input):
             if not self._spend_input_token(now_ns):

@@ -46,11 +46,11 @@ from __future__ import annotations
 import traceback
 from array import array
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 from server.core.cues import cue_to_wire
 from scenarios import registry
-from server.core.scenario import Trial
+from server.core.scenario import NO_TOOL_CUES, Trial
 from server.loop.simulation import Simulation, TickResult
 
 MAX_REPORTED_FAILURES = 10  # a failing scenario fails every tick: report the first ones, then every 1000th
@@ -72,17 +72,26 @@ def _round(v, digits: int = 9) -> list[float]:
     return [round(v[0], digits), round(v[1], digits), round(v[2], digits)]
 
 
+def finger_cues(output, tools) -> dict[str, list[dict]]:
+    """The wire cues of every tool but the primary, by name (a tool the scenario gave none: [])."""
+    given = output.tool_cues
+    return {tool.name: [cue_to_wire(c) for c in given.get(tool.name, ())] for tool in tools[1:]}
+
+
 class TickOutput:
     """What one tick produced. One object per core, refilled every tick (the 1 kHz path allocates
     nothing it can avoid): read it before the next tick. The state record and the record lists it
     points to are new each time and may be kept."""
 
-    __slots__ = ("tick", "result", "cues", "records", "faults", "state", "error")
+    __slots__ = ("tick", "result", "cues", "finger_cues", "records", "faults", "state", "error")
 
     def __init__(self) -> None:
         self.tick = -1
         self.result: TickResult | None = None  # None: the step failed (fail-safe)
         self.cues: list[dict] | None = None  # wire form; hand to the devices (before the state); None: unchanged
+        # With `cues`, when the simulation has several tools: {tool name: wire cues} of the other
+        # tools (every one listed; [] = off); the devices of a finger get its list (devices/feed.py).
+        self.finger_cues: dict[str, list[dict]] | None = None
         self.records: list[list] | tuple = ()  # for the hub, in order, before the state record
         # `fault` / `recovered` records for the hub's health, sent after `records`, before the state
         self.faults: list[list] | tuple = ()
@@ -96,7 +105,8 @@ class LoopCore:
         if not 0 < state_hz <= sim.tick_hz:
             raise ValueError("state_hz must be in (0, tick_hz]")
         self.sim = sim
-        self.make_sim = make_sim or (lambda scenario, seed: Simulation(scenario, tick_hz=sim.tick_hz, seed=seed))
+        self.make_sim = make_sim or (lambda scenario, seed: Simulation(scenario, tick_hz=sim.tick_hz, seed=seed,
+                                                                       rig=sim.rig))
         self.params: dict = {}
         self.seed = 0
         self.outbox: list[list] = []  # records for the hub besides state (scene and scenario changes, logs)
@@ -113,6 +123,7 @@ class LoopCore:
         self.record_every = 0        # trajectory sampling: every Nth tick while an experiment records; 0 = off
         self.trajectory: list[list] = []  # rows since the last state record (server/core/records.py TRAJECTORY_COLUMNS)
         self._device_cues: tuple | None = None  # what the devices were last given; None: unknown (start)
+        self._device_tool_cues: Mapping | None = None  # and the other tools' devices (ScenarioOutput.tool_cues)
         self._out = TickOutput()
         self.build_off_tick = build_off_tick  # True: the driver builds a switch off the tick (module doc)
         self.pending_switch: Switch | None = None  # asked, not yet installed
@@ -178,20 +189,26 @@ class LoopCore:
     def apply(self, record: list, now_ns: int) -> None:
         """Apply one record from the hub (between ticks)."""
         kind = record[0]
-        if kind == "tracker":  # ["tracker", client_id, seq, t_ms, pos, quat, recv_ns]; the tracker rule decides
-            _, client_id, seq, t_ms, pos, _quat, recv_ns = record
+        if kind == "tracker":  # ["tracker", client_id, seq, t_ms, pos, quat, recv_ns, (point, points, ttl_ms)]
+            client_id, seq, pos = record[1], record[2], record[4]
             sim = self.sim
-            tool = sim.tools[0]
-            if tool.offer(client_id, seq, (float(pos[0]), float(pos[1]), float(pos[2])), sim.tick / sim.tick_hz):
-                self.tracker_applied.append([client_id, seq, t_ms, recv_ns, now_ns])
+            if len(record) > 7:  # protocol v1.4: the point pos is, more points, ttl (tracker_udp.py)
+                point, points, ttl_ms = record[7], record[8], record[9]
+                if points:
+                    points = {name: (float(p[0]), float(p[1]), float(p[2])) for name, p in points.items()}
             else:
-                ignored = tool.ignored[client_id]
+                point = points = ttl_ms = None
+            if sim.offer(client_id, seq, (float(pos[0]), float(pos[1]), float(pos[2])), point, points, ttl_ms):
+                self.tracker_applied.append([client_id, seq, record[3], record[6], now_ns])
+            else:
+                tool = sim.tool_by_name.get(point or sim.tools[0].name, sim.tools[0])
+                ignored = tool.ignored.get(client_id, 0)
                 if ignored == 1 or ignored % IGNORED_NOTICE_EVERY == 0:
+                    what = "the HIP" if tool is sim.tools[0] else tool.name
                     self.outbox.append(["log", "warning", f"tracker samples from {client_id} ignored: {tool.driver} "
-                                                          f"drives the HIP ({ignored} ignored so far)"])
-        elif kind == "tracker_gone":  # ["tracker_gone", client_id]: a source left; if it drove, the HIP goes home
-            for tool in self.sim.tools:
-                tool.release(record[1])
+                                                          f"drives {what} ({ignored} ignored so far)"])
+        elif kind == "tracker_gone":  # ["tracker_gone", client_id]: a source left; the tools it drove go home
+            self.sim.release(record[1])
         elif kind == "input":  # ["input", client_id, key, action, value?]; checked by the hub
             value = record[4] if len(record) > 4 else None
             self.sim.input(record[2], record[3], value)
@@ -269,8 +286,11 @@ class LoopCore:
         sim.refusals = old.refusals
         sim.events = old.events  # unpublished events and trial ends of the old scenario still go out
         sim.finished = old.finished
-        for tool, previous in zip(sim.tools, old.tools):
-            tool.take_driver(previous)  # who drives the HIP does not change with the scene
+        for previous in old.tools:  # who drives a tool does not change with the scene
+            tool = sim.tool_by_name.get(previous.name)
+            if tool is not None:
+                tool.take_driver(previous)
+        sim.carry_tracking(old)
         self.sim, self.params, self.seed = sim, dict(params), seed
         self.outbox.extend(self.announce())
 
@@ -302,22 +322,28 @@ class LoopCore:
         """The tick's cues (wire form) when they differ from what the devices were last given,
         else None. Compared with what was sent, not with the previous tick: a scenario switch
         starts a new simulation whose first tick may look unchanged while the devices still show
-        the old scenario's cue; after a (re)start the first tick always sends."""
-        cues = result.output.cues
-        if cues == self._device_cues:
+        the old scenario's cue; after a (re)start the first tick always sends. These are the
+        primary tool's; the other tools' go with them in `finger_cues` (TickOutput)."""
+        output = result.output
+        cues, tool_cues = output.cues, output.tool_cues
+        if cues == self._device_cues and (tool_cues is self._device_tool_cues or tool_cues == self._device_tool_cues):
+            self._out.finger_cues = None
             return None
-        self._device_cues = cues
+        self._device_cues, self._device_tool_cues = cues, tool_cues
+        self._out.finger_cues = finger_cues(output, self.sim.tools) if len(self.sim.tools) > 1 else None
         return [cue_to_wire(c) for c in cues]
 
     def resend_device_cues(self) -> None:
         """The last cues could not be handed over: the next tick sends its cues whatever they are."""
-        self._device_cues = None
+        self._device_cues = self._device_tool_cues = None
 
     def fail_safe_cues(self) -> list | None:
-        """A failed tick: every actuator off ([]), unless the devices are off already (None)."""
-        if self._device_cues == ():
+        """A failed tick: every actuator off ([], and no finger's cues), unless the devices are
+        off already (None)."""
+        self._out.finger_cues = None
+        if self._device_cues == () and not self._device_tool_cues:
             return None
-        self._device_cues = ()
+        self._device_cues, self._device_tool_cues = (), NO_TOOL_CUES
         return []
 
     def _record_trajectory(self, r: TickResult) -> None:
@@ -365,6 +391,10 @@ class LoopCore:
             "stiffness": r.stiffness,  # never changed in place (Simulation): no copy needed
             "haptic": r.haptic,
             "driver": None if tool.driver is None else [tool.driver, tool.seq],
+            "tools": [{"name": v.name, "hip": _round(v.hip), "proxy": _round(v.proxy), "contact": v.contact,
+                       "lost": v.lost} for v in r.tools],
+            "points": {name: _round(p) for name, p in sim.points.items()},
+            "tracking": {"lost": list(sim.lost_sources)},
             "samples": self.samples.tobytes(),
             "trackers": self.tracker_applied,
             "trajectory": self.trajectory,

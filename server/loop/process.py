@@ -60,19 +60,22 @@ class LoopConfig:
     gate_min_on_s: float = 0.030
     gate_min_off_s: float = 0.030
     seed: int = 0
+    rig: tuple[str, ...] = ()  # the rig's fingers besides the primary point: one tool each (Simulation)
 
     def to_json(self) -> str:
         return json.dumps(asdict(self))
 
     @classmethod
     def from_json(cls, text: str) -> LoopConfig:
-        return cls(**json.loads(text))
+        fields = json.loads(text)
+        fields["rig"] = tuple(fields.get("rig", ()))
+        return cls(**fields)
 
 
 def build_core(config: LoopConfig) -> LoopCore:
     def make_sim(scenario, seed: int, scene: Scene | None = None) -> Simulation:
         gate = ContactGate(config.gate_band, config.gate_min_on_s, config.gate_min_off_s)
-        return Simulation(scenario, tick_hz=config.tick_hz, gate=gate, seed=seed, scene=scene)
+        return Simulation(scenario, tick_hz=config.tick_hz, gate=gate, seed=seed, scene=scene, rig=config.rig)
 
     scenario = registry.create(config.scenario, **config.scenario_params)
     scene = Scene.load(config.scene_file) if config.scene_file else None
@@ -146,7 +149,10 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
             _send_in_order(sock, backlog)
         if out.cues is not None and cue_sock is not None:  # first: the device command leaves before the frame
             try:
-                if not ipc.send_record(cue_sock, ["cues", out.tick, clock.now_ns(), out.cues]):
+                record = ["cues", out.tick, clock.now_ns(), out.cues]
+                if out.finger_cues is not None:  # several tools: the other fingers' cues (devices/feed.py)
+                    record.append(out.finger_cues)
+                if not ipc.send_record(cue_sock, record):
                     core.resend_device_cues()  # the feed is behind: try again next tick (latest wins)
             except OSError as exc:  # the device host's end is gone for good: nobody drives the devices now
                 cue_sock = None

@@ -5,10 +5,18 @@ the scenario holds the HIP at, for the experimenter's "tap") → god-object prox
 scene's analytic bodies → debounced contact (hysteresis gate, for vibration-only devices) →
 scenario step → device-independent cues, plus the scenario's changes to its objects (poses,
 visibility, touchability, stiffness), applied for the next tick. The tracked point, its proxy and
-its gate are a Tool (server/core/tool.py); the simulation owns a tuple of tools, today one (the
-HIP), which the scenario sees in its TickContext. Time is the tick counter
+its gate are a Tool (server/core/tool.py); the simulation owns a tuple of tools, one per rig
+point (the primary, the HIP, first; more fingers: more tools, each its own god-object against the
+scene's bodies, never against each other), which the scenario sees in its TickContext. Time is the tick counter
 (t = tick / tick_hz), never a clock read, so the same inputs give the same outputs whether the
 loop runs in real time, on a virtual clock, or replays a recorded trajectory.
+
+Tracker samples (`offer`) name the point their `pos` is (default: the primary tool's) and may
+carry more points of the same sample (a hand). A point that names a tool moves it under the
+tracker rule; the others are kept as `points` for drawing. A sample with a `ttl` (ms) is good for
+that long: when no newer sample of its source came by then, the source is lost (protocol v1.4):
+every tool it drives is released (home, out of contact at once), its points are dropped, and a
+`tracker_lost` event {source, tools} is recorded; `tracker_back` when it sends again.
 """
 
 from __future__ import annotations
@@ -17,15 +25,19 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from server.core.cues import Cue
-from server.core.scenario import Scenario, ScenarioOutput, TickContext, Trial
+from server.core.scenario import Scenario, ScenarioOutput, TickContext, ToolView, Trial
 from server.core.haptics.contact_gate import ContactGate
 from server.core.haptics.god_object import Contact
 from server.core.haptics.primitives import Pose
 from server.core.haptics.vec import Vec3
+from server.core.points import PRIMARY_POINT, check_point_name
 from server.core.scene import Scene
 from server.core.tool import Tool
+from server.core.workspace import clamp_to_workspace, in_workspace
 
 TRIAL_DONE = "trial_done"  # the event a trial's end is also shown as (clients and exports list events)
+TRACKER_LOST, TRACKER_BACK = "tracker_lost", "tracker_back"  # events of a source whose ttl passed, and its return
+MAX_LOST_SOURCES = 8  # lost sources listed in the state at most (a restarted UDP bridge is a new source)
 
 
 @dataclass(frozen=True)
@@ -41,6 +53,7 @@ class TickResult:
     cues_changed: bool       # the active cue set differs from the previous tick's
     stiffness: dict[str, float]  # the stiffness overrides this tick's force was computed with
     haptic: dict[str, bool]  # the touchability overrides this tick's contacts were found with
+    tools: tuple[ToolView, ...] = ()  # every tool this tick, primary first (hip/proxy/... above are tools[0])
 
 
 def home_position(scene: Scene) -> Vec3:
@@ -50,16 +63,40 @@ def home_position(scene: Scene) -> Vec3:
     return (cam.target[0] + cam.up[0] * lift, cam.target[1] + cam.up[1] * lift, cam.target[2] + cam.up[2] * lift)
 
 
+def tool_names(rig: tuple[str, ...] = (), fingers: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """The tools of a simulation: the primary point, then the rig's fingers, then what the
+    scenario needs besides, each once (ValueError for a name that is not a point name)."""
+    names: list[str] = [PRIMARY_POINT]
+    for name in (*rig, *fingers):
+        if check_point_name(name) not in names:
+            names.append(name)
+    return tuple(names)
+
+
+def _gate_like(gate: ContactGate | None) -> ContactGate | None:
+    return None if gate is None else ContactGate(gate.band, gate.min_on_s, gate.min_off_s)
+
+
 class Simulation:
     def __init__(self, scenario: Scenario, *, tick_hz: int = 1000, gate: ContactGate | None = None,
-                 seed: int = 0, scene: Scene | None = None):
+                 seed: int = 0, scene: Scene | None = None, rig: tuple[str, ...] = ()):
         if tick_hz <= 0:
             raise ValueError("tick_hz must be positive")
         self.scenario = scenario
         self.scene = scene if scene is not None else scenario.build_scene()
         self.tick_hz = tick_hz
-        # The tracked points; the scenario sees the first (the HIP). More fingers: more tools.
-        self.tools: tuple[Tool, ...] = (Tool(home_position(self.scene), self.scene.proxy_radius, gate),)
+        self.rig = tuple(rig)  # the rig's fingers besides the primary point (devices' `finger`)
+        # The tracked points, one tool each; the scenario's hip/proxy/contact are the first's.
+        names = tool_names(self.rig, tuple(getattr(type(scenario), "fingers", ())))
+        home = home_position(self.scene)
+        self.tools: tuple[Tool, ...] = tuple(
+            Tool(home, self.scene.proxy_radius, gate if i == 0 else _gate_like(gate), name)
+            for i, name in enumerate(names))
+        self.tool_by_name = {tool.name: tool for tool in self.tools}
+        self.points: dict[str, Vec3] = {}  # latest tracked points that drive no tool (a hand, for drawing)
+        self._point_source: dict[str, int | str] = {}  # who sent each of `points`
+        self._deadlines: dict[int | str, float] = {}  # source → simulation time its last sample's ttl ends
+        self.lost_sources: dict[int | str, tuple[str, ...]] = {}  # source → the tools it drove when lost
         self._all_bodies = {b.id: b for b in self.scene.bodies()}
         self.bodies = list(self._all_bodies.values())  # the touchable ones, in scene order
         self.moved: dict[str, Pose] = {}  # objects whose pose differs from the scene's
@@ -71,6 +108,7 @@ class Simulation:
         self.haptic: dict[str, bool] = {}
         self.tick = 0
         self.cues: tuple[Cue, ...] = ()
+        self.tool_cues = ScenarioOutput.tool_cues  # the other tools' cues (ScenarioOutput.tool_cues)
         self.refusals: tuple[str, ...] = ()  # reported by the device host, through the hub
         self.events: list[dict] = []  # scenario events not yet published, stamped with their tick
         self.finished: list[dict] = []  # trial ends not yet published: {"tick", "metrics"}
@@ -97,6 +135,79 @@ class Simulation:
         applied at the next step (parameters change between ticks only); clamped to the workspace."""
         self.tools[0].place(position)
 
+    # -- tracker samples (module doc) ------------------------------------------------------------
+    def offer(self, source: int | str, seq: int, pos: Vec3, point: str | None = None,
+              points: dict[str, Vec3] | None = None, ttl_ms: float | None = None) -> bool:
+        """One tracker sample, applied at the next step; True when it moved a tool or a point.
+        `pos` is the point `point` (default: the primary tool's); `points` more points of it."""
+        t_s = self.tick / self.tick_hz
+        if source in self.lost_sources:
+            self._back(source, t_s)
+        applied = self._offer_point(source, seq, point or self.tools[0].name, pos, t_s)
+        if points:
+            for name, position in points.items():
+                applied = self._offer_point(source, seq, name, position, t_s) or applied
+        if ttl_ms is not None and applied:
+            self._deadlines[source] = t_s + ttl_ms / 1000.0
+        elif source in self._deadlines and ttl_ms is None:
+            del self._deadlines[source]  # the source now sends without ttl: held as the mouse is
+        return applied
+
+    def _offer_point(self, source: int | str, seq: int, name: str, pos: Vec3, t_s: float) -> bool:
+        tool = self.tool_by_name.get(name)
+        if tool is not None:
+            if tool.offer(source, seq, pos, t_s):
+                if self.lost_sources:
+                    self._forget_recovered()
+                return True
+            return False
+        self.points[name] = pos if in_workspace(pos) else clamp_to_workspace(pos)
+        self._point_source[name] = source
+        return True
+
+    def release(self, source: int | str) -> None:
+        """`source` left (a /ws client disconnected): its tools go home, its points go."""
+        for tool in self.tools:
+            tool.release(source)
+        self._deadlines.pop(source, None)
+        self.lost_sources.pop(source, None)
+        self._drop_points(source)
+
+    def _expire(self, tick: int, t_s: float) -> None:
+        """Sources whose last sample's ttl has passed are lost (module doc)."""
+        for source, deadline in list(self._deadlines.items()):
+            if t_s < deadline:
+                continue
+            del self._deadlines[source]
+            names = tuple(tool.name for tool in self.tools if tool.lose(source))
+            self._drop_points(source)
+            self.lost_sources[source] = names
+            while len(self.lost_sources) > MAX_LOST_SOURCES:
+                del self.lost_sources[next(iter(self.lost_sources))]
+            self.events.append({"tick": tick, "t": t_s, "name": TRACKER_LOST, "source": source,
+                                "tools": list(names)})
+
+    def _back(self, source: int | str, t_s: float) -> None:
+        names = self.lost_sources.pop(source)
+        self.events.append({"tick": self.tick, "t": t_s, "name": TRACKER_BACK, "source": source,
+                            "tools": list(names)})
+
+    def _forget_recovered(self) -> None:
+        """A lost source none of whose tools is lost any more (another source drives them) is no
+        longer listed as lost."""
+        for source, names in list(self.lost_sources.items()):
+            if names and not any(self.tool_by_name[n].lost for n in names):
+                del self.lost_sources[source]
+
+    def carry_tracking(self, old: Simulation) -> None:
+        """A rebuilt simulation (a scenario switch) keeps the tracked points, ttls and lost sources."""
+        self.points, self._point_source = old.points, old._point_source
+        self._deadlines, self.lost_sources = old._deadlines, old.lost_sources
+
+    def _drop_points(self, source: int | str) -> None:
+        for name in [n for n, s in self._point_source.items() if s == source]:
+            del self.points[name], self._point_source[name]
+
     def input(self, key: str, action: str, value: Any = None) -> None:
         self.scenario.on_input(key, action, value)
 
@@ -115,6 +226,8 @@ class Simulation:
     def step(self) -> TickResult:
         tick = self.tick
         t_s = tick / self.tick_hz
+        if self._deadlines:
+            self._expire(tick, t_s)
         tool = self.tools[0]
         hip = tool.hip
         stiffness, haptic = self.stiffness, self.haptic  # what this tick renders with
@@ -122,9 +235,13 @@ class Simulation:
         contacts = proxy_step.contacts
         contact = tool.gate.update(t_s, bool(contacts), proxy_step.separation)
         touching = frozenset(c.body_id for c in contacts)
+        views = [ToolView(tool.name, hip, proxy_step.proxy, contact, touching, proxy_step.force, tool.lost)]
+        for other in self.tools[1:]:
+            views.append(self._render(other, t_s))
+        tools = tuple(views)
         nearest = self._nearest_body(hip) if contact else None
         ctx = TickContext(tick, t_s, hip, proxy_step.proxy, contact, touching, nearest, self.refusals,
-                          tool.god.sticking)
+                          tool.god.sticking, tools)
         output = self.scenario.step(ctx)
         if output.poses or output.haptic or output.stiffness or output.visible or output.scales:
             self._apply_changes(output)
@@ -132,11 +249,21 @@ class Simulation:
             tool.hold(output.hold_hip, self.bodies)
         if output.events or output.finished is not None:
             self._stamp(tick, t_s, output)
-        cues_changed = output.cues != self.cues
+        tool_cues = output.tool_cues
+        cues_changed = output.cues != self.cues or (tool_cues is not self.tool_cues and tool_cues != self.tool_cues)
         self.cues = output.cues
+        self.tool_cues = tool_cues
         self.tick = tick + 1
         return TickResult(tick, t_s, hip, proxy_step.proxy, proxy_step.force, contacts, contact,
-                          output, cues_changed, stiffness, haptic)
+                          output, cues_changed, stiffness, haptic, tools)
+
+    def _render(self, tool: Tool, t_s: float) -> ToolView:
+        """A tool other than the primary: its own god-object against the bodies, its own gate."""
+        hip = tool.hip
+        step = tool.proxy_step(self.bodies, hip)
+        contact = tool.gate.update(t_s, bool(step.contacts), step.separation)
+        return ToolView(tool.name, hip, step.proxy, contact, frozenset(c.body_id for c in step.contacts),
+                        step.force, tool.lost)
 
     def _stamp(self, tick: int, t_s: float, output: ScenarioOutput) -> None:
         """Events with their tick; a trial's end as a `finished` entry and as a trial_done event."""

@@ -8,7 +8,8 @@ frames when samples arrive (docs/performance.md "Tracker → device latency"). T
 tracker message on /ws stays for browsers (WebXR), which cannot send UDP.
 
 A datagram is one tracker message exactly as on /ws (docs/protocol.md): a map with type
-"tracker", seq, t, pos and optional quat, as msgpack or as UTF-8 JSON (a datagram that starts
+"tracker", seq, t, pos and optional quat, point, points and ttl (v1.4: several points of a hand, and
+how long the sample is good for, so a bridge that stops is noticed by the loop itself), as msgpack or as UTF-8 JSON (a datagram that starts
 with "{" is JSON). Anything else gets one `error` datagram back, in the sender's format, with
 the same codes as on /ws, and is counted; the sample is not applied. The sender is named
 "udp:HOST:PORT" in the applied-sample rows (/api/trackers) and the recorder's tracker watch.
@@ -31,13 +32,13 @@ from server.wire import codec, messages
 from server.wire.codec import WireError
 
 MAX_PER_TICK = 32
-MAX_DATAGRAM_BYTES = 2048  # a tracker message is ~60-120 bytes
+MAX_DATAGRAM_BYTES = 16384  # one point: ~60-120 bytes; two hands' 54 points as JSON: ~5 KB
 NOTICE_EVERY = 1000        # after the first bad datagram, one log line per this many
 
 
 def parse_datagram(data: bytes, source: str, recv_ns: int) -> list:
-    """One datagram → the loop's tracker record ["tracker", source, seq, t_ms, pos, quat, recv_ns];
-    WireError (code, message) when it is not a valid tracker message."""
+    """One datagram → the loop's tracker record ["tracker", source, seq, t_ms, pos, quat, recv_ns]
+    (+ [point, points, ttl_ms] for a v1.4 sample that has any of them); WireError (code, message) when it is not a valid tracker message."""
     fmt = "json" if data[:1] == b"{" else "msgpack"
     if fmt == "json":
         try:
@@ -47,8 +48,7 @@ def parse_datagram(data: bytes, source: str, recv_ns: int) -> list:
     message = messages.parse_client_message(codec.decode(data, fmt))
     if not isinstance(message, messages.Tracker):
         raise WireError("bad_message", f"the tracker port takes only 'tracker' messages, not '{type(message).__name__.lower()}'")
-    return ["tracker", source, message.seq, message.t_ms, list(message.pos),
-            list(message.quat) if message.quat else None, recv_ns]
+    return message.loop_record(source, recv_ns)
 
 
 def error_reply(data: bytes, exc: WireError) -> bytes:

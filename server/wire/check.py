@@ -163,10 +163,14 @@ def _tuple(t: dict) -> Check:
 
 def _map(t: dict) -> Check:
     values = compile_type(t["values"]) if "values" in t else None
+    keys = compile_type(t["keys"]) if "keys" in t else None
 
     def check(value: Any, path: str) -> dict:
         if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
             raise _Mismatch
+        if keys is not None:
+            for k in value:
+                keys(k, f"{path} key {k[:64]!r}")
         return value if values is None else {k: values(v, f"{path}.{k}") for k, v in value.items()}
     return check
 

@@ -1,4 +1,4 @@
-"""Protocol v1.3 messages (docs/protocol.md): validated client messages, server message builders.
+"""Protocol v1.4 messages (docs/protocol.md): validated client messages, server message builders.
 
 Every message is declared once in schema.py. Client messages are frozen dataclasses parsed from
 a decoded map by the declaration's checker (check.py): a wrong field is
@@ -46,17 +46,36 @@ class Tracker:
     t_ms: float
     pos: tuple[float, float, float]
     quat: tuple[float, float, float, float] | None = None  # unit: the parser divides by the norm
+    point: str | None = None     # v1.4: the point `pos` is (None: the primary tool's)
+    points: dict[str, tuple[float, float, float]] | None = None  # v1.4: more points of the sample
+    ttl_ms: float | None = None  # v1.4: the sample is good for this long (None: held)
 
     @classmethod
     def parse(cls, body: dict) -> Tracker:
         f = check_message(body, TRACKER)
-        return cls(f["seq"], f["t"], f["pos"], f["quat"])
+        return cls(f["seq"], f["t"], f["pos"], f["quat"], f["point"], f["points"], f["ttl"])
 
     def to_wire(self) -> dict:
         msg: dict[str, Any] = {"type": "tracker", "seq": self.seq, "t": self.t_ms, "pos": list(self.pos)}
         if self.quat is not None:
             msg["quat"] = list(self.quat)
+        if self.point is not None:
+            msg["point"] = self.point
+        if self.points is not None:
+            msg["points"] = {name: list(p) for name, p in self.points.items()}
+        if self.ttl_ms is not None:
+            msg["ttl"] = self.ttl_ms
         return msg
+
+    def loop_record(self, source: int | str, recv_ns: int) -> list:
+        """The loop's tracker record (server/ipc.py): ["tracker", source, seq, t_ms, pos, quat,
+        recv_ns], plus [point, points, ttl_ms] when the sample has any of them (v1.4)."""
+        record = ["tracker", source, self.seq, self.t_ms, list(self.pos),
+                  list(self.quat) if self.quat else None, recv_ns]
+        if self.point is not None or self.points or self.ttl_ms is not None:
+            record += [self.point, {name: list(p) for name, p in self.points.items()} if self.points else None,
+                       self.ttl_ms]
+        return record
 
 
 @dataclass(frozen=True)
@@ -109,7 +128,8 @@ def scene_message(scene: dict, scene_hash: str) -> dict:
 # What an absent optional state field is on the wire: the loop's record carries them all, these
 # keep a record without one (an older loop) well-formed.
 _STATE_EMPTY: dict[str, Any] = {"visible": dict, "events": list, "scales": dict, "stiffness": dict,
-                                "haptic": dict, "driver": lambda: None}
+                                "haptic": dict, "driver": lambda: None, "tools": list, "points": dict,
+                                "tracking": lambda: {"lost": []}}
 assert set(_STATE_EMPTY) == {f.name for f in STATE.fields if not f.required}
 _STATE_FIELDS = tuple(f.name for f in STATE.fields[1:])
 # Events per state frame on the wire: all of them normally (a few a second); a flood (many

@@ -1,4 +1,4 @@
-"""Protocol v1.3: every message declared once, as data (docs/protocol.md).
+"""Protocol v1.4: every message declared once, as data (docs/protocol.md).
 
 Everything else follows from this module: the Python parsers and builders (messages.py, through
 the checker in check.py), the message tables of docs/protocol.md and the browser client's schema
@@ -20,7 +20,8 @@ finite number's magnitude (outside: `out_of_range`), as is ±(2**53 - 1) for eve
 - `{"kind": "quat", "norm", "decimals"}`: `[w, x, y, z]` whose norm lies in `norm`; a receiver
   divides it by its norm;
 - `{"kind": "array", "items"}`, `{"kind": "tuple", "items": [...]}` (fixed length, one type per
-  position), `{"kind": "map", "values"}` (string keys; any values without `values`);
+  position), `{"kind": "map", "keys", "values"}` (string keys, each of type `keys` when given;
+  any values without `values`);
 - `{"kind": "any_of", "types": [...]}`: the first type that fits.
 
 Every type carries `doc`, the short text the docs tables and error messages show.
@@ -31,11 +32,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from server.core.points import POINT_NAMES, PRIMARY_POINT
 from server.core.workspace import WORKSPACE_HALF_EXTENT_M
 
 PROTOCOL_VERSION = 1  # the major version: hello.v and welcome.v
-PROTOCOL_MINOR = 3    # v1.1: welcome.minor, state.stiffness/haptic/driver; v1.2: health, bounds, input budget;
-                      # v1.3: hello.token, welcome.identity, lease, unauthorized
+PROTOCOL_MINOR = 4    # v1.1: welcome.minor, state.stiffness/haptic/driver; v1.2: health, bounds, input budget;
+                      # v1.3: hello.token, welcome.identity, lease, unauthorized;
+                      # v1.4: tracker.point/points/ttl, state.tools/points/tracking (several fingers)
 SCENE_FORMAT_VERSION = 1
 ROLES = ("participant", "operator", "observer")
 INPUT_ACTIONS = ("down", "up", "press")
@@ -45,6 +48,7 @@ MAX_T_MS = float(MAX_SAFE_INT)  # a sender's timestamp in ms: epoch ms are ~1.7e
 QUAT_NORM = (0.5, 2.0)  # a tracker quaternion's norm must lie here; it is then normalised
 DIRECTIONS = ("client_to_server", "server_to_client")
 MAX_TOKEN_CHARS = 200  # a token is 43 characters (32 random bytes, base64url); the bound only limits abuse
+TTL_MS = (1.0, 10000.0)  # a tracker sample's ttl: a streaming source sends clamp(4 × period, 20, 60) ms
 
 
 def _range(low: Any, high: Any, low_open: bool = False) -> str:
@@ -117,8 +121,8 @@ def fixed(items: list[dict], doc: str) -> dict:
     return {"kind": "tuple", "items": items, "doc": doc}
 
 
-def mapping(values: dict | None = None, doc: str = "map") -> dict:
-    return _drop_none(kind="map", values=values, doc=doc)
+def mapping(values: dict | None = None, doc: str = "map", keys: dict | None = None) -> dict:
+    return _drop_none(kind="map", keys=keys, values=values, doc=doc)
 
 
 def any_of(*types: dict, doc: str) -> dict:
@@ -179,16 +183,26 @@ HELLO = Message("hello", "client_to_server", "first message; optional for observ
           "in the URL", required=False, since=3),
 ))
 
+_WORKSPACE_POS = vec(3, f"{POS}, each \\|·\\| ≤ {WORKSPACE_HALF_EXTENT_M:g}", max_abs=WORKSPACE_HALF_EXTENT_M)
+POINT_NAME = {"kind": "enum", "values": list(POINT_NAMES), "doc": "a point name (\"Tracked points\")"}
+
 TRACKER = Message("tracker", "client_to_server", "the HIP, any rate; the server keeps the latest per client", (
     _type("tracker"),
     Field("seq", integer(min=0), "sender's sample counter"),
     Field("t", number(max_abs=MAX_T_MS, doc="number, \\|t\\| ≤ 2^53 − 1"), "sender's timestamp in ms on its own "
           "clock (the web client sends epoch ms: "
           "`performance.timeOrigin + performance.now()`); used for latency, never for ordering"),
-    Field("pos", vec(3, f"{POS}, each \\|·\\| ≤ {WORKSPACE_HALF_EXTENT_M:g}", max_abs=WORKSPACE_HALF_EXTENT_M),
+    Field("pos", _WORKSPACE_POS,
           "HIP position, scene frame, scene units, inside the workspace (\"Bounds\" below; outside: `out_of_range`)"),
     Field("quat", quat(), "HIP orientation; its norm must lie in [0.5, 2] and the server divides it by its norm "
           "(zero and other norms: `bad_message`)", required=False),
+    Field("point", POINT_NAME, f"the tracked point `pos` is, e.g. `\"right.thumb.tip\"` (absent: the primary "
+          f"tool's, `\"{PRIMARY_POINT}\"`)", required=False, since=4),
+    Field("points", mapping(_WORKSPACE_POS, "map point name → `[x, y, z]`", keys=POINT_NAME),
+          "more points of the same sample, scene frame, within the workspace (a hand: every joint the tracker "
+          "reports); `pos` stays required", required=False, since=4),
+    Field("ttl", number(*TTL_MS), "ms this sample is good for: when no newer sample of this source arrived by "
+          "then, the source is lost (\"Tracker loss\"); absent: held until the next one", required=False, since=4),
 ))
 
 INPUT = Message("input", "client_to_server", "keys and commands", (
@@ -236,6 +250,8 @@ _POSE = fixed([string(min_len=1, doc="object_id"), vec(3, POS, decimals=9), quat
 _DRIVER = fixed([any_of(integer(min=0), string(min_len=1), doc="client_id"), integer(min=0, doc="seq")],
                 "`[client_id, seq]`")
 
+_TOOL = mapping(doc="map `{name, hip, proxy, contact, lost}`")
+
 STATE = Message("state", "server_to_client", "per published frame; 60 Hz by default, plus an immediate frame in any "
                 "tick whose device cues changed, so a tactile cue never leads the picture", (
     _type("state"),
@@ -280,6 +296,15 @@ STATE = Message("state", "server_to_client", "per published frame; 60 Hz by defa
           "samples drive the HIP and the `seq` of its last applied sample, or null when nobody drives it "
           "(\"Tracker rule\" below); `client_id` is the welcome's int id of a /ws client, or "
           '`"udp:HOST:PORT"` for a UDP tracker bridge', required=False, since=1),
+    Field("tools", array(_TOOL, "array of `{name, hip, proxy, contact, lost}`"), "every tool (a tracked point "
+          "and its god-object), primary first: `name` the point that drives it, `hip` and `proxy` `[x, y, z]` (9 "
+          "decimals), debounced `contact`, `lost` (its tracker source stopped: the tool is home and out of "
+          "contact). `hip`, `proxy` and `contact` above are the primary tool's", required=False, since=4),
+    Field("points", mapping(vec(3, POS, decimals=9), "map point name → `[x, y, z]`", keys=POINT_NAME),
+          "the latest tracked points that drive no tool (a hand's other joints, for drawing); `{}` when none",
+          required=False, since=4),
+    Field("tracking", mapping(doc="map `{lost}`"), "`{\"lost\": [source, …]}`: the tracker sources lost right "
+          "now (\"Tracker loss\"), each a `client_id` as in `driver`", required=False, since=4),
 ))
 
 ERROR = Message("error", "server_to_client", "", (

@@ -138,7 +138,7 @@ def test_the_welcome_grants_the_role_the_token_allows_and_says_who_it_is(who, as
     out = sent(s)
     granted = GRANTS[who][asked]
     welcome = out[0]
-    assert welcome["type"] == "welcome" and welcome["role"] == granted == s.role and welcome["minor"] == 3
+    assert welcome["type"] == "welcome" and welcome["role"] == granted == s.role and welcome["minor"] == 4
     assert welcome["identity"] == {"token_id": who.token_id, "role": who.role, "site": who.site,
                                    "session": who.session}
     if granted == asked:

@@ -173,6 +173,7 @@ def test_the_state_record_holds_the_wire_fields_in_their_order_then_the_loops_ow
     state = core.tick([tracker(3, 0, DOME_TOP)], 0).state
     assert list(state) == ["frame", "tick", "t", "scene", "hip", "proxy", "force", "contact", "contacts", "objects",
                            "cues", "hud", "values", "visible", "events", "scales", "stiffness", "haptic", "driver",
+                           "tools", "points", "tracking",  # v1.4 wire fields, in their declared order
                            "samples", "trackers", "trajectory", "finished"]
     assert (state["scene"], state["driver"], state["stiffness"], state["haptic"], state["finished"]) == \
         (core.sim.scene.hash, [3, 0], {}, {}, [])

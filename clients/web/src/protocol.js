@@ -172,13 +172,21 @@ export function hello(role = 'participant', client = 'viestac-web/0.1', token = 
 
 /**
  * `tracker`: one HIP sample, scene frame. `quat` ([w,x,y,z], norm in [0.5, 2]; the server
- * normalises it) is optional and omitted when null.
+ * normalises it) is optional and omitted when null. v1.4: `point` (the point `pos` is, e.g.
+ * 'right.thumb.tip'), `points` (more points of the sample: name → [x,y,z]) and `ttl` (ms the
+ * sample is good for), each sent only when given.
  */
-export function tracker(seq, tMs, pos, quat = null) {
+export function tracker(seq, tMs, pos, quat = null, { point = null, points = null, ttl = null } = {}) {
   checked('tracker', 'seq', seq);
   if (typeof tMs !== 'number' || !Number.isFinite(tMs)) throw new ProtocolError('non_finite', 't must be a finite number');
   const msg = { type: 'tracker', seq, t: tMs, pos: vec(pos, 3, 'pos') };
   if (quat != null) msg.quat = checked('tracker', 'quat', vec(quat, 4, 'quat'));
+  if (point != null) msg.point = checked('tracker', 'point', point);
+  if (points != null) {
+    msg.points = checked('tracker', 'points',
+      Object.fromEntries(Object.entries(points).map(([name, p]) => [name, vec(p, 3, `points.${name}`)])));
+  }
+  if (ttl != null) msg.ttl = checked('tracker', 'ttl', ttl);
   return msg;
 }
 
@@ -227,7 +235,8 @@ const KINDS = {
   quat: (x, t) => isQuat(x) && Math.hypot(...x) >= t.norm[0] && Math.hypot(...x) <= t.norm[1],
   array: (x, t) => Array.isArray(x) && x.every((item) => fits(item, t.items)),
   tuple: (x, t) => Array.isArray(x) && x.length === t.items.length && x.every((item, i) => fits(item, t.items[i])),
-  map: (x, t) => isMap(x) && (t.values === undefined || Object.values(x).every((v) => fits(v, t.values))),
+  map: (x, t) => isMap(x) && (t.keys === undefined || Object.keys(x).every((k) => fits(k, t.keys)))
+    && (t.values === undefined || Object.values(x).every((v) => fits(v, t.values))),
   any_of: (x, t) => t.types.some((option) => fits(x, option)),
 };
 
@@ -235,10 +244,12 @@ const KINDS = {
  * A finite number beyond the protocol's bounds, as server/wire/check.py answers `out_of_range`:
  * an integral number outside ±(2^53 − 1) in an int field, or a number (a vector's component)
  * beyond the type's `max_abs` (a tracker position outside the workspace). Checked at the top level
- * of a field; a value of the wrong shape is left to `fits` (bad_message).
+ * of a field and in a map's values (`tracker.points`); a value of the wrong shape is left to `fits`
+ * (bad_message).
  */
 function outOfRange(x, t) {
   if (t.kind === 'int') return Number.isInteger(x) && !Number.isSafeInteger(x);
+  if (t.kind === 'map' && t.values !== undefined) return isMap(x) && Object.values(x).some((v) => outOfRange(v, t.values));
   if (t.max_abs === undefined) return false;
   if (t.kind === 'number') return isNum(x) && Math.abs(x) > t.max_abs;
   if (t.kind === 'vec') return isVec(t.size)(x) && x.some((v) => Math.abs(v) > t.max_abs);

@@ -25,7 +25,8 @@ const unhex = (s) => new Uint8Array(Buffer.from(s, 'hex'));
 function build(msg) {
   switch (msg.type) {
     case 'hello': return P.hello(msg.role, msg.client, msg.token ?? null);
-    case 'tracker': return P.tracker(msg.seq, msg.t, msg.pos, msg.quat ?? null);
+    case 'tracker': return P.tracker(msg.seq, msg.t, msg.pos, msg.quat ?? null,
+      { point: msg.point ?? null, points: msg.points ?? null, ttl: msg.ttl ?? null });
     case 'input': return P.input(msg.key, msg.action, msg.value);
     default: throw new Error(`no builder for ${msg.type}`);
   }
@@ -298,7 +299,7 @@ describe('the declaration drives the checks (src/schema.js)', () => {
       vectors.forEach((v) => assert.equal(v.direction, m.direction, v.name));
       for (const f of m.fields) assert.ok(vectors.some((v) => f.name in v.message), `no vector has ${m.name}.${f.name}`);
     }
-    assert.equal(P.PROTOCOL_MINOR, 3);
+    assert.equal(P.PROTOCOL_MINOR, 4);  // v1.4 (was 3)
   });
   test('constants come from the declaration', () => {
     assert.deepStrictEqual([...P.ROLES], ['participant', 'operator', 'observer']);
