@@ -42,7 +42,7 @@ log = logging.getLogger("viestac.tracking")
 
 HEALTH_EVERY_S = 0.1
 RAW_KEEP_S = 3.0           # raw samples kept for a calibration capture
-MAX_DATAGRAM = 1900        # below the tracker port's 2048-byte datagram limit
+MAX_DATAGRAM = 8192        # well below the tracker port's datagram limit (server/loop/tracker_udp.py)
 
 
 def _encode(message: dict, keep_side: str) -> bytes:
