@@ -99,7 +99,7 @@ async def calibrate(source: str, body: CalibrationBody, request: Request) -> dic
     return {"source": source, "calibration": answer["calibration"]}
 
 
-@router.delete("/trackers/{source}/calibration", responses=errors(404, 503),
+@router.delete("/trackers/{source}/calibration", responses=errors(404, 422, 503),
                summary="Back to the source kind's default calibration")
 async def reset_calibration(source: str, request: Request) -> dict:
     host = _host(request)
