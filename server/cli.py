@@ -386,6 +386,14 @@ def _bench_latency(args: argparse.Namespace) -> int:
     return _print_bench(result, args.json)
 
 
+def _bench_tracking(args: argparse.Namespace) -> int:
+    from server.bench.tracking_bench import run_tracking_bench
+
+    result = run_tracking_bench(Path(args.out), latency_seconds=args.latency_seconds, viewers=args.viewers)
+    print(json.dumps(result, indent=None if args.json else 1))
+    return 0
+
+
 def _bench_roundtrip(args: argparse.Namespace) -> int:
     from server.bench.roundtrip_bench import run_roundtrip_bench
 
@@ -697,6 +705,16 @@ def build_parser() -> argparse.ArgumentParser:
     faults.add_argument("--check", action="store_true", help="exit 1 when a fault misses its acceptance")
     faults.add_argument("--json", action="store_true", help="print one JSON object")
     faults.set_defaults(func=_bench_faults)
+    tracking = bench_sub.add_parser("tracking", help="tracker filters: jitter against lag and contact chatter on "
+                                    "noisy finger paths (raw, 1€, moving average; chart), and Leap sample -> device "
+                                    "command through the whole server")
+    tracking.add_argument("--out", required=True, metavar="DIR", help="tracking.json and tracking_filters.png go here")
+    tracking.add_argument("--latency-seconds", type=float, default=130.0,
+                          help="how long to measure Leap sample -> device command (default 130 s: > 1000 "
+                               "switches; 0 skips it)")
+    tracking.add_argument("--viewers", type=int, default=64, help="viewer clients during the latency part")
+    tracking.add_argument("--json", action="store_true", help="print one JSON object on one line")
+    tracking.set_defaults(func=_bench_tracking)
     for name, func, what in (("accuracy", _bench_accuracy, "cost against error of every contact method on fixed "
                                                            "trajectories over the thesis scenes"),
                              ("stability", _bench_stability, "where each method fails: speed x thickness, stiffness "

@@ -31,14 +31,16 @@ def leap_csv(times, scene_rows) -> str:
 
 class LeapRig:
     def __init__(self, scene_times, scene_rows, *, scenario: str = "contact-angle", extra: list[str] | None = None,
-                 devices: dict[str, str] | None = None, rate_hz: float = 110.0):
+                 devices: dict[str, str] | None = None, rate_hz: float = 110.0, realtime: bool = False):
         self.dir = Path(tempfile.mkdtemp(prefix="viestac-leaprig-"))
         self.frames = self.dir / "frames.csv"
         self.frames.write_text(leap_csv(scene_times, scene_rows))
         self.timeline = self.dir / "leap_timeline.txt"
         self.rate_hz = rate_hz
+        self.realtime = realtime  # the emulators as measuring instruments (SCHED_FIFO), for the bench
         self.devices = devices or {"ferrovibe": "ferrovibe"}  # name → model
-        self.emulators = {name: Emulator(model, link=self.dir / name) for name, model in self.devices.items()}
+        self.emulators = {name: Emulator(model, link=self.dir / name, realtime=realtime)
+                          for name, model in self.devices.items()}
         self.scenario, self.extra = scenario, list(extra or [])
         self.leap: subprocess.Popen | None = None
         self.leap_port = 0
@@ -48,7 +50,7 @@ class LeapRig:
     def start_leap(self) -> None:
         self.leap = subprocess.Popen([sys.executable, "-m", "server.cli", "emulate", "leap", "--frames", str(self.frames),
                                       "--port", str(self.leap_port), "--rate", str(self.rate_hz),
-                                      "--timeline", str(self.timeline)],
+                                      "--timeline", str(self.timeline), *(["--realtime"] if self.realtime else [])],
                                      stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
         line = self.leap.stdout.readline()
         match = re.search(r"ws://127\.0\.0\.1:(\d+)/", line)

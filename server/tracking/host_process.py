@@ -30,6 +30,7 @@ from pathlib import Path
 
 import msgpack
 
+from devices.realtime import fifo_this_thread
 from server import ipc
 from server.tracking import leap_client, replay, scripted, store
 from server.tracking.calibration import Calibration
@@ -148,8 +149,10 @@ class Source:
 
 
 class TrackerHost:
-    def __init__(self, control: socket.socket, specs: list[SourceSpec], target: tuple[str, int], data_dir: Path):
+    def __init__(self, control: socket.socket, specs: list[SourceSpec], target: tuple[str, int], data_dir: Path,
+                 rt: bool = False):
         self.control = control
+        self.rt = rt
         self.data_dir = data_dir
         self.sources = {s.name: Source(s, store.load(data_dir, s.name, s.kind), target) for s in specs}
         self.stopped = asyncio.Event()
@@ -208,7 +211,7 @@ class TrackerHost:
     async def run(self) -> None:
         loop = asyncio.get_running_loop()
         loop.add_reader(self.control.fileno(), self._on_control)
-        self._send(["hello", {"pid": os.getpid()}])
+        self._send(["hello", {"pid": os.getpid(), "rt": self.rt}])
         tasks = [asyncio.create_task(self._guard(src)) for src in self.sources.values()]
         while not self.stopped.is_set():
             self._send(["health", self.health()])
@@ -245,7 +248,10 @@ def main(argv: list[str] | None = None) -> int:
     host, _, port = args.udp.rpartition(":")
     control = socket.socket(fileno=args.control_fd)
     control.setblocking(False)
-    tracker = TrackerHost(control, specs, (host.strip("[]"), int(port)), Path(args.data_dir))
+    # On the tracker → device path, like the device host's threads: SCHED_FIFO below the loop when
+    # allowed, so a sample is not left waiting for a CPU while the hub broadcasts (devices/realtime.py).
+    rt = fifo_this_thread()
+    tracker = TrackerHost(control, specs, (host.strip("[]"), int(port)), Path(args.data_dir), rt=rt)
     asyncio.run(tracker.run())
     return 0
 

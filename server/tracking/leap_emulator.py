@@ -126,10 +126,16 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=6437, help="0 picks a free port (printed)")
     parser.add_argument("--once", action="store_true", help="serve the frames once, then exit")
+    parser.add_argument("--realtime", action="store_true",
+                        help="ask for SCHED_FIFO (as a measuring instrument: its send stamps must not wait for a CPU)")
     parser.add_argument("--timeline", help="append 'frame_id monotonic_ns' per frame sent to this file")
     args = parser.parse_args(argv)
     if not 1 <= args.rate <= 1000:
         parser.error("--rate must be in 1..1000")
+    if args.realtime:
+        from devices.realtime import fifo_this_thread
+
+        fifo_this_thread()
     try:
         asyncio.run(serve(args))
     except KeyboardInterrupt:

@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-DEFAULT_MIN_CUTOFF_HZ = 1.0
+DEFAULT_MIN_CUTOFF_HZ = 0.3
 DEFAULT_BETA = 5.0
 DEFAULT_D_CUTOFF_HZ = 1.0
 
