@@ -2,7 +2,9 @@
 
 The loop sends a `["cues", tick, sent_ns, [cue, ...]]` record on the cue channel (server/ipc.py)
 in every tick whose cues differ from what the devices were last given, before that tick's state
-record. The feed runs in the device host process (devices/host_process.py), never on the hub's
+record; with several tools (fingers) a fifth item `{point name: [cue, ...]}` carries every other
+tool's cues, and each device gets its own finger's (devices/manager.py). Without it, a device on
+another finger gets nothing: a fail-safe `[]` turns every device off. The feed runs in the device host process (devices/host_process.py), never on the hub's
 event loop: with 64 viewers that loop is busy sending the same tick's frame to every viewer right
 when a cue changes (docs/performance.md "Tracker → device latency"). The thread sleeps in `recv`,
 runs at SCHED_FIFO below the loop when allowed (devices/realtime.py), and hands each cue set to
@@ -39,6 +41,10 @@ CUE_HEARTBEAT_MS = 10  # the loop sends "alive" when it sent nothing on the cue 
 CUE_QUIET_MS = 30      # nothing at all for this long: every actuator off (3 heartbeats missed)
 
 
+def _is_finger_cues(value) -> bool:
+    return isinstance(value, dict) and all(isinstance(k, str) and isinstance(v, list) for k, v in value.items())
+
+
 class DeviceFeed:
     def __init__(self, manager, *, quiet_ms: float = CUE_QUIET_MS):
         if not quiet_ms > CUE_HEARTBEAT_MS:
@@ -50,7 +56,8 @@ class DeviceFeed:
         self.bad_records = 0
         self.quiet_offs = 0  # times the channel went quiet and the feed turned everything off
         self.quiet = False   # off because the channel is quiet; the next record re-applies `cues`
-        self.cues: tuple = ()  # the last cue set the loop sent
+        self.cues: tuple = ()  # the last cue set the loop sent (the primary tool's)
+        self.finger_cues: dict[str, tuple] = {}  # and the other tools', by point name
         self._last_rx_ns: int | None = None  # None until the first record: the devices start off
         self.last_tick: int | None = None
         self.rt = False
@@ -72,21 +79,30 @@ class DeviceFeed:
             self._last_rx_ns = now_ns
             if self.quiet and not self.stopped:  # the loop is back (or never died, only stalled)
                 self.quiet = False
-                self.manager.submit(self.cues, write_now=True)
+                self._submit()
             return
-        if not (isinstance(record, list) and len(record) == 4 and record[0] == "cues" and isinstance(record[3], list)
-                and isinstance(record[2], int)):
+        if not (isinstance(record, list) and len(record) in (4, 5) and record[0] == "cues"
+                and isinstance(record[3], list) and isinstance(record[2], int)
+                and (len(record) == 4 or _is_finger_cues(record[4]))):
             raise ValueError(f"not a cue record: {record!r:.120}")
         cues = tuple(cue_from_wire(c) for c in record[3])
+        fingers = {name: tuple(cue_from_wire(c) for c in given) for name, given in record[4].items()} \
+            if len(record) == 5 else {}
         self._last_rx_ns = now_ns
         if self.stopped:
             return
-        self.cues, self.quiet = cues, False
-        self.manager.submit(cues, write_now=True)
+        self.cues, self.finger_cues, self.quiet = cues, fingers, False
+        self._submit()
         self.records += 1
         self.last_tick = record[1]
         if received_ns is not None:
             self.delays_ns.append((received_ns - record[2], time.monotonic_ns() - record[2]))
+
+    def _submit(self) -> None:
+        if self.finger_cues:  # several fingers: each device gets its own (devices/manager.py)
+            self.manager.submit(self.cues, write_now=True, finger_cues=self.finger_cues)
+        else:
+            self.manager.submit(self.cues, write_now=True)
 
     def check(self, now_ns: int) -> int | None:
         """The quiet rule at `now_ns`: every actuator off once nothing arrived for quiet_ms.

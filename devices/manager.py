@@ -10,6 +10,10 @@ loop's scenario).
 
 Configuration: `DeviceConfig.parse("ferrovibe@/dev/ttyUSB0")` for the command line, or a TOML
 file with [[device]] tables (docs/devices.md), which may also describe a device of its own.
+
+Several fingers: each device sits on one tracked point (`finger`, default the primary point
+"right.index.tip"). The loop's cue set is the primary tool's; with several tools it also sends the
+other tools' cues by name (`finger_cues`), and each device gets its own finger's cues only.
 """
 
 from __future__ import annotations
@@ -20,12 +24,13 @@ import threading
 import time
 import tomllib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import serial
 
 from server.core.cues import Cue
+from server.core.points import PRIMARY_POINT, check_point_name
 from devices.encoder import CueEncoder, Refusal
 from devices.line_protocol import CommandRefused, DeviceLine, LineProtocol
 from devices.link import BYTE_TIME_S
@@ -52,10 +57,15 @@ class DeviceConfig:
     baud: int = 115200
     link_share: float = 0.5
     watchdog_ms: int = WATCHDOG_MS  # the firmware's own fail-safe (docs/device-protocol.md §2); 0 = off
+    finger: str = PRIMARY_POINT  # the tracked point the device sits on: it gets that tool's cues only
 
     def __post_init__(self) -> None:
         if not _NAME.match(self.name):
             raise DeviceConfigError(f"device name {self.name!r}: 1-32 characters a-z 0-9 _ -, starting with a letter or digit")
+        try:
+            check_point_name(self.finger)
+        except ValueError as exc:
+            raise DeviceConfigError(f"device {self.name}: finger: {exc}") from None
         if not 1200 <= self.baud <= 4_000_000:
             raise DeviceConfigError(f"device {self.name}: baud {self.baud} out of range")
         if not 0 < self.link_share <= 1:
@@ -77,7 +87,7 @@ class DeviceConfig:
 
     @classmethod
     def from_dict(cls, data: Mapping, where: str) -> DeviceConfig:
-        allowed = {"name", "profile", "port", "usb", "baud", "link_share", "watchdog_ms"}
+        allowed = {"name", "profile", "port", "usb", "baud", "link_share", "watchdog_ms", "finger"}
         unknown = set(data) - allowed
         if unknown:
             raise DeviceConfigError(f"{where}: unknown key(s) {sorted(unknown)}; allowed: {', '.join(sorted(allowed))}")
@@ -88,7 +98,8 @@ class DeviceConfig:
             profile = profile_by_model(raw) if isinstance(raw, str) else DeviceProfile.from_dict(raw, where=f"{where}.profile")
             return cls(name=str(data.get("name", profile.model)), profile=profile, port=PortSpec.from_dict(data),
                        baud=int(data.get("baud", 115200)), link_share=float(data.get("link_share", 0.5)),
-                       watchdog_ms=int(data.get("watchdog_ms", WATCHDOG_MS)))
+                       watchdog_ms=int(data.get("watchdog_ms", WATCHDOG_MS)),
+                       finger=str(data.get("finger", PRIMARY_POINT)))
         except (DeviceConfigError, ProfileError) as exc:  # already name where they come from
             raise DeviceConfigError(str(exc)) from None
         except (ValueError, TypeError) as exc:
@@ -116,6 +127,26 @@ def load_device_file(path: str | Path) -> list[DeviceConfig]:
     except DeviceConfigError as exc:
         raise DeviceConfigError(f"{path}: {exc}") from None
     return configs
+
+
+def with_fingers(configs: list[DeviceConfig], fingers: Mapping[str, str]) -> list[DeviceConfig]:
+    """`configs` with the fingers of `fingers` (device name → point, `serve --finger NAME=POINT`)
+    put in place; DeviceConfigError for a name no device has."""
+    unknown = sorted(set(fingers) - {c.name for c in configs})
+    if unknown:
+        raise DeviceConfigError(f"--finger names no configured device: {', '.join(unknown)}; devices: "
+                                f"{', '.join(c.name for c in configs) or 'none'}")
+    return [replace(c, finger=fingers[c.name]) if c.name in fingers else c for c in configs]
+
+
+def rig_points(fingers) -> tuple[str, ...]:
+    """The tracked points devices sit on (`fingers`: each device's) besides the primary one, in
+    order, each once: the loop makes a tool for each (server/loop/simulation.py)."""
+    points: list[str] = []
+    for finger in fingers:
+        if finger != PRIMARY_POINT and finger not in points:
+            points.append(finger)
+    return tuple(points)
 
 
 def check_unique(configs: list[DeviceConfig]) -> None:
@@ -150,7 +181,8 @@ class DeviceManager:
         check_unique(configs)
         self._lock = threading.Lock()
         self.listeners: list[Callable[[], None]] = []
-        self.cues: tuple[Cue, ...] = ()
+        self.cues: tuple[Cue, ...] = ()  # the primary tool's
+        self.finger_cues: Mapping[str, tuple[Cue, ...]] = {}  # the other tools', by point name
         self.refusals: tuple[Refusal, ...] = ()
         self.devices: dict[str, _Managed] = {}
         self._rejected: dict[str, tuple[int, float]] = {}  # name → (not yet logged, last log time)
@@ -170,17 +202,25 @@ class DeviceManager:
         for d in self.devices.values():
             d.driver.stop()
 
-    def submit(self, cues: tuple[Cue, ...], *, write_now: bool = False) -> tuple[Refusal, ...]:
+    def submit(self, cues: tuple[Cue, ...], *, write_now: bool = False,
+               finger_cues: Mapping[str, tuple[Cue, ...]] | None = None) -> tuple[Refusal, ...]:
         """A new cue set from the loop: encode for every device, hand over, return the refusals.
-        `write_now`: the caller writes each device's first frame itself when that cannot block
-        (SerialDevice.set_commands; the device feed does, saving a thread wake-up)."""
+        `cues` are the primary tool's, `finger_cues` the other tools' by point name; a device gets
+        its own finger's (none when its finger has none: off). `write_now`: the caller writes each
+        device's first frame itself when that cannot block (SerialDevice.set_commands; the device
+        feed does, saving a thread wake-up)."""
         with self._lock:
             self.cues = tuple(cues)
+            self.finger_cues = dict(finger_cues or {})
             for d in self.devices.values():
-                encoding = d.encoder.encode(self.cues)
+                encoding = d.encoder.encode(self._cues_for(d))
                 d.driver.set_commands(encoding.commands.values(), write_now=write_now)
                 d.refusals = encoding.refusals
             return self._update_refusals()
+
+    def _cues_for(self, d: _Managed) -> tuple[Cue, ...]:
+        finger = d.config.finger
+        return self.cues if finger == PRIMARY_POINT else tuple(self.finger_cues.get(finger, ()))
 
     def _update_refusals(self) -> tuple[Refusal, ...]:
         refusals = tuple(r for d in self.devices.values() for r in d.refusals)
@@ -204,7 +244,7 @@ class DeviceManager:
                 d.profile = d.config.profile.with_identity(channels=identity.channels, caps=caps,
                                                            carrier_hz=identity.carrier_hz, firmware=firmware)
                 d.encoder = CueEncoder(d.profile, name)
-                encoding = d.encoder.encode(self.cues)
+                encoding = d.encoder.encode(self._cues_for(d))
                 d.driver.set_commands(encoding.commands.values())
                 d.refusals = encoding.refusals
                 self._update_refusals()

@@ -92,7 +92,8 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI):
         hub.owner.bind()
-        configs = list(settings.devices) + (await asyncio.to_thread(rig.start) if rig else [])
+        # each device on its finger (rig file `finger`, --finger): it gets that tool's cues only
+        configs = settings.device_configs(await asyncio.to_thread(rig.start) if rig else [])
         hub.device_profiles = {c.name: c.profile for c in configs}  # until the devices identify themselves
         devices = DeviceHost(configs, on_report=hub.on_device_report,
                              on_profiles=lambda profiles: setattr(hub, "device_profiles", profiles))

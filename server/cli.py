@@ -18,6 +18,17 @@ from server.loop.tracker_udp import is_loopback
 from server.core.scene import SceneError
 
 
+def _fingers(texts: list[str]) -> tuple[tuple[str, str], ...]:
+    """--finger NAME=POINT, repeatable; ValueError for one without '=' (Settings checks the rest)."""
+    pairs = []
+    for text in texts:
+        name, eq, point = text.partition("=")
+        if not eq or not name or not point:
+            raise ValueError(f"--finger {text!r}: expected NAME=POINT, e.g. fingertac=right.thumb.tip")
+        pairs.append((name, point))
+    return tuple(pairs)
+
+
 def _serve(args: argparse.Namespace) -> int:
     import uvicorn
 
@@ -47,7 +58,8 @@ def _serve(args: argparse.Namespace) -> int:
                             tls_cert=Path(args.tls_cert) if args.tls_cert else None,
                             tls_key=Path(args.tls_key) if args.tls_key else None,
                             allowed_hosts=tuple(args.allow_host), allowed_origins=tuple(args.allow_origin),
-                            login_link=not args.no_login_link, trackers=tuple(args.tracker))
+                            login_link=not args.no_login_link, fingers=_fingers(args.finger),
+                            trackers=tuple(args.tracker))
     except (ParamError, ProfileError, ValueError) as exc:
         print(f"viestac serve: {exc}", file=sys.stderr)
         return 2
@@ -526,6 +538,10 @@ def build_parser() -> argparse.ArgumentParser:
                             "(repeatable; replaces the simulated rig)")
     serve.add_argument("--devices", metavar="FILE", help="a TOML file of [[device]] tables (docs/devices.md)")
     serve.add_argument("--no-rig", action="store_true", help="no simulated rig (emulated devices)")
+    serve.add_argument("--finger", action="append", default=[], metavar="NAME=POINT",
+                       help="the tracked point device NAME sits on, e.g. --finger ferrovibe=right.index.tip --finger "
+                            "fingertac=right.thumb.tip: each device gets the cues of its finger's tool only "
+                            "(repeatable; default the primary point right.index.tip; docs/devices.md)")
     serve.add_argument("--rig", default="fingertac,ferrovibe", metavar="MODEL[,MODEL...]",
                        help="the simulated rig's emulated devices (default fingertac,ferrovibe; devkit adds "
                             "temperature and friction)")

@@ -6,11 +6,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from devices.capability import CapabilityReport, check
-from devices.manager import DeviceConfig, check_unique
+from devices.manager import DeviceConfig, DeviceConfigError, check_unique, rig_points, with_fingers
 from devices.profiles import profile_by_model
 from scenarios import registry
 from server.loop.process import LoopConfig
 from server.loop.tracker_udp import is_loopback
+from server.core.points import PRIMARY_POINT, check_point_name
 from server.core.scene import Scene
 from server.tracking.sources import SourceSpec, parse_specs
 
@@ -48,6 +49,7 @@ class Settings:
     allowed_origins: tuple[str, ...] = ()  # page origins allowed besides the server's own (also CORS)
     login_link: bool = True         # print a single-use admin login link at start
     trackers: tuple[str, ...] = ()  # tracker sources run by the tracker host (serve --tracker; docs/trackers.md)
+    fingers: tuple[tuple[str, str], ...] = ()  # (device name, point): serve --finger NAME=POINT (docs/devices.md)
 
     def __post_init__(self) -> None:
         if not 0 <= self.port <= 65535:
@@ -70,6 +72,7 @@ class Settings:
         for model in self.rig_models:
             profile_by_model(model)
         check_unique(list(self.devices))
+        self.device_fingers()  # fails early: a --finger for no device, or not a point name
         if self.scene_file is not None:
             Scene.load(self.scene_file)  # fails early with the offending field
         self.tracker_address()  # fails early with what is wrong
@@ -114,11 +117,33 @@ class Settings:
     def tracker_specs(self) -> tuple[SourceSpec, ...]:
         return parse_specs(self.trackers)
 
+    def device_configs(self, rig: list[DeviceConfig] = ()) -> list[DeviceConfig]:
+        """The devices to drive (the configured ones, or the simulated rig's `rig`), each on its
+        finger: the rig file's `finger`, overridden by --finger."""
+        return with_fingers(list(self.devices) or list(rig), dict(self.fingers))
+
+    def device_fingers(self) -> dict[str, str]:
+        """Device name → the tracked point it sits on (known before the simulated rig starts);
+        DeviceConfigError for a --finger naming no device or no point."""
+        base = ({d.name: d.finger for d in self.devices} if self.devices
+                else {m: PRIMARY_POINT for m in (self.rig_models if self.simulated_rig else ())})
+        unknown = sorted(set(dict(self.fingers)) - set(base))
+        if unknown:
+            raise DeviceConfigError(f"--finger names no device: {', '.join(unknown)}; devices: "
+                                    f"{', '.join(base) or 'none'}")
+        for name, point in self.fingers:
+            try:
+                check_point_name(point)
+            except ValueError as exc:
+                raise DeviceConfigError(f"--finger {name}={point}: {exc}") from None
+        return {**base, **dict(self.fingers)}
+
     def loop_config(self) -> LoopConfig:
         return LoopConfig(scenario=self.scenario, scenario_params=self.scenario_params, scene_file=self.scene_file,
                           tick_hz=self.tick_hz,
                           state_hz=self.state_hz, realtime=self.realtime, gate_band=self.gate_band,
-                          gate_min_on_s=self.gate_dwell_s, gate_min_off_s=self.gate_dwell_s)
+                          gate_min_on_s=self.gate_dwell_s, gate_min_off_s=self.gate_dwell_s,
+                          rig=rig_points(self.device_fingers().values()))
 
     def recorded(self) -> dict:
         """The configuration as plain data, stored with every experiment session."""
@@ -126,7 +151,8 @@ class Settings:
         for name in self.__dataclass_fields__:
             value = getattr(self, name)
             if name == "devices":
-                value = [{"name": d.name, "model": d.profile.model, "port": str(d.port)} for d in value]
+                value = [{"name": d.name, "model": d.profile.model, "port": str(d.port), "finger": d.finger}
+                         for d in value]
             elif isinstance(value, Path):
                 value = str(value)
             elif isinstance(value, tuple):

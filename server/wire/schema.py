@@ -186,7 +186,8 @@ HELLO = Message("hello", "client_to_server", "first message; optional for observ
 _WORKSPACE_POS = vec(3, f"{POS}, each \\|·\\| ≤ {WORKSPACE_HALF_EXTENT_M:g}", max_abs=WORKSPACE_HALF_EXTENT_M)
 POINT_NAME = {"kind": "enum", "values": list(POINT_NAMES), "doc": "a point name (\"Tracked points\")"}
 
-TRACKER = Message("tracker", "client_to_server", "the HIP, any rate; the server keeps the latest per client", (
+TRACKER = Message("tracker", "client_to_server", "a tracked point (the HIP unless `point` says otherwise) and "
+                  "more points of a hand, any rate; the server keeps the latest per client", (
     _type("tracker"),
     Field("seq", integer(min=0), "sender's sample counter"),
     Field("t", number(max_abs=MAX_T_MS, doc="number, \\|t\\| ≤ 2^53 − 1"), "sender's timestamp in ms on its own "
@@ -221,7 +222,7 @@ _IDENTITY = mapping(doc="map `{token_id, role, site, session}`")
 WELCOME = Message("welcome", "server_to_client", "reply to `hello`, or sent on connect to clients without one", (
     _type("welcome"),
     Field("v", integer(), "server's protocol major version (1)"),
-    Field("minor", integer(min=0), "server's protocol minor version (3 for this document; absent from v1.0 "
+    Field("minor", integer(min=0), "server's protocol minor version (4 for this document; absent from v1.0 "
           "servers)", required=False, since=1),
     Field("client_id", integer(min=1), "this connection's id (`driver` in `state` names a /ws client by it)"),
     Field("role", enum(ROLES), "the role the server assigned (may differ from the one asked for; clients follow "

@@ -390,7 +390,7 @@ export const SCHEMA = {
      },
      "required": false,
      "since": 1,
-     "meaning": "server's protocol minor version (3 for this document; absent from v1.0 servers)"
+     "meaning": "server's protocol minor version (4 for this document; absent from v1.0 servers)"
     },
     {
      "name": "client_id",

@@ -1,0 +1,274 @@
+"""Several tools (one per tracked point) in the simulation and the loop's core: protocol v1.4's
+tracker `point`/`points`/`ttl`, the state's `tools`/`points`/`tracking`, tracker loss, and each
+device getting the cues of its own finger."""
+
+from dataclasses import replace
+
+import msgpack
+import pytest
+
+from devices.feed import DeviceFeed
+from devices.manager import DeviceConfig, DeviceManager
+from devices.ports import PortSpec
+from devices.profiles import profile_by_model
+from scenarios.contact_angle import ContactAngle
+from server.core.cues import Tilt, Vibration
+from server.core.points import PRIMARY_POINT
+from server.core.tool import DEFAULT_PROXY_RADIUS
+from server.loop.core import LoopCore
+from server.loop.simulation import Simulation, home_position, tool_names
+from server.wire import messages
+from server.loop.tracker_udp import parse_datagram
+
+MS = 1_000_000
+THUMB = "right.thumb.tip"
+DOME_TOP = (0.0, 0.0, 0.6 + DEFAULT_PROXY_RADIUS - 0.003)  # 3 mm into the dilated dome: contact, tilt 0
+FREE = (0.0, 0.0, 1.2)
+FREE_SIDE = (0.0, 0.4, 1.2)
+
+
+def tracker(source, seq, pos, point=None, points=None, ttl=None) -> list:
+    """The loop's tracker record, as the hub and the UDP port build it (Tracker.loop_record)."""
+    return messages.Tracker(seq, 0.0, tuple(pos), None, point, points, ttl).loop_record(source, 0)
+
+
+def two_fingers(scenario=None, **kw) -> LoopCore:
+    return LoopCore(Simulation(scenario or ContactAngle(), rig=(THUMB,)), state_hz=1000, **kw)
+
+
+def run(core: LoopCore, ticks: int, records=()):
+    """`ticks` ticks, `records` applied before the first; every tick's (tick, state, cues) kept."""
+    out = []
+    for i in range(ticks):
+        o = core.tick(list(records) if i == 0 else [], core.sim.tick * MS)
+        out.append((o.tick, o.state, o.cues, o.finger_cues, o.result))
+    return out
+
+
+# -- tools and their names ----------------------------------------------------------------------
+
+def test_the_default_rig_has_one_tool_the_primary_point_and_the_state_lists_it():
+    core = LoopCore(Simulation(ContactAngle()))
+    state = core.tick([tracker(1, 0, DOME_TOP)], 0).state
+    assert [t.name for t in core.sim.tools] == [PRIMARY_POINT]
+    assert state["tools"] == [{"name": PRIMARY_POINT, "hip": state["hip"], "proxy": state["proxy"], "contact": True,
+                               "lost": False}]
+    assert state["points"] == {} and state["tracking"] == {"lost": []}
+
+
+def test_tools_are_the_primary_then_the_rig_then_what_the_scenario_needs_each_once():
+    class Grasp(ContactAngle):
+        fingers = (PRIMARY_POINT, "right.middle.tip", THUMB)
+    sim = Simulation(Grasp(), rig=(THUMB, "left.index.tip"))
+    assert [t.name for t in sim.tools] == [PRIMARY_POINT, THUMB, "left.index.tip", "right.middle.tip"]
+    assert len({id(t.gate) for t in sim.tools}) == 4, "each tool has its own contact gate"
+    with pytest.raises(ValueError, match="not a tracked point name"):
+        tool_names(("right.index.nail",))
+
+
+def test_a_sample_naming_a_point_moves_that_tool_only_and_each_tool_touches_on_its_own():
+    core = two_fingers()
+    (_, state, cues, fingers, result), = run(core, 1, [tracker(1, 0, FREE), tracker(1, 1, DOME_TOP, point=THUMB)])
+    index, thumb = result.tools
+    assert (index.name, index.hip, index.contact) == (PRIMARY_POINT, FREE, False)
+    assert (thumb.name, thumb.hip, thumb.contact, thumb.touching) == (THUMB, DOME_TOP, True, frozenset({"hemisphere"}))
+    assert thumb.force[2] > 0 and index.force == (0.0, 0.0, 0.0)
+    assert [t["contact"] for t in state["tools"]] == [False, True]
+    # contact-angle cues the primary tool's devices only: the thumb's touch cues nobody
+    assert cues == [] and fingers == {THUMB: []}
+
+
+def test_the_scenario_sees_every_tool_primary_first():
+    seen = []
+
+    class Watching(ContactAngle):
+        def step(self, ctx):
+            seen.append(ctx.tools)
+            return super().step(ctx)
+    core = LoopCore(Simulation(Watching(), rig=(THUMB,)))
+    core.tick([tracker(1, 0, DOME_TOP), tracker(1, 1, FREE_SIDE, point=THUMB)], 0)
+    (index, thumb), = seen
+    assert index.name == PRIMARY_POINT and index.contact and index.hip == DOME_TOP
+    assert thumb.name == THUMB and not thumb.contact and thumb.hip == FREE_SIDE and not thumb.lost
+
+
+def test_points_of_a_sample_move_their_tools_and_the_others_are_drawn():
+    core = two_fingers()
+    points = {THUMB: DOME_TOP, "right.wrist": (0.1, 0.2, 1.5), "right.palm": (0.1, 0.1, 1.4)}
+    (_, state, _, _, result), = run(core, 1, [tracker(1, 0, FREE, points=points)])
+    assert [t.hip for t in result.tools] == [FREE, DOME_TOP]
+    assert state["points"] == {"right.wrist": [0.1, 0.2, 1.5], "right.palm": [0.1, 0.1, 1.4]}
+    assert state["driver"] == [1, 0] and core.sim.tool_by_name[THUMB].driver == 1
+
+
+def test_the_tracker_rule_holds_per_tool():
+    core = two_fingers()
+    core.tick([tracker(1, 0, FREE), tracker(2, 0, FREE_SIDE, point=THUMB)], 0)
+    out = core.tick([tracker(2, 1, DOME_TOP), tracker(1, 1, DOME_TOP, point=THUMB)], MS)
+    assert [t.hip for t in out.result.tools] == [FREE, FREE_SIDE], "each tool keeps its own driver"
+    assert [t.driver for t in core.sim.tools] == [1, 2]
+    assert "from 1 ignored: 2 drives right.thumb.tip" in " ".join(r[2] for r in out.records if r[0] == "log")
+
+
+# -- tracker loss (ttl) -------------------------------------------------------------------------
+
+def test_a_source_whose_ttl_passes_is_lost_its_tools_leave_contact_and_the_devices_go_off():
+    core = two_fingers()
+    record = tracker("udp:127.0.0.1:9", 7, DOME_TOP, points={THUMB: DOME_TOP}, ttl=60)
+    ticks = run(core, 100, [record])
+    assert ticks[0][2] == [{"kind": "tilt", "direction_deg": 0.0, "magnitude_pct": 100.0}]
+    lost_at = next(tick for tick, state, *_ in ticks if any(e["name"] == "tracker_lost" for e in state["events"]))
+    assert lost_at == 60, "lost in the first tick at or after the sample's ttl (60 ms after it was applied)"
+    tick, state, cues, fingers, result = ticks[lost_at]
+    assert cues == [] and fingers == {THUMB: []}, "the lost tick turns the devices off"
+    assert not result.contact and all(not t.contact and t.lost for t in result.tools)
+    assert state["events"] == [{"tick": 60, "t": 0.06, "name": "tracker_lost", "source": "udp:127.0.0.1:9",
+                                "tools": [PRIMARY_POINT, THUMB]}]
+    home = list(home_position(core.sim.scene))
+    assert [(t["hip"], t["lost"]) for t in state["tools"]] == [(home, True), (home, True)]
+    assert state["tracking"] == {"lost": ["udp:127.0.0.1:9"]} and state["driver"] is None
+    assert all(not r.contact for *_, r in ticks[lost_at:])
+
+
+def test_loss_does_not_wait_for_the_gates_minimum_on_time():
+    """The gate holds contact on for min_on_s (30 ms) after switching on; a lost finger must not."""
+    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    ticks = run(core, 10, [tracker("udp:a", 1, DOME_TOP, ttl=2)])
+    assert [r.contact for *_, r in ticks[:4]] == [True, True, False, False]
+    assert ticks[2][2] == []
+
+
+def test_a_lost_source_that_sends_again_is_back():
+    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    run(core, 30, [tracker("udp:a", 1, DOME_TOP, ttl=20)])
+    assert core.sim.lost_sources == {"udp:a": (PRIMARY_POINT,)}
+    (tick, state, cues, _, result), = run(core, 1, [tracker("udp:a", 2, DOME_TOP, ttl=20)])
+    assert [e["name"] for e in state["events"]] == ["tracker_back"]
+    assert state["events"][0]["source"] == "udp:a" and state["tracking"] == {"lost": []}
+    assert result.contact and not result.tools[0].lost and cues == [
+        {"kind": "tilt", "direction_deg": 0.0, "magnitude_pct": 100.0}]
+
+
+def test_another_source_taking_over_the_lost_tools_clears_the_loss():
+    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    run(core, 30, [tracker("udp:a", 1, DOME_TOP, ttl=20)])
+    (_, state, *_), = run(core, 1, [tracker(5, 1, FREE)])
+    assert state["tracking"] == {"lost": []} and state["driver"] == [5, 1] and not state["tools"][0]["lost"]
+
+
+def test_a_sample_without_ttl_is_held_as_the_mouse_is():
+    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    ticks = run(core, 2000, [tracker(3, 1, DOME_TOP)])
+    assert all(r.contact for *_, r in ticks) and core.sim.lost_sources == {}
+
+
+def test_a_lost_source_drops_its_drawn_points_and_a_source_that_leaves_is_not_lost():
+    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    ticks = run(core, 50, [tracker("udp:a", 1, FREE, points={"right.wrist": (0, 0, 1.4)}, ttl=40)])
+    assert ticks[0][1]["points"] == {"right.wrist": [0.0, 0.0, 1.4]} and ticks[-1][1]["points"] == {}
+    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    run(core, 5, [tracker(4, 1, DOME_TOP, points={"right.wrist": (0, 0, 1.4)}, ttl=40)])
+    (_, state, *_), = run(core, 1, [["tracker_gone", 4]])
+    assert state["points"] == {} and state["tracking"] == {"lost": []} and not state["contact"]
+    assert run(core, 60)[-1][1]["events"] == [], "no loss is reported for a source that left"
+
+
+def test_a_scenario_switch_keeps_who_drives_each_tool_and_what_is_lost():
+    core = two_fingers()
+    run(core, 30, [tracker("udp:a", 1, FREE, point=THUMB, ttl=5), tracker(2, 1, DOME_TOP)])
+    core.tick([["scenario", "contact-angle", {}, 0]], 0)
+    assert [t.driver for t in core.sim.tools] == [2, None] and core.sim.tool_by_name[THUMB].lost
+    assert core.sim.lost_sources == {"udp:a": (THUMB,)}
+
+
+# -- each device gets its own finger's cues ------------------------------------------------------
+
+class Fingers(ContactAngle):
+    """Contact angle that also buzzes the thumb's devices while the thumb touches."""
+
+    def step(self, ctx):
+        out = super().step(ctx)
+        thumb = next(t for t in ctx.tools if t.name == THUMB)
+        if not thumb.contact:
+            return out
+        return replace(out, tool_cues={THUMB: (Vibration(50.0, 235.0),)})
+
+
+class Recorder:
+    """Stands in for a device's SerialDevice: keeps the commands it is given."""
+
+    def __init__(self):
+        self.given = []
+
+    def set_commands(self, commands, write_now=False):
+        self.given.append(list(commands))
+
+
+def rig_of_two():
+    configs = [DeviceConfig("ferrovibe", profile_by_model("ferrovibe"), PortSpec.parse("/dev/null"),
+                            finger=PRIMARY_POINT),
+               DeviceConfig("fingertac", profile_by_model("fingertac"), PortSpec.parse("/dev/null"), finger=THUMB)]
+    manager = DeviceManager(configs)
+    drivers = {}
+    for name, d in manager.devices.items():
+        d.driver = drivers[name] = Recorder()
+    return manager, drivers
+
+
+def feed_ticks(core, feed, records_by_tick, ticks):
+    for i in range(ticks):
+        out = core.tick(records_by_tick.get(i, []), i * MS)
+        if out.cues is not None:
+            record = ["cues", out.tick, i * MS, out.cues]
+            if out.finger_cues is not None:
+                record.append(out.finger_cues)
+            feed.handle(record, i * MS)
+
+
+def given(manager, drivers, name, cues) -> bool:
+    """The device `name` was last given exactly what its encoder makes of `cues`."""
+    return drivers[name].given[-1] == list(manager.devices[name].encoder.encode(cues).commands.values())
+
+
+def test_touching_with_the_index_cues_only_the_index_device():
+    core = two_fingers()
+    manager, drivers = rig_of_two()
+    feed = DeviceFeed(manager)
+    feed_ticks(core, feed, {0: [tracker(1, 0, DOME_TOP), tracker(1, 1, FREE_SIDE, point=THUMB)]}, 5)
+    assert manager.cues == (Tilt(0.0, 100.0),) and manager.finger_cues == {THUMB: ()}
+    assert given(manager, drivers, "ferrovibe", (Tilt(0.0, 100.0),))
+    assert given(manager, drivers, "fingertac", ()), "the thumb's device stays off"
+    assert not given(manager, drivers, "ferrovibe", ()), "(the tilt is not what off looks like)"
+
+
+def test_touching_with_the_thumb_cues_only_the_thumb_device():
+    core = two_fingers(Fingers())
+    manager, drivers = rig_of_two()
+    feed = DeviceFeed(manager)
+    feed_ticks(core, feed, {0: [tracker(1, 0, FREE), tracker(1, 1, DOME_TOP, point=THUMB)]}, 5)
+    assert manager.cues == () and manager.finger_cues == {THUMB: (Vibration(50.0, 235.0),)}
+    assert given(manager, drivers, "fingertac", (Vibration(50.0, 235.0),))
+    assert not given(manager, drivers, "fingertac", ())
+    assert given(manager, drivers, "ferrovibe", ()), "the index's device stays off"
+
+
+def test_a_fail_safe_turns_every_finger_off():
+    manager, drivers = rig_of_two()
+    feed = DeviceFeed(manager)
+    feed.handle(["cues", 1, 0, [], {THUMB: [{"kind": "vibration", "intensity_pct": 50.0, "carrier_hz": 235.0}]}], 0)
+    assert manager.finger_cues == {THUMB: (Vibration(50.0, 235.0),)}
+    feed.handle(["cues", 2, 0, []], 0)  # a fail-safe record names no finger: all off
+    assert manager.cues == () and manager.finger_cues == {}
+    with pytest.raises(ValueError, match="not a cue record"):
+        feed.handle(["cues", 3, 0, [], {THUMB: "buzz"}], 0)
+
+
+# -- the wire -----------------------------------------------------------------------------------
+
+def test_v14_tracker_fields_reach_the_loop_record_through_the_udp_port():
+    datagram = msgpack.packb({"type": "tracker", "seq": 4, "t": 1.5, "pos": [0, 0, 1], "point": THUMB,
+                              "points": {"right.palm": [0, 0.1, 1]}, "ttl": 40})
+    assert parse_datagram(datagram, "udp:x", 9) == ["tracker", "udp:x", 4, 1.5, [0.0, 0.0, 1.0], None, 9, THUMB,
+                                                     {"right.palm": [0.0, 0.1, 1.0]}, 40.0]
+    plain = msgpack.packb({"type": "tracker", "seq": 4, "t": 1.5, "pos": [0, 0, 1]})
+    assert parse_datagram(plain, "udp:x", 9) == ["tracker", "udp:x", 4, 1.5, [0.0, 0.0, 1.0], None, 9]
