@@ -89,3 +89,25 @@ def test_tracker_loss_turns_cues_off_within_100ms_and_recovers():
         assert any(e.magnitude > 0 for e in tilt_edges(emulator, back_from_us)), "no cue after the tracker came back"
         assert not get_json(rig.base + "/api/state")["tracking"]["lost"]
         assert math.isfinite(rig.source()["age_ms"])
+
+
+def test_two_fingers_two_devices_the_index_cues_only_its_own_device():
+    """A FerroVibe on each finger (--finger; two of one model, so a misrouted tilt would show on
+    the thumb's device too): the index presses the dome while the thumb hovers beside it; only
+    the index's device shows anything."""
+    rate = 110.0
+    times = [i / rate for i in range(330)]
+    rows = [{"right.index.tip": point_at_angle(-20.0, TOUCH if 110 <= i < 220 else AWAY),
+             "right.thumb.tip": point_at_angle(60.0, AWAY + 0.05)} for i in range(330)]
+    with LeapRig(times, rows, devices={"index": "ferrovibe", "thumb": "ferrovibe"},
+                 extra=["--finger", "index=right.index.tip", "--finger", "thumb=right.thumb.tip"]) as rig:
+        index, thumb = rig.emulators["index"], rig.emulators["thumb"]
+        deadline = time.monotonic() + 12
+        while time.monotonic() < deadline and not any(e.magnitude > 0 for e in tilt_edges(index)):
+            time.sleep(0.05)
+        state = get_json(rig.base + "/api/state")
+        assert [t["name"] for t in state["tools"]] == ["right.index.tip", "right.thumb.tip"], state["tools"]
+        time.sleep(3.2)  # a whole loop of the path: press and lift again
+        assert any(e.magnitude > 0 for e in tilt_edges(index)), "the index's device never showed the touch"
+        shown = [e for e in tilt_edges(thumb) if e.magnitude > 0 or e.intensity > 0 or e.gate]
+        assert not shown, f"the thumb's device was cued by the index's touch: {shown[:3]}"
