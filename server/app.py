@@ -18,6 +18,7 @@ from server.api.browser_safety import BrowserSafety, options_for
 from server.api.experiment_routes import router as experiment_router
 from server.api.guard import AuditTrail, guard, install_access_doc
 from server.api.routes import router
+from server.api.tracker_routes import router as tracker_router
 from server.auth import AccessControl
 from server.api.web_client import WebClient
 from server.config import Settings
@@ -27,6 +28,7 @@ from server.hub.device_host import DeviceHost
 from server.hub.hub import Hub
 from server.hub.owner import HubForWorkers
 from server.hub.supervisor import LoopSupervisor
+from server.hub.tracker_host import TrackerHost
 from server.loop import tracker_udp
 
 log = logging.getLogger("viestac")
@@ -112,6 +114,12 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
             app.state.tracker_udp = "%s:%d" % supervisor.tracker_sock.getsockname()[:2]
             log.info("tracker UDP port: %s (docs/protocol.md)", app.state.tracker_udp)
         supervisor.start()
+        trackers = None
+        if settings.trackers and supervisor.tracker_sock is not None:  # sources run outside loop and hub
+            trackers = TrackerHost(settings.tracker_specs(), app.state.tracker_udp, settings.data_dir)
+            trackers.owner = hub.owner
+            trackers.start()
+        app.state.tracker_host = trackers
         flusher = asyncio.get_running_loop().create_task(_flush_recorder(experiment))
         health = asyncio.get_running_loop().create_task(hub.watch_health({"loop": supervisor, "device_host": devices}))
         access.tick()  # a lease that expired while the server was down goes now
@@ -126,6 +134,8 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
         health.cancel()
         lease_tick.cancel()
         await asyncio.to_thread(experiment.flush)
+        if trackers is not None:
+            await trackers.stop()
         await supervisor.stop()
         await devices.stop()  # every actuator off first, then the ports are closed
         if rig:
@@ -146,8 +156,9 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     app.state.experiment = experiment
     app.state.access = access
     app.state.tracker_udp = None  # "HOST:PORT" once bound
+    app.state.tracker_host = None  # the tracker host process's handle, with --tracker
     # every /api operation passes the access guard first (server/api/guard.py)
-    for api in (router, experiment_router, access_router):
+    for api in (router, experiment_router, access_router, tracker_router):
         app.include_router(api, dependencies=[Depends(guard)], responses=GUARD_ERRORS)  # each router says /api
     app.add_middleware(AuditTrail)
     install_access_doc(app)  # /openapi.json says who may call each operation

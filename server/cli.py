@@ -58,7 +58,8 @@ def _serve(args: argparse.Namespace) -> int:
                             tls_cert=Path(args.tls_cert) if args.tls_cert else None,
                             tls_key=Path(args.tls_key) if args.tls_key else None,
                             allowed_hosts=tuple(args.allow_host), allowed_origins=tuple(args.allow_origin),
-                            login_link=not args.no_login_link, fingers=_fingers(args.finger))
+                            login_link=not args.no_login_link, fingers=_fingers(args.finger),
+                            trackers=tuple(args.tracker))
     except (ParamError, ProfileError, ValueError) as exc:
         print(f"viestac serve: {exc}", file=sys.stderr)
         return 2
@@ -260,6 +261,10 @@ def _devices(args: argparse.Namespace) -> int:
 
 
 def _emulate(args: argparse.Namespace) -> int:
+    if args.rest[:1] == ["leap"]:  # the Leap Motion service's WebSocket (server/tracking/leap_emulator.py)
+        from server.tracking.leap_emulator import main as leap_main
+
+        return leap_main(args.rest[1:])
     from devices.emulator import main as emulate_main
 
     return emulate_main(args.rest)
@@ -391,6 +396,14 @@ def _bench_latency(args: argparse.Namespace) -> int:
 
     result = run_latency_bench(seconds=args.seconds, clients=args.clients, warmup_s=args.warmup, tracker=args.tracker)
     return _print_bench(result, args.json)
+
+
+def _bench_tracking(args: argparse.Namespace) -> int:
+    from server.bench.tracking_bench import run_tracking_bench
+
+    result = run_tracking_bench(Path(args.out), latency_seconds=args.latency_seconds, viewers=args.viewers)
+    print(json.dumps(result, indent=None if args.json else 1))
+    return 0
 
 
 def _bench_roundtrip(args: argparse.Namespace) -> int:
@@ -540,6 +553,10 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--tracker-udp", default="auto", metavar="HOST:PORT|PORT|auto|off",
                        help="the UDP port the 1 kHz loop reads tracker samples from, the shortest tracker -> device "
                             "path (docs/protocol.md); auto = the HTTP host and port + 1 (a free one with --port 0)")
+    serve.add_argument("--tracker", action="append", default=[], metavar="SPEC",
+                       help="a tracker source, repeatable: leap[:URL], replay:FILE.csv[:loop|:once], scripted:NAME "
+                            "(tap, circle, pinch); run by the tracker host, sent to the tracker UDP port "
+                            "(docs/trackers.md)")
     serve.add_argument("--overrun-threshold", type=int, default=10, metavar="N",
                        help="/api/health is degraded above N loop overruns (periods > 1.5 ms) in 10 s (default 10)")
     serve.add_argument("--lease-ttl", type=float, default=60.0, metavar="SECONDS",
@@ -709,6 +726,16 @@ def build_parser() -> argparse.ArgumentParser:
     faults.add_argument("--check", action="store_true", help="exit 1 when a fault misses its acceptance")
     faults.add_argument("--json", action="store_true", help="print one JSON object")
     faults.set_defaults(func=_bench_faults)
+    tracking = bench_sub.add_parser("tracking", help="tracker filters: jitter against lag and contact chatter on "
+                                    "noisy finger paths (raw, 1€, moving average; chart), and Leap sample -> device "
+                                    "command through the whole server")
+    tracking.add_argument("--out", required=True, metavar="DIR", help="tracking.json and tracking_filters.png go here")
+    tracking.add_argument("--latency-seconds", type=float, default=130.0,
+                          help="how long to measure Leap sample -> device command (default 130 s: > 1000 "
+                               "switches; 0 skips it)")
+    tracking.add_argument("--viewers", type=int, default=64, help="viewer clients during the latency part")
+    tracking.add_argument("--json", action="store_true", help="print one JSON object on one line")
+    tracking.set_defaults(func=_bench_tracking)
     for name, func, what in (("accuracy", _bench_accuracy, "cost against error of every contact method on fixed "
                                                            "trajectories over the thesis scenes"),
                              ("stability", _bench_stability, "where each method fails: speed x thickness, stiffness "

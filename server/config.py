@@ -13,6 +13,7 @@ from server.loop.process import LoopConfig
 from server.loop.tracker_udp import is_loopback
 from server.core.points import PRIMARY_POINT, check_point_name
 from server.core.scene import Scene
+from server.tracking.sources import SourceSpec, parse_specs
 
 WEB_ROOT = Path(__file__).resolve().parents[1] / "clients" / "web"
 STUDIES_DIR = Path(__file__).resolve().parents[1] / "studies"
@@ -47,6 +48,7 @@ class Settings:
     allowed_hosts: tuple[str, ...] = ()    # Host names answered besides the defaults (docs/security.md); "*": any
     allowed_origins: tuple[str, ...] = ()  # page origins allowed besides the server's own (also CORS)
     login_link: bool = True         # print a single-use admin login link at start
+    trackers: tuple[str, ...] = ()  # tracker sources run by the tracker host (serve --tracker; docs/trackers.md)
     fingers: tuple[tuple[str, str], ...] = ()  # (device name, point): serve --finger NAME=POINT (docs/devices.md)
 
     def __post_init__(self) -> None:
@@ -74,6 +76,9 @@ class Settings:
         if self.scene_file is not None:
             Scene.load(self.scene_file)  # fails early with the offending field
         self.tracker_address()  # fails early with what is wrong
+        if self.trackers and self.tracker_address() is None:
+            raise ValueError("--tracker needs the tracker UDP port (--tracker-udp is off)")
+        self.tracker_specs()  # fails early: an unknown kind, a missing replay file, a bad CSV line
         if (self.tls_cert is None) != (self.tls_key is None):
             raise ValueError("--tls-cert and --tls-key go together")
         for path in (self.tls_cert, self.tls_key):
@@ -108,6 +113,9 @@ class Settings:
                              "(127.0.0.1 or ::1), because it has no authentication; run the tracker bridge on the "
                              "rig PC, or send its samples over /ws with a token (docs/security.md)")
         return host, number
+
+    def tracker_specs(self) -> tuple[SourceSpec, ...]:
+        return parse_specs(self.trackers)
 
     def device_configs(self, rig: list[DeviceConfig] = ()) -> list[DeviceConfig]:
         """The devices to drive (the configured ones, or the simulated rig's `rig`), each on its

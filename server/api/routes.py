@@ -193,10 +193,12 @@ async def telemetry(hub: HubDep) -> dict:
 
 
 @router.get("/trackers", responses=errors(422), summary="Recent tracker samples with when the hub received and the loop applied them")
-async def trackers(hub: HubDep, limit: int = 1000) -> dict:
+async def trackers(hub: HubDep, request: Request, limit: int = 1000) -> dict:
     rows = list(hub.tracker_applied)[-max(1, min(limit, 4096)):]
+    host = getattr(request.app.state, "tracker_host", None)  # the --tracker sources' health (docs/trackers.md)
     return {"columns": ["client_id", "seq", "t_ms", "hub_recv_ns", "loop_applied_ns"], "rows": rows,
-            "clock": "hub_recv_ns and loop_applied_ns are CLOCK_MONOTONIC of the server machine"}
+            "clock": "hub_recv_ns and loop_applied_ns are CLOCK_MONOTONIC of the server machine",
+            "sources": list(host.sources) if host is not None else []}
 
 
 @router.post("/telemetry/reset", summary="Start a new cumulative timing window")

@@ -74,13 +74,16 @@ POLICY: dict[str, Rule] = {
     "GET /api/devices": _view("device status"),
     "GET /api/clients": _view("connected clients"),
     "GET /api/telemetry": _view("loop timing"),
-    "GET /api/trackers": _view("recent tracker samples"),
+    "GET /api/trackers": _view("recent tracker samples and the tracker sources' health"),
     "GET /api/lease": _view("who holds the lease, the queue"),
     # the rig changes: the lease holder only
     "POST /api/scenario": _rig("switch the scenario"),
     "POST /api/trial": _rig("start a trial"),
     "DELETE /api/trial": _rig("end the trial"),
     "POST /api/command": _rig("a key or experimenter command, as operator"),
+    "POST /api/trackers/{source}/capture": _rig("capture tracked points for a calibration"),
+    "PUT /api/trackers/{source}/calibration": _rig("calibrate a tracker source"),
+    "DELETE /api/trackers/{source}/calibration": _rig("a tracker source back to its default calibration"),
     "POST /api/telemetry/reset": _rig("a new timing window (the numbers other labs read)"),
     # studies: the rig's study files; staff reads them to plan sessions
     "GET /api/studies": Rule(STAFF, doc="study files"),

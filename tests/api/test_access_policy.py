@@ -21,7 +21,7 @@ from server.auth.policy import POLICY, decide
 from server.config import Settings
 
 PATH_VALUES = {"session_id": "s-unknown", "seq": "0", "question": "rating", "study_id": "thesis-2021",
-               "token_id": "00000000"}
+               "token_id": "00000000", "source": "leap"}
 CALLERS = ("none", "observer", "participant", "experimenter", "experimenter+lease", "admin+lease")
 
 

@@ -1,0 +1,92 @@
+"""The hub's handle on the tracker host process (server/tracking/host_process.py).
+
+Adapter only, in the device host's shape (server/hub/child.py: add_reader, no thread; restart
+with backoff). The tracker samples never pass through here: the tracker host sends them to the
+loop's tracker UDP port. What comes here is each source's health (every 0.1 s; served by
+`GET /api/trackers` as `sources`) and answers to calibration requests.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import json
+import os
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+from server.hub.child import ChildProcess
+from server.tracking.sources import SourceSpec
+
+ANSWER_TIMEOUT_S = 5.0
+
+
+class TrackerHostUnavailable(RuntimeError):
+    """The tracker host process did not answer (starting, restarting or stuck)."""
+
+
+class TrackerHost(ChildProcess):
+    what = "tracker host process"
+
+    def __init__(self, specs: tuple[SourceSpec, ...], udp_target: str, data_dir: Path):
+        super().__init__()
+        self.specs = tuple(specs)
+        self.udp_target = udp_target
+        self.data_dir = Path(data_dir)
+        self.sources: list[dict] = [{"name": s.name, "kind": s.kind, "status": "lost", "reasons": ["starting"]}
+                                    for s in self.specs]
+        self.info: dict = {}
+        self._requests: dict[int, asyncio.Future] = {}
+        self._ids = itertools.count(1)
+
+    def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "server.tracking.host_process", "--control-fd", str(theirs.fileno()),
+             "--udp", self.udp_target, "--data-dir", str(self.data_dir)],
+            stdin=subprocess.PIPE, pass_fds=(theirs.fileno(),), cwd=os.getcwd(), start_new_session=True)
+        proc.stdin.write(json.dumps([s.to_dict() for s in self.specs]).encode())
+        proc.stdin.close()
+        return proc
+
+    def _on_record(self, record: list) -> None:
+        kind = record[0]
+        if kind == "health":
+            self.sources = record[1]
+        elif kind == "answer":
+            future = self._requests.pop(record[1], None)
+            if future is not None and not future.done():
+                future.set_result(record[2])
+        elif kind == "hello":
+            self.info = record[1]
+
+    def _closed(self) -> None:
+        requests, self._requests = self._requests, {}
+        for future in requests.values():
+            if not future.done():
+                future.set_exception(TrackerHostUnavailable("the tracker host process exited (restarting)"))
+        self.sources = [dict(s, status="lost", reasons=["tracker host restarting"]) for s in self.sources]
+
+    async def _ask(self, record: list) -> dict:
+        request = next(self._ids)
+        future = asyncio.get_running_loop().create_future()
+        self._requests[request] = future
+        if not self._send([record[0], request, *record[1:]]):
+            self._requests.pop(request, None)
+            raise TrackerHostUnavailable("the tracker host process is not running (restarting?)")
+        try:
+            return await asyncio.wait_for(future, ANSWER_TIMEOUT_S)
+        except asyncio.TimeoutError:
+            raise TrackerHostUnavailable(f"the tracker host process did not answer within {ANSWER_TIMEOUT_S:g} s") from None
+        finally:
+            self._requests.pop(request, None)
+
+    async def capture(self, source: str, seconds: float) -> dict:
+        return await self._ask(["capture", source, float(seconds)])
+
+    async def calibrate(self, source: str, table: dict | None) -> dict:
+        return await self._ask(["calibrate", source, table])
+
+    async def stop(self) -> None:
+        await self._stop(["stop"], 3.0)
