@@ -203,6 +203,9 @@ class Recorder:
     def set_commands(self, commands, write_now=False):
         self.given.append(list(commands))
 
+    def snapshot(self, writes=0):
+        return {"name": self.name}
+
 
 def rig_of_two():
     configs = [DeviceConfig("ferrovibe", profile_by_model("ferrovibe"), PortSpec.parse("/dev/null"),
@@ -212,6 +215,7 @@ def rig_of_two():
     drivers = {}
     for name, d in manager.devices.items():
         d.driver = drivers[name] = Recorder()
+        d.driver.name = name
     return manager, drivers
 
 
@@ -228,6 +232,12 @@ def feed_ticks(core, feed, records_by_tick, ticks):
 def given(manager, drivers, name, cues) -> bool:
     """The device `name` was last given exactly what its encoder makes of `cues`."""
     return drivers[name].given[-1] == list(manager.devices[name].encoder.encode(cues).commands.values())
+
+
+def test_the_device_snapshot_says_each_device_s_finger():
+    manager, _ = rig_of_two()
+    assert {d["name"]: d["finger"] for d in manager.snapshot()["devices"]} == {"ferrovibe": PRIMARY_POINT,
+                                                                               "fingertac": THUMB}
 
 
 def test_touching_with_the_index_cues_only_the_index_device():
