@@ -337,3 +337,13 @@ def test_the_recorder_keeps_every_tracked_point_and_the_loss_and_export_writes_a
     assert [float(v) for v in table[1]] == [0.0, 0, 0, 1.5, *FREE_SIDE, *dome_top]
     assert table[-1][:4] == ["0.05", "", "", ""]
     store.close()
+
+
+def test_point_rows_of_a_state_record_the_hub_could_not_take_ride_with_the_next():
+    core = two_fingers()
+    core.apply(["record", 1], 0)
+    first = core.tick([tracker(1, 0, FREE, points={THUMB: FREE_SIDE})], 0).state
+    core.unsent(first)
+    second = core.tick((), MS).state
+    assert [row[0] for row in second["point_rows"]] == [0, 1]
+    assert [row[0] for row in second["trajectory"]] == [0, 1]
