@@ -290,7 +290,7 @@ class DeviceManager:
         return {name: d.driver.status for name, d in self.devices.items()}
 
     def snapshot(self, writes: int = 0) -> dict:
-        return {"devices": [{**d.driver.snapshot(writes), "profile": d.profile.to_dict(),
+        return {"devices": [{**d.driver.snapshot(writes), "profile": d.profile.to_dict(), "finger": d.config.finger,
                              "refusals": [r.to_dict() for r in d.refusals]} for d in self.devices.values()],
                 "refusals": [r.to_dict() for r in self.refusals]}
 

@@ -387,9 +387,16 @@ class LoopCore:
         out = r.output
         sim = self.sim
         tool = sim.tools[0]
+        hip, proxy = _round(r.hip), _round(r.proxy)
+        # the primary tool's entry shares the rounded hip and proxy above (r.tools[0] is that tool)
+        tools = [{"name": v.name, "hip": hip, "proxy": proxy, "contact": r.contact, "lost": v.lost}
+                 for v in r.tools[:1]]
+        for v in r.tools[1:]:
+            tools.append({"name": v.name, "hip": _round(v.hip), "proxy": _round(v.proxy), "contact": v.contact,
+                          "lost": v.lost})
         record = {
             "frame": self.frames, "tick": r.tick, "t": now_ns / 1e9, "scene": sim.scene.hash,
-            "hip": _round(r.hip), "proxy": _round(r.proxy), "force": _round(r.force, 6),
+            "hip": hip, "proxy": proxy, "force": _round(r.force, 6),
             "contact": r.contact,
             "contacts": [[c.body_id, _round(c.normal, 6), round(c.depth, 9)] for c in r.contacts],
             "objects": [[oid, _round(p.pos), [round(q, 9) for q in p.quat]] for oid, p in sim.moved.items()],
@@ -400,10 +407,9 @@ class LoopCore:
             "stiffness": r.stiffness,  # never changed in place (Simulation): no copy needed
             "haptic": r.haptic,
             "driver": None if tool.driver is None else [tool.driver, tool.seq],
-            "tools": [{"name": v.name, "hip": _round(v.hip), "proxy": _round(v.proxy), "contact": v.contact,
-                       "lost": v.lost} for v in r.tools],
-            "points": {name: _round(p) for name, p in sim.points.items()},
-            "tracking": {"lost": list(sim.lost_sources)},
+            "tools": tools,
+            "points": {name: _round(p) for name, p in sim.points.items()} if sim.points else {},
+            "tracking": {"lost": list(sim.lost_sources) if sim.lost_sources else []},
             "samples": self.samples.tobytes(),
             "trackers": self.tracker_applied,
             "trajectory": self.trajectory,

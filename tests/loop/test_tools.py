@@ -203,6 +203,9 @@ class Recorder:
     def set_commands(self, commands, write_now=False):
         self.given.append(list(commands))
 
+    def snapshot(self, writes=0):
+        return {"name": self.name}
+
 
 def rig_of_two():
     configs = [DeviceConfig("ferrovibe", profile_by_model("ferrovibe"), PortSpec.parse("/dev/null"),
@@ -212,6 +215,7 @@ def rig_of_two():
     drivers = {}
     for name, d in manager.devices.items():
         d.driver = drivers[name] = Recorder()
+        d.driver.name = name
     return manager, drivers
 
 
@@ -228,6 +232,12 @@ def feed_ticks(core, feed, records_by_tick, ticks):
 def given(manager, drivers, name, cues) -> bool:
     """The device `name` was last given exactly what its encoder makes of `cues`."""
     return drivers[name].given[-1] == list(manager.devices[name].encoder.encode(cues).commands.values())
+
+
+def test_the_device_snapshot_says_each_device_s_finger():
+    manager, _ = rig_of_two()
+    assert {d["name"]: d["finger"] for d in manager.snapshot()["devices"]} == {"ferrovibe": PRIMARY_POINT,
+                                                                               "fingertac": THUMB}
 
 
 def test_touching_with_the_index_cues_only_the_index_device():
@@ -327,3 +337,13 @@ def test_the_recorder_keeps_every_tracked_point_and_the_loss_and_export_writes_a
     assert [float(v) for v in table[1]] == [0.0, 0, 0, 1.5, *FREE_SIDE, *dome_top]
     assert table[-1][:4] == ["0.05", "", "", ""]
     store.close()
+
+
+def test_point_rows_of_a_state_record_the_hub_could_not_take_ride_with_the_next():
+    core = two_fingers()
+    core.apply(["record", 1], 0)
+    first = core.tick([tracker(1, 0, FREE, points={THUMB: FREE_SIDE})], 0).state
+    core.unsent(first)
+    second = core.tick((), MS).state
+    assert [row[0] for row in second["point_rows"]] == [0, 1]
+    assert [row[0] for row in second["trajectory"]] == [0, 1]
