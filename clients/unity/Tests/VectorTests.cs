@@ -75,7 +75,15 @@ namespace Viestac.Client.Tests
                         Quat? q = null;
                         if (m.ContainsKey("quat")) { var a = Nums(m["quat"]); q = new Quat(a[0], a[1], a[2], a[3]); }
                         var p = Nums(m["pos"]);
-                        Protocol.WriteTracker(w, Convert.ToInt64(m["seq"]), Convert.ToDouble(m["t"]), new Vec3(p[0], p[1], p[2]), q);
+                        var sample = new Tracker { Seq = Convert.ToInt64(m["seq"]), TMs = Convert.ToDouble(m["t"]), Pos = new Vec3(p[0], p[1], p[2]), Quat = q };
+                        if (m.ContainsKey("point")) sample.Point = (string)m["point"];
+                        if (m.ContainsKey("points"))
+                            sample.Points = ((Dictionary<string, object>)m["points"]).Select(kv => { var a = Nums(kv.Value); return new PointPos(kv.Key, new Vec3(a[0], a[1], a[2])); }).ToList();
+                        if (m.ContainsKey("ttl")) sample.TtlMs = Convert.ToDouble(m["ttl"]);
+                        ClientChecks.CheckTracker(sample);
+                        if (sample.Point == null && sample.Points == null && sample.TtlMs == null)
+                            Protocol.WriteTracker(w, sample.Seq, sample.TMs, sample.Pos, q); // the v1.3 overload stays byte-exact
+                        else Protocol.WriteTracker(w, sample);
                         break;
                     case "input":
                         Protocol.WriteInput(w, (string)m["key"], (string)m["action"], m.ContainsKey("value") ? m["value"] : null);
