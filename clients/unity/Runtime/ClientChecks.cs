@@ -108,21 +108,12 @@ namespace Viestac.Client
         }
 
         /// <summary>v1.4: `point` a point name, `points` point names within the workspace, `ttl` in [1, 10000] ms.</summary>
-        public static void CheckTrackerV14(string point, List<PointPos> points, double? ttlMs)
+        public static void CheckTrackerV14(string point, IList<PointPos> points, double? ttlMs)
         {
             if (point != null && !TrackedPoints.IsPointName(point)) throw Protocol.Bad("tracker.point is a point name (HAND.wrist, HAND.palm or HAND.FINGER.JOINT)");
             if (points != null)
             {
-                double h = Protocol.WorkspaceHalfExtent;
-                for (int i = 0; i < points.Count; i++)
-                {
-                    var p = points[i];
-                    if (!TrackedPoints.IsPointName(p.Name)) throw Protocol.Bad("tracker.points keys are point names");
-                    var v = p.Pos;
-                    if (double.IsNaN(v.X + v.Y + v.Z) || double.IsInfinity(v.X + v.Y + v.Z)) throw new ProtocolException("non_finite", "NaN or Infinity in a number");
-                    if (Math.Abs(v.X) > h || Math.Abs(v.Y) > h || Math.Abs(v.Z) > h)
-                        throw new ProtocolException("out_of_range", "tracker.points lie inside the workspace (±10 scene units)");
-                }
+                for (int i = 0; i < points.Count; i++) CheckPoint(points[i].Name, points[i].Pos);
                 for (int i = 1; i < points.Count; i++)
                     for (int j = 0; j < i; j++)
                         if (points[i].Name == points[j].Name) throw Protocol.Bad("tracker.points names each point once");
@@ -133,6 +124,16 @@ namespace Viestac.Client
                 if (double.IsNaN(ttl) || double.IsInfinity(ttl)) throw new ProtocolException("non_finite", "NaN or Infinity in a number");
                 if (!(ttl >= MinTtlMs && ttl <= MaxTtlMs)) throw Protocol.Bad("tracker.ttl is in [1, 10000] ms");
             }
+        }
+
+        /// <summary>One tracked point: a point name, finite, inside the workspace.</summary>
+        public static void CheckPoint(string name, Vec3 v)
+        {
+            if (!TrackedPoints.IsPointName(name)) throw Protocol.Bad("tracker.points keys are point names");
+            if (double.IsNaN(v.X + v.Y + v.Z) || double.IsInfinity(v.X + v.Y + v.Z)) throw new ProtocolException("non_finite", "NaN or Infinity in a number");
+            double h = Protocol.WorkspaceHalfExtent;
+            if (Math.Abs(v.X) > h || Math.Abs(v.Y) > h || Math.Abs(v.Z) > h)
+                throw new ProtocolException("out_of_range", "tracker.points lie inside the workspace (±10 scene units)");
         }
 
         public const double MinTtlMs = 1.0, MaxTtlMs = 10000.0;
