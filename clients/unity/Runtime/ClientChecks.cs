@@ -41,6 +41,28 @@ namespace Viestac.Client
                                      Protocol.AsNum(a[2], "tracker.quat"), Protocol.AsNum(a[3], "tracker.quat"));
                     }
                     CheckTracker(seq, tMs, pos, q);
+                    var sample = new Tracker { Seq = seq, TMs = tMs, Pos = pos, Quat = q };
+                    var point = Protocol.Field(m, "point");
+                    if (point != null)
+                    {
+                        sample.Point = point as string;
+                        if (sample.Point == null) throw Protocol.Bad("tracker.point is a point name");
+                    }
+                    var points = Protocol.Field(m, "points");
+                    if (points != null)
+                    {
+                        var map = points as Dictionary<string, object>;
+                        if (map == null) throw Protocol.Bad("tracker.points is a map point name → [x, y, z]");
+                        sample.Points = new List<PointPos>(map.Count);
+                        foreach (var kv in map)
+                        {
+                            if (!TrackedPoints.IsPointName(kv.Key)) throw Protocol.Bad("tracker.points key '" + kv.Key + "' is not a point name");
+                            sample.Points.Add(new PointPos(kv.Key, Protocol.Vec(kv.Value, "tracker.points")));
+                        }
+                    }
+                    var ttl = Protocol.Field(m, "ttl");
+                    if (ttl != null) sample.TtlMs = Protocol.AsNum(ttl, "tracker.ttl");
+                    CheckTrackerV14(sample.Point, sample.Points, sample.TtlMs);
                     break;
                 }
                 case "input":
@@ -77,6 +99,44 @@ namespace Viestac.Client
                 if (!(n >= 0.5 && n <= 2)) throw Protocol.Bad("tracker.quat has a norm in [0.5, 2]");
             }
         }
+
+        /// <summary>A whole `tracker` sample: CheckTracker and the v1.4 fields.</summary>
+        public static void CheckTracker(Tracker t)
+        {
+            CheckTracker(t.Seq, t.TMs, t.Pos, t.Quat);
+            CheckTrackerV14(t.Point, t.Points, t.TtlMs);
+        }
+
+        /// <summary>v1.4: `point` a point name, `points` point names within the workspace, `ttl` in [1, 10000] ms.</summary>
+        public static void CheckTrackerV14(string point, IList<PointPos> points, double? ttlMs)
+        {
+            if (point != null && !TrackedPoints.IsPointName(point)) throw Protocol.Bad("tracker.point is a point name (HAND.wrist, HAND.palm or HAND.FINGER.JOINT)");
+            if (points != null)
+            {
+                for (int i = 0; i < points.Count; i++) CheckPoint(points[i].Name, points[i].Pos);
+                for (int i = 1; i < points.Count; i++)
+                    for (int j = 0; j < i; j++)
+                        if (points[i].Name == points[j].Name) throw Protocol.Bad("tracker.points names each point once");
+            }
+            if (ttlMs.HasValue)
+            {
+                double ttl = ttlMs.Value;
+                if (double.IsNaN(ttl) || double.IsInfinity(ttl)) throw new ProtocolException("non_finite", "NaN or Infinity in a number");
+                if (!(ttl >= MinTtlMs && ttl <= MaxTtlMs)) throw Protocol.Bad("tracker.ttl is in [1, 10000] ms");
+            }
+        }
+
+        /// <summary>One tracked point: a point name, finite, inside the workspace.</summary>
+        public static void CheckPoint(string name, Vec3 v)
+        {
+            if (!TrackedPoints.IsPointName(name)) throw Protocol.Bad("tracker.points keys are point names");
+            if (double.IsNaN(v.X + v.Y + v.Z) || double.IsInfinity(v.X + v.Y + v.Z)) throw new ProtocolException("non_finite", "NaN or Infinity in a number");
+            double h = Protocol.WorkspaceHalfExtent;
+            if (Math.Abs(v.X) > h || Math.Abs(v.Y) > h || Math.Abs(v.Z) > h)
+                throw new ProtocolException("out_of_range", "tracker.points lie inside the workspace (±10 scene units)");
+        }
+
+        public const double MinTtlMs = 1.0, MaxTtlMs = 10000.0;
 
         public static void CheckInput(string key, string action, object value)
         {

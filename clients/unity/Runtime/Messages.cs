@@ -93,6 +93,49 @@ namespace Viestac.Client
         }
     }
 
+    /// <summary>One tool of `state.tools` (v1.4): a tracked point and its god-object.</summary>
+    public struct ToolState
+    {
+        /// <summary>The point that drives it (TrackedPoints), e.g. "right.thumb.tip".</summary>
+        public string Name;
+        public Vec3 Hip, Proxy;
+        public bool Contact;
+        /// <summary>Its tracker source stopped (ttl passed): the tool is home and out of contact.</summary>
+        public bool Lost;
+    }
+
+    /// <summary>A tracker source as `state.driver` and `state.tracking.lost` name it: a /ws
+    /// client's welcome id, or a UDP bridge ("udp:HOST:PORT").</summary>
+    public struct TrackerSource
+    {
+        public long ClientId;
+        /// <summary>Null for a /ws client.</summary>
+        public string Bridge;
+        public override string ToString() { return Bridge ?? ClientId.ToString(System.Globalization.CultureInfo.InvariantCulture); }
+    }
+
+    /// <summary>A named point and its position (scene frame): one entry of `tracker.points`.</summary>
+    public struct PointPos
+    {
+        public string Name;
+        public Vec3 Pos;
+        public PointPos(string name, Vec3 pos) { Name = name; Pos = pos; }
+    }
+
+    /// <summary>A `tracker` sample (client → server). v1.4: `Point` names the point `Pos` is (null:
+    /// the primary, right.index.tip), `Points` more points of the same instant (null: none sent;
+    /// written in list order), `TtlMs` how long the sample is good for (null: until the next).</summary>
+    public sealed class Tracker
+    {
+        public long Seq;
+        public double TMs;
+        public Vec3 Pos;
+        public Quat? Quat;
+        public string Point;
+        public List<PointPos> Points;
+        public double? TtlMs;
+    }
+
     public struct Telemetry
     {
         public double PeriodP50Us, PeriodP99Us, PeriodMaxUs, TickCostP99Us;
@@ -128,6 +171,12 @@ namespace Viestac.Client
         public bool HasDriver;
         public long DriverClientId, DriverSeq;
         public string DriverBridge;
+        /// <summary>v1.4: every tool, primary first (empty from a v1.3 server: then Hip/Proxy/Contact are the only tool).</summary>
+        public readonly List<ToolState> Tools = new List<ToolState>();
+        /// <summary>v1.4: the latest tracked points that drive no tool (a hand's other joints).</summary>
+        public readonly Dictionary<string, Vec3> Points = new Dictionary<string, Vec3>();
+        /// <summary>v1.4: the tracker sources lost right now (`tracking.lost`).</summary>
+        public readonly List<TrackerSource> TrackingLost = new List<TrackerSource>();
 
         readonly List<Cue> _cuePool = new List<Cue>();
 
@@ -142,7 +191,7 @@ namespace Viestac.Client
         internal void Reset()
         {
             Contacts.Clear(); Objects.Clear(); Values.Clear(); Visible.Clear(); Events.Clear();
-            Scales.Clear(); Stiffness.Clear(); Haptic.Clear();
+            Scales.Clear(); Stiffness.Clear(); Haptic.Clear(); Tools.Clear(); Points.Clear(); TrackingLost.Clear();
             for (int i = 0; i < Cues.Count; i++) _cuePool.Add(Cues[i]); // AddRange would copy through a new array
             Cues.Clear();
             HasDriver = false; DriverClientId = 0; DriverBridge = null; DriverSeq = 0; Telemetry = default(Telemetry); Hud = ""; Contact = false;
@@ -168,6 +217,8 @@ namespace Viestac.Client
             foreach (var kv in Scales) other.Scales[kv.Key] = kv.Value;
             foreach (var kv in Stiffness) other.Stiffness[kv.Key] = kv.Value;
             foreach (var kv in Haptic) other.Haptic[kv.Key] = kv.Value;
+            other.Tools.AddRange(Tools); other.TrackingLost.AddRange(TrackingLost);
+            foreach (var kv in Points) other.Points[kv.Key] = kv.Value;
             other.HasDriver = HasDriver; other.DriverClientId = DriverClientId; other.DriverBridge = DriverBridge; other.DriverSeq = DriverSeq;
         }
     }

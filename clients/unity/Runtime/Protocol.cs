@@ -28,17 +28,40 @@ namespace Viestac.Client
         /// ±10 workspace or the server answers out_of_range), `quat` optional.</summary>
         public static void WriteTracker(MsgPackWriter w, long seq, double tMs, Vec3 pos, Quat? quat)
         {
-            w.WriteMapHeader(quat.HasValue ? 5 : 4);
+            WriteTracker(w, seq, tMs, pos, quat, null, null, null);
+        }
+
+        /// <summary>`tracker` of protocol v1.4 (`Seq` as given; `Point`, `Points`, `TtlMs` when set).</summary>
+        public static void WriteTracker(MsgPackWriter w, Tracker t)
+        {
+            WriteTracker(w, t.Seq, t.TMs, t.Pos, t.Quat, t.Point, t.Points, t.TtlMs);
+        }
+
+        static void WriteTracker(MsgPackWriter w, long seq, double tMs, Vec3 pos, Quat? quat, string point, List<PointPos> points, double? ttlMs)
+        {
+            w.WriteMapHeader(4 + (quat.HasValue ? 1 : 0) + (point != null ? 1 : 0) + (points != null ? 1 : 0) + (ttlMs.HasValue ? 1 : 0));
             w.WriteString("type"); w.WriteString("tracker");
             w.WriteString("seq"); w.WriteInt(seq);
             w.WriteString("t"); w.WriteNumber(tMs);
-            w.WriteString("pos"); w.WriteArrayHeader(3); w.WriteNumber(pos.X); w.WriteNumber(pos.Y); w.WriteNumber(pos.Z);
+            w.WriteString("pos"); WriteVec(w, pos);
             if (quat.HasValue)
             {
                 var q = quat.Value;
                 w.WriteString("quat"); w.WriteArrayHeader(4);
                 w.WriteNumber(q.W); w.WriteNumber(q.X); w.WriteNumber(q.Y); w.WriteNumber(q.Z);
             }
+            if (point != null) { w.WriteString("point"); w.WriteString(point); }
+            if (points != null)
+            {
+                w.WriteString("points"); w.WriteMapHeader(points.Count);
+                for (int i = 0; i < points.Count; i++) { w.WriteString(points[i].Name); WriteVec(w, points[i].Pos); }
+            }
+            if (ttlMs.HasValue) { w.WriteString("ttl"); w.WriteNumber(ttlMs.Value); }
+        }
+
+        static void WriteVec(MsgPackWriter w, Vec3 v)
+        {
+            w.WriteArrayHeader(3); w.WriteNumber(v.X); w.WriteNumber(v.Y); w.WriteNumber(v.Z);
         }
 
         /// <summary>`input`: `value` is null (none), a number, a bool or a string.</summary>
@@ -226,7 +249,39 @@ namespace Viestac.Client
                 else s.DriverClientId = AsInt(d[0], "state.driver[0]", 1);
                 s.DriverSeq = AsInt(d[1], "state.driver[1]", 0);
             }
+            foreach (var e in OptList(m, at, "tools"))
+            {
+                var t = e as Dictionary<string, object>;
+                if (t == null) throw Bad("state.tools[n] is a map {name, hip, proxy, contact, lost}");
+                s.Tools.Add(new ToolState
+                {
+                    Name = Str(t, "state.tools[n]", "name"), Hip = Vec(Field(t, "hip"), "state.tools[n].hip"),
+                    Proxy = Vec(Field(t, "proxy"), "state.tools[n].proxy"),
+                    Contact = OptBool(t, "contact", "state.tools[n].contact"), Lost = OptBool(t, "lost", "state.tools[n].lost"),
+                });
+            }
+            foreach (var kv in Map(m, at, "points", false))
+            {
+                if (!TrackedPoints.IsPointName(kv.Key)) throw Bad("state.points keys are point names");
+                s.Points[kv.Key] = Vec(kv.Value, "state.points");
+            }
+            var tracking = Map(m, at, "tracking", false);
+            foreach (var e in OptList(tracking, "state.tracking", "lost")) s.TrackingLost.Add(Source(e, "state.tracking.lost[n]"));
             return s;
+        }
+
+        static bool OptBool(Dictionary<string, object> m, string key, string what)
+        {
+            var v = Field(m, key);
+            if (v == null) return false;
+            if (!(v is bool)) throw Bad(what + " is a bool");
+            return (bool)v;
+        }
+
+        static TrackerSource Source(object v, string what)
+        {
+            if (v is string) return new TrackerSource { Bridge = (string)v };
+            return new TrackerSource { ClientId = AsInt(v, what, 1) };
         }
 
         static Health ParseHealth(Dictionary<string, object> m)

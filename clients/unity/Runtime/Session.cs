@@ -75,10 +75,10 @@ namespace Viestac.Client
         readonly object _sendLock = new object();
         readonly SemaphoreSlim _sendSignal = new SemaphoreSlim(0);
         readonly Queue<object[]> _inputs = new Queue<object[]>();
-        bool _trackerPending, _trackerHasQuat;
-        Vec3 _trackerPos;
-        Quat _trackerQuat;
-        double _trackerT;
+        bool _trackerPending;
+        // the sample waiting to be sent, and its points list, reused: sending allocates nothing
+        readonly Tracker _tracker = new Tracker();
+        readonly List<PointPos> _trackerPoints = new List<PointPos>();
         long _seq;
         Task _run;
 
@@ -159,32 +159,83 @@ namespace Viestac.Client
 
         // ---- sending (any thread) -------------------------------------------------------
 
-        /// <summary>Sends the HIP's pose (scene frame); only the newest sample waiting is sent.
+        /// <summary>Sends the HIP's pose (scene frame); only the newest sample waiting is sent (one
+        /// sample carries every point of an instant: use SendTrackerPoints for a hand).
         /// `tMs` defaults to this machine's epoch milliseconds. Throws ProtocolException
         /// (`out_of_range` outside the ±10 workspace, `bad_message`, `non_finite`) as the server would.</summary>
         public void SendTracker(Vec3 pos, Quat? quat = null, double tMs = double.NaN)
         {
-            // refused here with the server's code rather than answered with an error frame later
-            ClientChecks.CheckTracker(0, double.IsNaN(tMs) ? 0 : tMs, pos, quat);
+            SendSample(null, pos, quat, null, null, tMs);
+        }
+
+        /// <summary>A whole v1.4 sample (`Seq` is ignored: the session numbers its samples; `TMs`
+        /// NaN means now). Checked as the server would; the sample is copied, so it may be reused.</summary>
+        public void SendTracker(Tracker sample)
+        {
+            SendSample(sample.Point, sample.Pos, sample.Quat, sample.Points, sample.TtlMs, sample.TMs);
+        }
+
+        /// <summary>One named tracked point (TrackedPoints), e.g. "right.thumb.tip"; `ttlMs` (1..10000)
+        /// makes the server call this source lost when no newer sample came by then. Returns false
+        /// (and sends nothing) for a point other than the HIP when the server is older than v1.4,
+        /// which would take any sample for the HIP.</summary>
+        public bool SendTrackerPoint(string point, Vec3 pos, Quat? quat = null, double? ttlMs = null)
+        {
+            if (!TrackedPoints.IsPointName(point)) throw new ArgumentException("not a tracked point name: " + point);
+            bool primary = point == TrackedPoints.Primary;
+            if (!primary && !ServerHasPoints) return false;
+            SendSample(primary ? null : point, pos, quat, null, ServerHasPoints ? ttlMs : null, double.NaN);
+            return true;
+        }
+
+        /// <summary>Several points of one instant in one sample (a hand: every joint the tracker
+        /// reports, see TrackedPoints): the HIP (`right.index.tip`) when listed, else the first,
+        /// goes in `pos` with `quat`, the others in `points`. Returns false when nothing was sent:
+        /// an empty list, or a server older than v1.4 and no HIP in the list (with a v1.3 server only
+        /// the HIP is sent). No allocation: pass the same list every frame.</summary>
+        public bool SendTrackerPoints(IList<PointPos> points, Quat? quat = null, double? ttlMs = null, double tMs = double.NaN)
+        {
+            if (points == null || points.Count == 0) return false;
+            int main = 0;
+            for (int i = 0; i < points.Count; i++) if (points[i].Name == TrackedPoints.Primary) { main = i; break; }
+            bool v14 = ServerHasPoints;
+            if (!v14 && points[main].Name != TrackedPoints.Primary) return false;
+            ClientChecks.CheckTrackerV14(null, points, ttlMs); // names, workspace, duplicates, ttl
+            var p = points[main];
             lock (_sendLock)
             {
-                _trackerPos = pos;
-                _trackerHasQuat = quat.HasValue;
-                _trackerQuat = quat.GetValueOrDefault();
-                _trackerT = double.IsNaN(tMs) ? (DateTime.UtcNow - Epoch).TotalMilliseconds : tMs;
-                _trackerPending = true;
+                _trackerPoints.Clear();
+                if (v14) for (int i = 0; i < points.Count; i++) if (i != main) _trackerPoints.Add(points[i]);
+                SendSampleLocked(p.Name == TrackedPoints.Primary ? null : p.Name, p.Pos, quat,
+                                 _trackerPoints.Count > 0 ? _trackerPoints : null, v14 ? ttlMs : null, tMs);
+            }
+            _sendSignal.Release();
+            return true;
+        }
+
+        /// <summary>Whether the server takes `point`, `points` and `ttl` (protocol v1.4); true until
+        /// the welcome says otherwise.</summary>
+        public bool ServerHasPoints { get { var w = Welcome; return w == null || w.Minor >= 4; } }
+
+        void SendSample(string point, Vec3 pos, Quat? quat, List<PointPos> points, double? ttlMs, double tMs)
+        {
+            // refused here with the server's code rather than answered with an error frame later
+            ClientChecks.CheckTracker(0, double.IsNaN(tMs) ? 0 : tMs, pos, quat);
+            ClientChecks.CheckTrackerV14(point, points, ttlMs);
+            lock (_sendLock)
+            {
+                _trackerPoints.Clear();
+                if (points != null) _trackerPoints.AddRange(points);
+                SendSampleLocked(point, pos, quat, points != null ? _trackerPoints : null, ttlMs, tMs);
             }
             _sendSignal.Release();
         }
 
-        /// <summary>A named tracked point (TrackedPoints). Protocol v1.3 carries only the HIP
-        /// (`TrackedPoints.Primary`) on /ws: other points return false and are not sent.</summary>
-        public bool SendTrackerPoint(string point, Vec3 pos, Quat? quat = null)
+        void SendSampleLocked(string point, Vec3 pos, Quat? quat, List<PointPos> points, double? ttlMs, double tMs)
         {
-            if (!TrackedPoints.IsPointName(point)) throw new ArgumentException("not a tracked point name: " + point);
-            if (point != TrackedPoints.Primary) return false;
-            SendTracker(pos, quat);
-            return true;
+            _tracker.Pos = pos; _tracker.Quat = quat; _tracker.Point = point; _tracker.Points = points; _tracker.TtlMs = ttlMs;
+            _tracker.TMs = double.IsNaN(tMs) ? (DateTime.UtcNow - Epoch).TotalMilliseconds : tMs;
+            _trackerPending = true;
         }
 
         /// <summary>A key or command (`input`); `value` null, a number, a bool or a string (≤ 200
@@ -217,7 +268,8 @@ namespace Viestac.Client
                         else if (_trackerPending)
                         {
                             _trackerPending = false;
-                            Protocol.WriteTracker(w, _seq++, _trackerT, _trackerPos, _trackerHasQuat ? _trackerQuat : (Quat?)null);
+                            _tracker.Seq = _seq++;
+                            Protocol.WriteTracker(w, _tracker);
                         }
                         else break;
                     }

@@ -59,6 +59,17 @@ namespace Viestac.Client
                         }
                         break;
                     case "driver": if (!r.TryReadNil()) ReadDriver(r, s); break;
+                    case "tools": if (!r.TryReadNil()) ReadTools(r, s); break;
+                    case "points":
+                        if (r.TryReadNil()) break;
+                        for (int k = r.ReadMapHeader("state.points"); k > 0; k--)
+                        {
+                            var name = Key(r);
+                            if (!TrackedPoints.IsPointName(name)) throw Protocol.Bad("state.points keys are point names");
+                            s.Points[name] = Vec(r, "state.points");
+                        }
+                        break;
+                    case "tracking": if (!r.TryReadNil()) ReadTracking(r, s); break;
                     default: r.Skip(1); break;
                 }
             }
@@ -188,6 +199,49 @@ namespace Viestac.Client
                 var ev = r.ReadValue(2, null) as Dictionary<string, object>;
                 if (ev == null) throw Protocol.Bad("state.events[n] is a map");
                 s.Events.Add(ev);
+            }
+        }
+
+        static void ReadTools(MsgPackReader r, StateFrame s)
+        {
+            const string what = "state.tools[n] is a map {name, hip, proxy, contact, lost}";
+            for (int n = r.ReadArrayHeader("state.tools"); n > 0; n--)
+            {
+                if (!r.IsMap) throw Protocol.Bad(what);
+                var tool = new ToolState();
+                int seen = 0; // name, hip, proxy
+                for (int k = r.ReadMapHeader(what); k > 0; k--)
+                {
+                    switch (Key(r))
+                    {
+                        case "name":
+                            if (!r.IsString) throw Protocol.Bad("state.tools[n].name is a string");
+                            tool.Name = r.ReadString("state.tools[n].name"); seen |= 1; break;
+                        case "hip": tool.Hip = Vec(r, "state.tools[n].hip"); seen |= 2; break;
+                        case "proxy": tool.Proxy = Vec(r, "state.tools[n].proxy"); seen |= 4; break;
+                        case "contact": tool.Contact = !r.TryReadNil() && r.ReadBool("state.tools[n].contact"); break;
+                        case "lost": tool.Lost = !r.TryReadNil() && r.ReadBool("state.tools[n].lost"); break;
+                        default: r.Skip(3); break;
+                    }
+                }
+                if ((seen & 1) == 0) throw Protocol.Bad("state.tools[n].name is a string");
+                if ((seen & 2) == 0) throw Protocol.Bad("state.tools[n].hip is [x, y, z]");
+                if ((seen & 4) == 0) throw Protocol.Bad("state.tools[n].proxy is [x, y, z]");
+                s.Tools.Add(tool);
+            }
+        }
+
+        static void ReadTracking(MsgPackReader r, StateFrame s)
+        {
+            for (int k = r.ReadMapHeader("state.tracking"); k > 0; k--)
+            {
+                if (Key(r) != "lost") { r.Skip(2); continue; }
+                if (r.TryReadNil()) continue;
+                for (int n = r.ReadArrayHeader("state.tracking.lost"); n > 0; n--)
+                {
+                    if (r.IsString) s.TrackingLost.Add(new TrackerSource { Bridge = r.ReadString("state.tracking.lost[n]") });
+                    else s.TrackingLost.Add(new TrackerSource { ClientId = Int(r, "state.tracking.lost[n]", 1) });
+                }
             }
         }
 

@@ -90,6 +90,37 @@ namespace Viestac.Client.Tests
         }
 
         [Test]
+        public void B2_AHandInOneSampleReachesStatePointsAndItsLossIsReported()
+        {
+            using (var s = Connect())
+            {
+                Assert.IsTrue(Pump(s, () => s.Scene != null && s.Welcome != null));
+                Assert.AreEqual(4, s.Welcome.Minor);
+                var hand = new List<PointPos>
+                {
+                    new PointPos("right.wrist", new Vec3(0.1, 0.2, 1.9)), new PointPos("right.index.tip", new Vec3(0.1, 0.2, 1.6)),
+                    new PointPos("right.palm", new Vec3(0.1, 0.2, 1.8)),
+                };
+                StateFrame seen = new StateFrame(), lost = new StateFrame();
+                bool gotHand = false, gotLoss = false, sending = true;
+                s.StateReceived += st =>
+                {
+                    if (!gotHand && st.DrivenBy(s.Welcome.ClientId) && st.Points.ContainsKey("right.wrist")) { st.CopyTo(seen); gotHand = true; }
+                    if (gotHand && !sending && !gotLoss && st.TrackingLost.Any(x => x.Bridge == null && x.ClientId == s.Welcome.ClientId)) { st.CopyTo(lost); gotLoss = true; }
+                };
+                Assert.IsTrue(Pump(s, () => { s.SendTrackerPoints(hand, null, 300); return gotHand; }), "the hand reached state.points");
+                Assert.AreEqual(TrackedPoints.Primary, seen.Tools[0].Name);
+                Assert.AreEqual(1.6, seen.Tools[0].Hip.Z, 1e-9, "the HIP is the index tip of the sample");
+                Assert.AreEqual(1.9, seen.Points["right.wrist"].Z, 1e-9);
+                Assert.AreEqual(1.8, seen.Points["right.palm"].Z, 1e-9);
+                sending = false;
+                Assert.IsTrue(Pump(s, () => gotLoss), "300 ms without a sample: the source is lost");
+                Assert.IsTrue(lost.Tools[0].Lost);
+                Assert.IsFalse(lost.Points.ContainsKey("right.wrist"), "a lost source's points leave state.points");
+            }
+        }
+
+        [Test]
         public void C_AScenarioSwitchSendsTheNewSceneAndStatesNameIt()
         {
             using (var s = Connect(Roles.Operator))

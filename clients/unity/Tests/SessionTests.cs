@@ -159,7 +159,65 @@ namespace Viestac.Client.Tests
             Assert.AreEqual(5L, tracker["t"]);
             Assert.AreEqual("out_of_range", Assert.Throws<ProtocolException>(() => s.SendTracker(new Vec3(11, 0, 0))).Code);
             Assert.AreEqual("bad_message", Assert.Throws<ProtocolException>(() => s.SendInput("r", "hold")).Code);
-            Assert.IsFalse(s.SendTrackerPoint("left.palm", new Vec3(0, 0, 0)), "v1.3 carries only the HIP");
+            // v1.4 (assumed until a welcome says otherwise): any tracked point, here with a ttl
+            Assert.IsTrue(s.SendTrackerPoint("left.palm", new Vec3(0, 0, 0), null, 40));
+            var palm = Decode(t.Sent.Take(TimeoutToken()));
+            Assert.AreEqual("left.palm", palm["point"]); Assert.AreEqual(40L, palm["ttl"]);
+            s.Dispose();
+        }
+
+        [Test]
+        public void SendsAHandAsOneSampleWithTheHipInPos()
+        {
+            var t = new FakeTransport();
+            var s = new ViestacSession(new SessionOptions { Url = new Uri("ws://x/ws"), TransportFactory = () => t, Log = _ => { } });
+            s.Start();
+            t.Sent.Take(); // hello
+            var hand = new List<PointPos>
+            {
+                new PointPos("right.wrist", new Vec3(0, 0.1, 0.8)), new PointPos("right.thumb.tip", new Vec3(0.1, 0.05, 0.4)),
+                new PointPos("right.index.tip", new Vec3(0.12, -0.02, 0.45)), new PointPos("right.index.distal", new Vec3(0.11, -0.02, 0.47)),
+            };
+            Assert.IsTrue(s.SendTrackerPoints(hand, null, 36.5, 1000));
+            var m = Decode(t.Sent.Take(TimeoutToken()));
+            CollectionAssert.AreEqual(new object[] { 0.12, -0.02, 0.45 }, (List<object>)m["pos"]);
+            Assert.IsFalse(m.ContainsKey("point"), "the HIP goes without `point`");
+            CollectionAssert.AreEqual(new[] { "right.wrist", "right.thumb.tip", "right.index.distal" }, ((Dictionary<string, object>)m["points"]).Keys.ToList());
+            Assert.AreEqual(36.5, m["ttl"]);
+            Assert.DoesNotThrow(() => ClientChecks.Check(m));
+
+            // without the HIP the first joint is `pos`, named
+            Assert.IsTrue(s.SendTrackerPoints(hand.GetRange(0, 2)));
+            m = Decode(t.Sent.Take(TimeoutToken()));
+            Assert.AreEqual("right.wrist", m["point"]);
+            CollectionAssert.AreEqual(new[] { "right.thumb.tip" }, ((Dictionary<string, object>)m["points"]).Keys.ToList());
+
+            hand[1] = new PointPos("right.thumb.tip", new Vec3(0, 10.5, 0));
+            Assert.AreEqual("out_of_range", Assert.Throws<ProtocolException>(() => s.SendTrackerPoints(hand)).Code);
+            hand[1] = new PointPos("right.thumb.nail", new Vec3(0, 0, 0));
+            Assert.AreEqual("bad_message", Assert.Throws<ProtocolException>(() => s.SendTrackerPoints(hand)).Code);
+            Assert.AreEqual("bad_message", Assert.Throws<ProtocolException>(() => s.SendTrackerPoint("right.palm", new Vec3(0, 0, 0), null, 0.5)).Code);
+            s.Dispose();
+        }
+
+        [Test]
+        public void AV13ServerGetsOnlyTheHip()
+        {
+            var t = new FakeTransport();
+            var s = new ViestacSession(new SessionOptions { Url = new Uri("ws://x/ws"), TransportFactory = () => t, Log = _ => { } });
+            s.Start();
+            t.Sent.Take(); // hello
+            var welcome = new Dictionary<string, object>(Vector("welcome"));
+            welcome["minor"] = 3L;
+            t.Push(welcome);
+            Assert.IsTrue(WaitFor(() => { s.Drain(); return s.Welcome != null; }));
+            Assert.IsFalse(s.ServerHasPoints);
+            Assert.IsFalse(s.SendTrackerPoint("right.thumb.tip", new Vec3(0, 0, 0)), "a v1.3 server would take it for the HIP");
+            Assert.IsFalse(s.SendTrackerPoints(new[] { new PointPos("right.thumb.tip", new Vec3(0, 0, 0)) }));
+            Assert.IsTrue(s.SendTrackerPoints(new[] { new PointPos("right.thumb.tip", new Vec3(0, 0, 0)), new PointPos("right.index.tip", new Vec3(0.1, 0, 0)) }, null, 40));
+            var m = Decode(t.Sent.Take(TimeoutToken()));
+            CollectionAssert.AreEqual(new[] { "type", "seq", "t", "pos" }, m.Keys.ToList());
+            Assert.AreEqual(0.1, ((List<object>)m["pos"])[0]);
             s.Dispose();
         }
 

@@ -75,7 +75,15 @@ namespace Viestac.Client.Tests
                         Quat? q = null;
                         if (m.ContainsKey("quat")) { var a = Nums(m["quat"]); q = new Quat(a[0], a[1], a[2], a[3]); }
                         var p = Nums(m["pos"]);
-                        Protocol.WriteTracker(w, Convert.ToInt64(m["seq"]), Convert.ToDouble(m["t"]), new Vec3(p[0], p[1], p[2]), q);
+                        var sample = new Tracker { Seq = Convert.ToInt64(m["seq"]), TMs = Convert.ToDouble(m["t"]), Pos = new Vec3(p[0], p[1], p[2]), Quat = q };
+                        if (m.ContainsKey("point")) sample.Point = (string)m["point"];
+                        if (m.ContainsKey("points"))
+                            sample.Points = ((Dictionary<string, object>)m["points"]).Select(kv => { var a = Nums(kv.Value); return new PointPos(kv.Key, new Vec3(a[0], a[1], a[2])); }).ToList();
+                        if (m.ContainsKey("ttl")) sample.TtlMs = Convert.ToDouble(m["ttl"]);
+                        ClientChecks.CheckTracker(sample);
+                        if (sample.Point == null && sample.Points == null && sample.TtlMs == null)
+                            Protocol.WriteTracker(w, sample.Seq, sample.TMs, sample.Pos, q); // the v1.3 overload stays byte-exact
+                        else Protocol.WriteTracker(w, sample);
                         break;
                     case "input":
                         Protocol.WriteInput(w, (string)m["key"], (string)m["action"], m.ContainsKey("value") ? m["value"] : null);
@@ -241,6 +249,9 @@ namespace Viestac.Client.Tests
                 { "scales", s.Scales.ToDictionary(kv => kv.Key, kv => (object)new List<object> { kv.Value.X, kv.Value.Y, kv.Value.Z }) },
                 { "events", s.Events.Cast<object>().ToList() },
                 { "driver", new List<object> { s.HasDriver, s.DriverClientId, s.DriverBridge, s.DriverSeq } },
+                { "tools", s.Tools.Select(t => (object)new List<object> { t.Name, t.Hip.X, t.Hip.Y, t.Hip.Z, t.Proxy.X, t.Proxy.Y, t.Proxy.Z, t.Contact, t.Lost }).ToList() },
+                { "points", s.Points.ToDictionary(kv => kv.Key, kv => (object)new List<object> { kv.Value.X, kv.Value.Y, kv.Value.Z }) },
+                { "tracking", s.TrackingLost.Select(x => (object)new List<object> { x.ClientId, x.Bridge }).ToList() },
             };
         }
 
@@ -258,6 +269,67 @@ namespace Viestac.Client.Tests
             for (int i = 0; i < 300000; i++) Protocol.Decode(r, bytes, 0, bytes.Length, s);
             Assert.AreEqual(before, GC.CollectionCount(0), "collections while decoding");
             Assert.That(s.Objects.Count, Is.GreaterThan(0));
+        }
+
+        [Test]
+        public void DecodingStatesWithToolsAndPointsLeavesNoGarbage()
+        {
+            // v1.4: two tools, a hand's points and a lost source, read into the pooled frame's lists
+            // (events left out: they are the one part that allocates, as the README says)
+            var m = new Dictionary<string, object>((Dictionary<string, object>)Vectors("messages.json", "vectors")
+                .First(x => (string)x["name"] == "state-two-tools-hand-lost-source")["message"]);
+            m.Remove("events");
+            var w = new MsgPackWriter();
+            w.WriteValue(m);
+            var bytes = w.ToArray();
+            var r = new MsgPackReader();
+            var s = new StateFrame();
+            for (int i = 0; i < 1000; i++) Protocol.Decode(r, bytes, 0, bytes.Length, s);
+            int before = GC.CollectionCount(0);
+            for (int i = 0; i < 300000; i++) Protocol.Decode(r, bytes, 0, bytes.Length, s);
+            Assert.AreEqual(before, GC.CollectionCount(0), "collections while decoding");
+            Assert.AreEqual(2, s.Tools.Count);
+            Assert.AreEqual(2, s.Points.Count);
+            Assert.AreEqual(1, s.TrackingLost.Count);
+        }
+
+        [Test]
+        public void V14StateFieldsReachTheTypedFrame()
+        {
+            var v = Vectors("messages.json", "vectors").First(x => (string)x["name"] == "state-two-tools-hand-lost-source");
+            var m = (Dictionary<string, object>)v["message"];
+            var bytes = TestPaths.Hex((string)v["msgpack_hex"]);
+            var s = (StateFrame)Protocol.Decode(new MsgPackReader(), bytes, 0, bytes.Length, new StateFrame());
+            var tools = ((List<object>)m["tools"]).Cast<Dictionary<string, object>>().ToList();
+            Assert.AreEqual(tools.Count, s.Tools.Count);
+            for (int i = 0; i < tools.Count; i++)
+            {
+                Assert.AreEqual(tools[i]["name"], s.Tools[i].Name);
+                Assert.AreEqual(Nums(tools[i]["hip"])[2], s.Tools[i].Hip.Z);
+                Assert.AreEqual(Nums(tools[i]["proxy"])[0], s.Tools[i].Proxy.X);
+                Assert.AreEqual(tools[i]["contact"], s.Tools[i].Contact);
+                Assert.AreEqual(tools[i]["lost"], s.Tools[i].Lost);
+            }
+            Assert.AreEqual(TrackedPoints.Primary, s.Tools[0].Name, "the primary tool first");
+            var points = (Dictionary<string, object>)m["points"];
+            CollectionAssert.AreEquivalent(points.Keys, s.Points.Keys);
+            foreach (var kv in points) Assert.AreEqual(Nums(kv.Value)[1], s.Points[kv.Key].Y, kv.Key);
+            var lost = (List<object>)((Dictionary<string, object>)m["tracking"])["lost"];
+            CollectionAssert.AreEqual(lost.Select(x => x.ToString()).ToList(), s.TrackingLost.Select(x => x.ToString()).ToList());
+            var copy = new StateFrame();
+            s.CopyTo(copy);
+            Assert.AreEqual(Json.Write(Describe(s)), Json.Write(Describe(copy)));
+        }
+
+        [Test]
+        public void TrackedPointNamesAreTheServersSet()
+        {
+            // server/core/points.py: 2 hands × (wrist, palm, 4 thumb joints, 4 fingers × 5 joints)
+            Assert.AreEqual(2 * (2 + 4 + 4 * 5), TrackedPoints.All.Count);
+            Assert.IsTrue(TrackedPoints.IsPointName("left.thumb.metacarpal"));
+            Assert.IsFalse(TrackedPoints.IsPointName("left.thumb.intermediate"));
+            Assert.IsFalse(TrackedPoints.IsPointName("right.index.nail"));
+            Assert.AreEqual("right.index.distal", TrackedPoints.FromWebXR("right", "index-finger-phalanx-distal"));
         }
 
         static double[] Nums(object list) { return ((List<object>)list).Select(Convert.ToDouble).ToArray(); }

@@ -31,6 +31,11 @@ namespace Viestac.Unity
         readonly StateFrame _latest = new StateFrame();
         Transform _hip, _proxy;
         bool _haveState;
+        // v1.4: the other tools (state.tools after the primary) and the hand's points, by name;
+        // built once per name and hidden while absent from the newest frame
+        sealed class Marker { public Transform T; public long Frame; }
+        readonly Dictionary<string, Marker> _toolHips = new Dictionary<string, Marker>(), _toolProxies = new Dictionary<string, Marker>(),
+                                            _points = new Dictionary<string, Marker>();
 
         void Start()
         {
@@ -62,6 +67,36 @@ namespace Viestac.Unity
                 Place(_proxy, _latest.Proxy);
                 foreach (var o in _latest.Objects) Pose(o.Id, o.Pos, o.Rot);
             }
+            PlaceToolsAndPoints(_latest);
+        }
+
+        /// <summary>Every tool but the primary (drawn above as the HIP and proxy) and every point
+        /// that drives no tool, from the newest frame; a lost tool is hidden (it waits at home).</summary>
+        void PlaceToolsAndPoints(StateFrame s)
+        {
+            var colour = UnityConvert.Colour(Scene.Hip.Color);
+            for (int i = 1; i < s.Tools.Count; i++)
+            {
+                var tool = s.Tools[i];
+                Show(_toolHips, tool.Name, "tool " + tool.Name, Scene.Hip.Radius, colour, tool.Hip, s.Frame, !tool.Lost);
+                Show(_toolProxies, tool.Name, "proxy " + tool.Name, Scene.Hip.ProxyRadius, new Color(colour.r, colour.g, colour.b, 0.35f), tool.Proxy, s.Frame, !tool.Lost);
+            }
+            foreach (var kv in s.Points) Show(_points, kv.Key, "point " + kv.Key, Scene.Hip.Radius * 0.4, colour, kv.Value, s.Frame, true);
+            HideStale(_toolHips, s.Frame); HideStale(_toolProxies, s.Frame); HideStale(_points, s.Frame);
+        }
+
+        void Show(Dictionary<string, Marker> markers, string key, string name, double radius, Color colour, Vec3 p, long frame, bool visible)
+        {
+            Marker m;
+            if (!markers.TryGetValue(key, out m)) markers[key] = m = new Marker { T = Ball(name, radius, colour) };
+            m.Frame = frame;
+            m.T.gameObject.SetActive(visible && radius > 0);
+            Place(m.T, p);
+        }
+
+        static void HideStale(Dictionary<string, Marker> markers, long frame)
+        {
+            foreach (var kv in markers) if (kv.Value.Frame != frame) kv.Value.T.gameObject.SetActive(false);
         }
 
         void OnDestroy() { if (Session != null) Session.Dispose(); }
@@ -71,6 +106,7 @@ namespace Viestac.Unity
             foreach (var w in m.Scene.Warnings) Debug.LogWarning("ViESTac scene: " + w);
             if (Root != null) Destroy(Root.gameObject);
             _objects.Clear(); _baseScales.Clear(); _buffer.Clear(); _haveState = false;
+            _toolHips.Clear(); _toolProxies.Clear(); _points.Clear();
             Scene = m.Scene;
             Root = new GameObject("ViESTac scene " + Scene.Name).transform;
             Root.SetParent(transform, false);

@@ -90,6 +90,7 @@ namespace UnityEngine
         public T GetComponent<T>() where T : Component { return null; }
         public void SetActive(bool value) { }
         public bool activeSelf { get { return true; } }
+        public bool activeInHierarchy { get { return true; } }
     }
 
     public class Component : Object

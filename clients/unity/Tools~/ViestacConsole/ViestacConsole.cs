@@ -140,6 +140,13 @@ static class ViestacConsole
         Console.WriteLine(string.Format("frame {0} t={1:0.000} hip {2} proxy {3} contact {4} force {5}{6}{7} | loop p99 {8:0} µs, overruns {9}, rt {10}",
             s.Frame, s.T, s.Hip, s.Proxy, s.Contact ? "yes" : "no", s.Force, cues.Length > 0 ? " cues " + cues : "",
             s.Hud.Length > 0 ? " hud \"" + s.Hud + "\"" : "", s.Telemetry.PeriodP99Us, s.Telemetry.Overruns, s.Telemetry.Rt));
+        // v1.4: every tool (the primary first, the line above is it), the hand's other points, lost sources
+        foreach (var tool in s.Tools)
+            Console.WriteLine(string.Format("  tool {0,-20} hip {1} proxy {2} contact {3}{4}", tool.Name, tool.Hip, tool.Proxy,
+                tool.Contact ? "yes" : "no", tool.Lost ? " LOST" : ""));
+        if (s.Points.Count > 0)
+            Console.WriteLine("  points " + string.Join(" ", s.Points.OrderBy(kv => kv.Key, StringComparer.Ordinal).Select(kv => kv.Key + " " + kv.Value)));
+        if (s.TrackingLost.Count > 0) Console.WriteLine("  tracking lost: " + string.Join(", ", s.TrackingLost.Select(x => x.ToString())));
     }
 
     static void PrintBench(ViestacSession session, double seconds, long states)
