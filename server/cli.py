@@ -419,7 +419,8 @@ def _bench_link(args: argparse.Namespace) -> int:
 def _bench_latency(args: argparse.Namespace) -> int:
     from server.bench.latency_bench import run_latency_bench
 
-    result = run_latency_bench(seconds=args.seconds, clients=args.clients, warmup_s=args.warmup, tracker=args.tracker)
+    result = run_latency_bench(seconds=args.seconds, clients=args.clients, warmup_s=args.warmup, tracker=args.tracker,
+                               samples=args.samples)
     return _print_bench(result, args.json)
 
 
@@ -699,7 +700,10 @@ def build_parser() -> argparse.ArgumentParser:
     link.set_defaults(func=_bench_link)
     latency = bench_sub.add_parser("latency", help="tracker message sent -> device command written on an emulated "
                                                    "FerroVibe's pty, with N viewers at 60 Hz")
-    latency.add_argument("--seconds", type=float, default=10.0)
+    latency.add_argument("--seconds", type=float, default=None,
+                         help="the window (default: long enough for --samples, ~92 s for 1000)")
+    latency.add_argument("--samples", type=int, default=1000,
+                         help="switches to measure (default 1000: a p99 from ~100 would be their maximum)")
     latency.add_argument("--clients", type=int, default=0, help="viewer clients (default 0)")
     latency.add_argument("--warmup", type=float, default=3.0)
     latency.add_argument("--tracker", choices=("udp", "ws"), default="udp",
