@@ -117,9 +117,10 @@ def run_power(study_path: str | Path, participants: Sequence[int], replications:
             with _client(scheduler, workers) as client:
                 from distributed import as_completed
 
-                tag = config["study_sha256"][:12]
+                # task keys name the whole configuration: a shared cluster never hands one run another's result
+                tag = hashlib.sha256(json.dumps(config, sort_keys=True).encode()).hexdigest()[:16]
                 futures = {client.submit(run_replication, text, study_path.name, n, replication_seed(seed, n, r),
-                                         people.settings, key=f"viestac-power-{tag}-{seed}-{n}-{r}", pure=False): (n, r)
+                                         people.settings, key=f"viestac-power-{tag}-{n}-{r}", pure=False): (n, r)
                            for n, r in todo}
                 for future in as_completed(futures):
                     n, r = futures[future]
