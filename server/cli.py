@@ -367,6 +367,10 @@ def _study_power(args: argparse.Namespace, participants: list[int]) -> int:
     except (ValueError, OSError) as exc:  # bad settings or grid, another configuration in --out (StudyError too)
         print(f"viestac study: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"\nviestac study: interrupted; the finished replications are stored in {args.out}: the same command "
+              "continues", file=sys.stderr)
+        return 130
     print(f"power at alpha = {args.alpha:g} over {args.replications} replications per N "
           f"({result.computed} run now, {result.reused} stored) in {result.wall_s:.0f} s:")
     print(text_table(result.table, sorted(set(participants))))

@@ -101,7 +101,7 @@ def run_power(study_path: str | Path, participants: Sequence[int], replications:
     study_path = Path(study_path)
     study = load_study(study_path)
     text = study_path.read_text(encoding="utf-8")
-    config = {"study_id": study.id, "study_sha256": hashlib.sha256(text.encode()).hexdigest(), "seed": seed,
+    config = {"study_id": study.id, "study_sha256": study.source_hash, "seed": seed,
               "settings": [list(p) for p in people.settings]}
     out = Path(out)
     store = ReplicationStore(out / "replications.sqlite", config)
@@ -224,7 +224,7 @@ def chart(table: list[dict], participants: Sequence[int], alpha: float, out: Pat
         ax.set_xlabel("participants (N)")
         ax.set_ylabel(f"power (share with p < {alpha:g})")
         if tests:
-            ax.legend(fontsize=6, loc="lower right")
+            ax.legend(fontsize=6, loc="best")
     for ax in axes[len(tasks):]:
         ax.set_visible(False)
     save(fig, out, "power")
