@@ -92,9 +92,16 @@ def test_same_seed_same_power_table_with_1_and_2_workers_and_a_rerun_resumes(stu
     assert [row["n"] for row in b] == [2, 3] and all(row["replications"] == 3 for row in b)
     assert all(row["ci95"][0] <= row["power"] <= row["ci95"][1] for row in table)
     assert (tmp_path / "one" / "power.png").stat().st_size > 0 and (tmp_path / "one" / "power.csv").exists()
-    # a finished grid reruns without any work; another configuration is refused
-    done = run_power(study_file, [2, 3], 3, out=tmp_path / "one", seed=7, workers=1)
-    assert (done.computed, done.reused) == (0, 6) and done.table == one.table
+    # a finished grid reruns without any work (no cluster either), here from the command line
+    done = subprocess.run([sys.executable, "-m", "server.cli", "study", "--power", "--study", str(study_file),
+                           "--participants", "3,2", "--replications", "3", "--seed", "7", "--out",
+                           str(tmp_path / "one")], capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    assert "(0 run now, 6 stored)" in done.stdout and "6/6 replications" in done.stderr
+    line = next(t for t in done.stdout.splitlines() if t.startswith("task3.estimation.b "))
+    assert [float(v) for v in line.split()[1:]] == [round(row["power"], 2) for row in b]
+    assert json.loads((tmp_path / "one" / "power.json").read_text())["table"] == table
+    # another configuration is refused
     with pytest.raises(ConfigMismatch, match="seed"):
         run_power(study_file, [2], 1, out=tmp_path / "one", seed=8, workers=1)
 
