@@ -330,7 +330,7 @@ def _study(args: argparse.Namespace) -> int:
     try:
         result = simulate_study(args.study, participants=participants[0], seed=args.seed, out_dir=args.out,
                                 make_participant=people.participant, agent_params=people.agent,
-                                progress=None if args.quiet else progress_bar)
+                                settings=people.settings, progress=None if args.quiet else progress_bar)
     except FileExistsError as exc:
         print(f"viestac study: {exc}", file=sys.stderr)
         return 2

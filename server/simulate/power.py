@@ -67,7 +67,8 @@ def run_replication(study_text: str, study_name: str, n: int, seed: int, setting
         path.parent.mkdir()
         path.write_text(study_text, encoding="utf-8")
         result = simulate_study(path, participants=n, seed=seed, out_dir=Path(tmp) / "run",
-                                make_participant=people.participant, agent_params=people.agent)
+                                make_participant=people.participant, agent_params=people.agent,
+                                settings=people.settings)
         stats, _ = compute(load(result.data_dir))
     return {"p": p_values(stats), "trials": result.trials, "aborted": len(result.aborted),
             "virtual_s": round(result.virtual_s, 3), "wall_s": round(time.perf_counter() - started, 3)}

@@ -204,3 +204,20 @@ def test_the_cli_refuses_bad_power_input(study_file, tmp_path):
         assert done.returncode == 2 and message in done.stderr, (args, done.stderr)
     one = cli("--simulate", "--participants", "2,3", "--study", str(study_file))
     assert one.returncode == 2 and "one number" in one.stderr
+
+
+def test_a_simulated_study_records_its_effect_settings(study_file, tmp_path):
+    from server.simulate.study_run import simulate_study
+
+    def config(out, settings):
+        people = parse_settings(settings)
+        result = simulate_study(study_file, participants=1, seed=2, out_dir=out, make_participant=people.participant,
+                                agent_params=people.agent, settings=people.settings)
+        con = sqlite3.connect(result.data_dir / "viestac.sqlite")
+        try:
+            return json.loads(con.execute("SELECT config_json FROM sessions").fetchone()[0])
+        finally:
+            con.close()
+
+    assert config(tmp_path / "a", ["estimation.b=0.9"])["settings"] == [["estimation.b", "0.9"]]
+    assert "settings" not in config(tmp_path / "b", []), "without settings the config is what it was"
