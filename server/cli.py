@@ -324,19 +324,29 @@ def _analyze(args: argparse.Namespace) -> int:
 
 
 def _study(args: argparse.Namespace) -> int:
-    from server.simulate.study_run import progress_bar, simulate_study
-    from server.synthetic import SyntheticParticipant
-
-    if not args.simulate:
-        print("viestac study: only --simulate is supported (a real study runs from the console)", file=sys.stderr)
-        return 2
-    if args.participants < 1:
-        print("viestac study: --participants must be at least 1", file=sys.stderr)
+    if args.simulate == args.power:
+        print("viestac study: give --simulate (one simulated study) or --power (power analysis); a real study "
+              "runs from the console", file=sys.stderr)
         return 2
     try:
-        result = simulate_study(args.study, participants=args.participants, seed=args.seed, out_dir=args.out,
-                                make_participant=lambda seed, index: SyntheticParticipant(seed, participant=index),
-                                progress=None if args.quiet else progress_bar)
+        participants = _participant_list(args.participants)
+        from server.simulate.effects import parse_settings
+
+        people = parse_settings(args.set)
+    except ValueError as exc:
+        print(f"viestac study: {exc}", file=sys.stderr)
+        return 2
+    if args.power:
+        return _study_power(args, participants)
+    if len(participants) != 1:
+        print("viestac study: --simulate runs one study: give one number of --participants", file=sys.stderr)
+        return 2
+    from server.simulate.study_run import progress_bar, simulate_study
+
+    try:
+        result = simulate_study(args.study, participants=participants[0], seed=args.seed, out_dir=args.out,
+                                make_participant=people.participant, agent_params=people.agent,
+                                settings=people.settings, progress=None if args.quiet else progress_bar)
     except FileExistsError as exc:
         print(f"viestac study: {exc}", file=sys.stderr)
         return 2
@@ -347,6 +357,41 @@ def _study(args: argparse.Namespace) -> int:
     if args.no_analysis:
         return 0
     return _analyze_after_simulation(result.data_dir, Path(args.out) / "report")
+
+
+def _participant_list(text: str) -> list[int]:
+    """"13" or "8,12,16": whole numbers >= 1."""
+    try:
+        values = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise ValueError(f"--participants takes whole numbers separated by commas, got {text!r}") from None
+    if not values or min(values) < 1:
+        raise ValueError(f"--participants must be at least 1, got {text!r}")
+    return values
+
+
+def _study_power(args: argparse.Namespace, participants: list[int]) -> int:
+    import functools
+
+    from server.simulate.power import run_power, text_table
+    from server.simulate.study_run import progress_bar
+
+    try:
+        result = run_power(args.study, participants, args.replications, out=args.out, seed=args.seed,
+                           settings=args.set, alpha=args.alpha, workers=args.workers, scheduler=args.scheduler,
+                           progress=None if args.quiet else functools.partial(progress_bar, unit="replications"))
+    except (ValueError, OSError) as exc:  # bad settings or grid, another configuration in --out (StudyError too)
+        print(f"viestac study: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"\nviestac study: interrupted; the finished replications are stored in {args.out}: the same command "
+              "continues", file=sys.stderr)
+        return 130
+    print(f"power at alpha = {args.alpha:g} over {args.replications} replications per N "
+          f"({result.computed} run now, {result.reused} stored) in {result.wall_s:.0f} s:")
+    print(text_table(result.table, sorted(set(participants))))
+    print(f"table and chart: {result.out / 'power.json'}, {result.out / 'power.csv'}, {result.out / 'power.png'}")
+    return 0
 
 
 def _analyze_after_simulation(data_dir: Path, out: Path) -> int:
@@ -394,7 +439,8 @@ def _bench_link(args: argparse.Namespace) -> int:
 def _bench_latency(args: argparse.Namespace) -> int:
     from server.bench.latency_bench import run_latency_bench
 
-    result = run_latency_bench(seconds=args.seconds, clients=args.clients, warmup_s=args.warmup, tracker=args.tracker)
+    result = run_latency_bench(seconds=args.seconds, clients=args.clients, warmup_s=args.warmup, tracker=args.tracker,
+                               samples=args.samples)
     return _print_bench(result, args.json)
 
 
@@ -631,10 +677,23 @@ def build_parser() -> argparse.ArgumentParser:
     study = sub.add_parser("study", help="run a study file with synthetic participants on the virtual clock "
                                          "(--simulate), then the analysis")
     study.add_argument("--simulate", action="store_true", help="synthetic participants, simulated rig, virtual clock")
+    study.add_argument("--power", action="store_true", help="power analysis: many simulated studies per number of "
+                       "participants on Dask, power of every analysis against N (docs/power.md)")
     study.add_argument("--study", default=str(STUDIES_DIR / "thesis-2021.toml"), help="the study file")
-    study.add_argument("--participants", type=int, default=13)
+    study.add_argument("--participants", default="13", metavar="N[,N...]",
+                       help="participants (--power: the grid, e.g. 8,12,16,24,32)")
+    study.add_argument("--replications", type=int, default=100, metavar="K",
+                       help="--power: simulated studies per N (default 100)")
     study.add_argument("--seed", type=int, default=2021)
-    study.add_argument("--out", required=True, metavar="DIR", help="data/ and report/ go here (must be new)")
+    study.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                       help="an effect setting of the synthetic participants, e.g. estimation.b=0.9 or "
+                            "agent.ferrovibe.duration_scale=1.3 (docs/synthetic.md, \"Effect settings\")")
+    study.add_argument("--alpha", type=float, default=0.05, help="--power: significance level (default 0.05)")
+    study.add_argument("--workers", type=int, help="--power: local Dask worker processes (default: one per core)")
+    study.add_argument("--scheduler", metavar="ADDRESS",
+                       help="--power: a Dask scheduler (tcp://host:8786) to run on instead of a local cluster")
+    study.add_argument("--out", required=True, metavar="DIR",
+                       help="data/ and report/ go here (must be new); --power: the results (a rerun resumes)")
     study.add_argument("--no-analysis", action="store_true", help="only simulate")
     study.add_argument("--quiet", action="store_true", help="no progress bar")
     study.set_defaults(func=_study)
@@ -682,7 +741,10 @@ def build_parser() -> argparse.ArgumentParser:
     link.set_defaults(func=_bench_link)
     latency = bench_sub.add_parser("latency", help="tracker message sent -> device command written on an emulated "
                                                    "FerroVibe's pty, with N viewers at 60 Hz")
-    latency.add_argument("--seconds", type=float, default=10.0)
+    latency.add_argument("--seconds", type=float, default=None,
+                         help="the window (default: long enough for --samples, ~92 s for 1000)")
+    latency.add_argument("--samples", type=int, default=1000,
+                         help="switches to measure (default 1000: a p99 from ~100 would be their maximum)")
     latency.add_argument("--clients", type=int, default=0, help="viewer clients (default 0)")
     latency.add_argument("--warmup", type=float, default=3.0)
     latency.add_argument("--tracker", choices=("udp", "ws"), default="udp",

@@ -12,7 +12,7 @@ import csv
 import io
 from dataclasses import dataclass
 
-from server.bench.loop_bench import percentile
+from server.bench.quantiles import percentile
 
 # The acceptance (docs/reliability.md "Acceptance").
 LOOP_FIRST_STATE_MS = 1500.0   # loop killed -> first state frame on the participant's socket again

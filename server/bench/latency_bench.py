@@ -18,6 +18,11 @@ new state (magnitude > 0 or == 0):
   frame timing);
 - wire (`wire_*`): the modelled arrival of the frame's last byte on a 115200-baud line (86.8 µs
   per byte, ~0.87 ms for a SET_TILT), what a real FerroVibe would see.
+Samples: a switch every 83 ms on average gives 12 per second, so by default the window lasts as
+long as 1000 switches need (~92 s; `seconds_for`), and every p99 comes with its distribution-free
+95 % confidence interval (`*_p99_ci95_ms`, server/bench/quantiles.py). The server keeps only its
+latest 1024 device writes and 4096 applied tracker samples, so they are collected every 2 s
+during the window.
 """
 
 from __future__ import annotations
@@ -34,8 +39,12 @@ import time
 from pathlib import Path
 
 from devices.emulator import Emulator
-from server.bench.loop_bench import (_rss_summary, _tree_rss_mb, admin_token, get_json, percentile, start_server,
-                                     stop_server)
+from server.bench.load import LATENCY_SWITCH_HZ
+from server.bench.loop_bench import _rss_summary, _tree_rss_mb, admin_token, get_json, start_server, stop_server
+from server.bench.quantiles import tail
+
+SAMPLES = 1000    # by default the run lasts long enough for this many switches: a p99 from ~100 is the maximum
+POLL_S = 2.0      # the server keeps the last 1024 device writes and 4096 tracker rows: collect them this often
 
 
 def match_switches(switches: list[list], edges, read_at: list[tuple[int, int, bytes]]) -> list[tuple | None]:
@@ -84,7 +93,28 @@ def _wait_connected(base: str, timeout_s: float = 10.0) -> None:
 TRACKERS = ("udp", "ws")
 
 
-def run_latency_bench(seconds: float = 10.0, clients: int = 0, warmup_s: float = 3.0, tracker: str = "udp") -> dict:
+def _collect(base: str, writes: set[tuple[int, str]], rows: dict[tuple, list]) -> tuple[dict, dict]:
+    """Add the server's device writes and applied tracker rows to what was collected before (its
+    logs keep only the latest); returns the device's snapshot and the feed's."""
+    snapshot = get_json(base + "/api/devices?writes=1024")
+    device = snapshot["devices"][0]
+    writes.update((t_ns, data) for t_ns, data in device["writes"])
+    for row in get_json(base + "/api/trackers?limit=4096")["rows"]:
+        rows[row[0], row[1]] = row  # (client, seq)
+    return device, snapshot.get("feed") or {}
+
+
+def seconds_for(samples: int) -> float:
+    """How long the window must be for `samples` switches (10 % spare for unmatched ones)."""
+    return math.ceil(samples / LATENCY_SWITCH_HZ * 1.1)
+
+
+def run_latency_bench(seconds: float | None = None, clients: int = 0, warmup_s: float = 3.0, tracker: str = "udp",
+                      samples: int = SAMPLES) -> dict:
+    """`seconds` None: as long as `samples` switches need (seconds_for)."""
+    if samples < 1:
+        raise ValueError(f"samples must be >= 1, got {samples}")
+    seconds = seconds_for(samples) if seconds is None else seconds
     if not 0 < seconds <= 3600:
         raise ValueError(f"seconds must be in (0, 3600], got {seconds}")
     if clients < 0:
@@ -114,20 +144,25 @@ def run_latency_bench(seconds: float = 10.0, clients: int = 0, warmup_s: float =
         get_json(base + "/api/telemetry/reset", "POST")
         start_us = time.monotonic_ns() // 1000
         rss_samples: list[tuple[float, float]] = []  # (seconds since the reset, MB)
+        seen_writes: set[tuple[int, str]] = set()
+        seen_rows: dict[tuple, list] = {}
+        next_poll = time.monotonic() + POLL_S
         while (now_us := time.monotonic_ns() // 1000) < start_us + seconds * 1e6:
             rss_samples.append(((now_us - start_us) / 1e6, _tree_rss_mb(proc.pid)))
+            if time.monotonic() >= next_poll:
+                _collect(base, seen_writes, seen_rows)
+                next_poll += POLL_S
             time.sleep(0.25)
         end_us = time.monotonic_ns() // 1000
         telemetry = get_json(base + "/api/telemetry")
-        tracker_rows = get_json(base + "/api/trackers?limit=4096")["rows"]
         # The tracker runs on for 0.2 s after the window (load.py), so the last switches arrive too.
         out, _ = load.communicate(timeout=60)
         load_result = json.loads(out.strip().splitlines()[-1])
         time.sleep(0.05)
         edges, read_at = emulator.snapshot_edges(), emulator.snapshot_read_at()
-        snapshot = get_json(base + "/api/devices?writes=1024")
-        device, feed = snapshot["devices"][0], snapshot.get("feed") or {}
-        writes = sorted((t_ns // 1000, bytes.fromhex(data)) for t_ns, data in device["writes"])
+        device, feed = _collect(base, seen_writes, seen_rows)
+        writes = sorted((t_ns // 1000, bytes.fromhex(data)) for t_ns, data in seen_writes)
+        tracker_rows = list(seen_rows.values())
     finally:
         if load is not None and load.poll() is None:
             load.kill()
@@ -162,14 +197,12 @@ def run_latency_bench(seconds: float = 10.0, clients: int = 0, warmup_s: float =
     for values in series.values():
         values.sort()
 
-    def stats(name: str, key: str, points=(("p50", 0.5), ("p99", 0.99), ("max", 1.0))) -> dict:
-        return {f"{name}{p}_ms": percentile(series[key], q) for p, q in points}
-
+    half = (("p50", 0.5), ("p99", 0.99))
     return {
-        **stats("", "written"), **stats("read_", "read"), **stats("wire_", "wire"),
-        **stats("tracker_to_tick_", "to_tick", (("p50", 0.5), ("p99", 0.99))),
-        **stats("tick_to_write_", "tick_to_write", (("p50", 0.5), ("p99", 0.99))),
-        "samples": len(series["written"]), "unmatched": unmatched, "unwritten": unwritten, "tracker": tracker,
+        **tail(series["written"], "", "_ms"), **tail(series["read"], "read_", "_ms"),
+        **tail(series["wire"], "wire_", "_ms"), **tail(series["to_tick"], "tracker_to_tick_", "_ms", half),
+        **tail(series["tick_to_write"], "tick_to_write_", "_ms", half),
+        "samples": len(series["written"]), "samples_wanted": samples, "unmatched": unmatched, "unwritten": unwritten, "tracker": tracker,
         "clients": clients, "frames_received_per_client_hz": load_result["frames_received_per_client_hz"]["mean"],
         "period_p99_us": telemetry["period_p99_us"], "period_max_us": telemetry["period_max_us"],
         "overruns": telemetry["overruns"], "rt": telemetry["rt"], "device_feed_rt": feed.get("rt"),

@@ -21,6 +21,7 @@ from devices.emulator import BYTE_TIME_US, Emulator
 from devices.manager import DeviceConfig, DeviceManager
 from devices.ports import PortSpec
 from devices.profiles import profile_by_model
+from server.bench.quantiles import tail
 
 LINK_BYTES_PER_S = 1e6 / BYTE_TIME_US  # 11,520 B/s at 115200 8N1
 
@@ -79,13 +80,10 @@ def run_link_bench(seconds: float = 10.0, rate_hz: float = 1000.0, share: float 
             missing += 1
         else:
             latencies.append(shown[k][0] - t_sent)
-    latencies.sort()
-
-    def pct(q: float) -> float:
-        return round(latencies[min(len(latencies) - 1, int(q * len(latencies)))] / 1000, 3) if latencies else 0.0
+    latencies_ms = sorted(v / 1000 for v in latencies)
 
     return {"seconds": round((end_us - start_us) / 1e6, 3), "values_submitted": len(sent),
             "frames_shown": len(shown), "in_order": shown_cdeg == sorted(shown_cdeg), "values_missing": missing,
             "link_share": round(sum(n for _, n in in_run) / ((end_us - start_us) / 1e6) / LINK_BYTES_PER_S, 4),
             "link_share_worst_1s": round(max(windows.values(), default=0) / LINK_BYTES_PER_S, 4),
-            "latency_p50_ms": pct(0.5), "latency_p99_ms": pct(0.99), "latency_max_ms": pct(1.0)}
+            **tail(latencies_ms, "latency_", "_ms")}

@@ -94,6 +94,11 @@ LATENCY_IN = 0.6 + 0.06 - 0.003  # 3 mm inside the dilated dome (radius + proxy 
 LATENCY_OUT = 0.6 + 0.06 + 0.03  # 30 mm outside it: far beyond the gate's 2 mm hysteresis band
 
 
+LATENCY_RATE_HZ = 120.0
+LATENCY_EVERY = (8, 12)   # samples between switches: 66-100 ms at 120 Hz
+LATENCY_SWITCH_HZ = LATENCY_RATE_HZ / (sum(LATENCY_EVERY) / 2)  # 12 switches per second on average
+
+
 async def latency_tracker(url: str, rate_hz: float, switches: list[list], stop: float, seed: int = 8,
                           udp: tuple[str, int] | None = None) -> None:
     """Alternate between in contact and well above the dome; record [send t_us, seq, in_contact] of
@@ -118,13 +123,13 @@ async def latency_tracker(url: str, rate_hz: float, switches: list[list], stop: 
         next_t = time.monotonic()
         seq = 0
         in_contact = False
-        left = rng.randint(8, 12)  # samples until the next switch
+        left = rng.randint(*LATENCY_EVERY)  # samples until the next switch
         while next_t < stop:
             left -= 1
             switch = left == 0
             if switch:
                 in_contact = not in_contact
-                left = rng.randint(8, 12)
+                left = rng.randint(*LATENCY_EVERY)
             t_us = time.monotonic_ns() // 1000  # the emulator stamps with the same clock
             pos = inside if in_contact else above
             await send(msgpack.packb({"type": "tracker", "seq": seq, "t": t_us / 1e3, "pos": pos}))
@@ -149,7 +154,7 @@ async def main_async(url: str, viewers: int, trackers: int, warmup_s: float, sec
     tasks += [tracker(url, 120.0, i * 1.3, sent, stop) for i in range(trackers)]
     switches: list[list] = []
     if latency:
-        tasks.append(latency_tracker(url, 120.0, switches, stop, udp=latency_udp))
+        tasks.append(latency_tracker(url, LATENCY_RATE_HZ, switches, stop, udp=latency_udp))
     await asyncio.gather(*tasks)
     rates = [c / seconds for c in counts]
     result = {"viewers": viewers, "frames_received_per_client_hz": {

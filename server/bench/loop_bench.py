@@ -30,6 +30,7 @@ import urllib.request
 import psutil
 
 from server.bench.kernel_trace import LoopWakeTrace, summarize
+from server.bench.quantiles import tail
 
 
 ADMIN_TOKENS: dict[str, str] = {}  # base URL (scheme://host:port) of a server start_server made → its admin token
@@ -170,11 +171,6 @@ def _tree_rss_mb(pid: int) -> float:
     return total / 2**20
 
 
-def percentile(values: list[float], q: float) -> float | None:
-    """The q-quantile of already sorted `values` (nearest rank), rounded to 3 decimals; None if empty."""
-    return round(values[min(len(values) - 1, int(q * len(values)))], 3) if values else None
-
-
 def _rss_summary(samples: list[tuple[float, float]], seconds: float) -> dict:
     """Peak RSS, and start/end/growth from the medians of the first and last window (10 s, or a
     quarter of a short run) so one sample (a transient allocation) does not decide the growth."""
@@ -248,9 +244,8 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         "frames_received_per_client_hz": load_result["frames_received_per_client_hz"]["mean"],
         "frames_received_per_client_hz_min": load_result["frames_received_per_client_hz"]["min"],
         "tracker_messages": load_result["tracker_messages"],
-        "tracker_to_tick_p50_ms": percentile(send_to_tick, 0.5),
-        "tracker_to_tick_p99_ms": percentile(send_to_tick, 0.99),
-        "hub_to_tick_p99_ms": percentile(hub_to_tick, 0.99), "tracker_samples": len(send_to_tick),
+        **tail(send_to_tick, "tracker_to_tick_", "_ms", (("p50", 0.5), ("p99", 0.99))),
+        **tail(hub_to_tick, "hub_to_tick_", "_ms", (("p99", 0.99),)), "tracker_samples": len(send_to_tick),
         **rss, "rt": telemetry["rt"], "seconds": seconds, "resyncs": telemetry["resyncs"],
         **({"kernel_trace": {**summarize(wakeups), "lost_events": wake_trace.lost_events}}
            if wakeups is not None else {}),

@@ -13,7 +13,7 @@ import bisect
 import math
 
 from scenarios.contact_angle import PROXY_RADIUS, RADIUS, point_at_angle
-from server.bench.loop_bench import percentile
+from server.bench.quantiles import tail
 
 WHERES = ("free", "contact")
 SWEEP_SAMPLES = 480      # one back-and-forth sweep: 8 s at 60 Hz
@@ -59,6 +59,9 @@ def match_samples(sent: list[tuple[int, tuple]], frames: list[tuple[int, tuple, 
     return matches
 
 
+HALF = (("p50", 0.5), ("p99", 0.99))
+
+
 def summarize(sent: list[tuple[int, tuple]], matches: list[tuple | None]) -> dict:
     """p50/p99/max of send → first frame showing the sample (ms), how many samples fell in the
     delayed-ACK band, how many no frame showed (`superseded`); and the split at the loop tick
@@ -68,8 +71,6 @@ def summarize(sent: list[tuple[int, tuple]], matches: list[tuple | None]) -> dic
     to_tick = sorted((m[2] - t) / 1e6 for t, m in pairs)
     from_tick = sorted((m[0] - m[2]) / 1e6 for t, m in pairs)
     return {"samples": len(sent), "shown": len(latencies), "superseded": len(sent) - len(latencies),
-            "p50_ms": percentile(latencies, 0.5), "p99_ms": percentile(latencies, 0.99),
-            "max_ms": percentile(latencies, 1.0),
+            **tail(latencies, "", "_ms"),
             "in_35_50_ms": sum(1 for v in latencies if BAND_MS[0] <= v <= BAND_MS[1]),
-            "to_tick_p50_ms": percentile(to_tick, 0.5), "to_tick_p99_ms": percentile(to_tick, 0.99),
-            "tick_to_client_p50_ms": percentile(from_tick, 0.5), "tick_to_client_p99_ms": percentile(from_tick, 0.99)}
+            **tail(to_tick, "to_tick_", "_ms", HALF), **tail(from_tick, "tick_to_client_", "_ms", HALF)}

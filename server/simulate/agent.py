@@ -16,6 +16,7 @@ target" is the HUD's hold count-down, which the scenario shows only within 0.05 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -39,6 +40,19 @@ class AgentParams:
     trial_timeout_s: float = 90.0   # gives up (the experimenter aborts) after this
     endpoint_noise: float = 0.05    # motor noise: SD of the gain along the movement (ours)
     duration_jitter: float = 0.2    # submovement durations vary by this fraction (SD, ours)
+    duration_scale: float = 1.0     # every movement takes this many times as long: a slower participant, or
+    #                                 (per device, docs/synthetic.md "Effect settings") a device that slows one down
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"agent.{f.name} must be a finite number, got {value!r}")
+            if value < 0 or (value == 0 and f.name not in NON_NEGATIVE):
+                raise ValueError(f"agent.{f.name} must be {'>= 0' if f.name in NON_NEGATIVE else '> 0'}, got {value!r}")
+
+
+NON_NEGATIVE = ("endpoint_noise", "duration_jitter")  # noise may be off; durations and steps may not be 0
 
 
 def min_jerk(a, b, tau: float):
@@ -72,7 +86,7 @@ class PositioningAgent:
     def move(self, target, duration_s: float | None = None, stop_when=None) -> None:
         """One minimum-jerk submovement; `stop_when` (checked every tick) halts it early, as a
         participant stops the moment the hold count-down appears."""
-        duration_s = duration_s or self.p.submovement_s
+        duration_s = (duration_s or self.p.submovement_s) * self.p.duration_scale
         if self.rng is not None:
             # no two reaches are alike: mostly a gain error along the movement (aimed movements
             # scatter along their direction more than across it), plus a small scatter across

@@ -18,7 +18,7 @@ import time
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Mapping
 
 from devices.profiles import profile_by_model
 from server import __version__
@@ -59,9 +59,9 @@ class VirtualClock:
         return (EPOCH + timedelta(days=self.day, seconds=t)).isoformat(timespec="microseconds")
 
 
-def progress_bar(done: int, total: int, label: str, stream=sys.stderr, width: int = 30) -> None:
+def progress_bar(done: int, total: int, label: str, stream=sys.stderr, width: int = 30, unit: str = "trials") -> None:
     filled = width * done // max(1, total)
-    stream.write(f"\r[{'#' * filled}{'-' * (width - filled)}] {done}/{total} trials · {label}   ")
+    stream.write(f"\r[{'#' * filled}{'-' * (width - filled)}] {done}/{total} {unit} · {label}   ")
     if done == total:
         stream.write("\n")
     stream.flush()
@@ -70,11 +70,15 @@ def progress_bar(done: int, total: int, label: str, stream=sys.stderr, width: in
 def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_dir: str | Path,
                    make_participant: Callable[[int, int], object],
                    progress: Callable[[int, int, str], None] | None = None,
-                   agent_params: AgentParams = AgentParams()) -> SimulationResult:  # noqa: B008 (frozen)
+                   agent_params: AgentParams | Mapping[str, AgentParams] = AgentParams(),  # noqa: B008 (frozen)
+                   settings: tuple[tuple[str, str], ...] = ()) -> SimulationResult:
     """Run `participants` synthetic sessions of the study into OUT/data/viestac.sqlite.
 
     make_participant(seed, index) → an object with answer(trial, question) and
-    produce_level(target_level) (server/synthetic)."""
+    produce_level(target_level) (server/synthetic). agent_params: the positioning agent's, or
+    one per device model (a device effect, server/simulate/effects.py); a model not in the
+    mapping gets the defaults. settings: the effect settings these stand for (effects.py), recorded
+    in every session's config so the data say which population produced them."""
     study_path = Path(study_path)
     study = load_study(study_path)
     out = Path(out_dir)
@@ -84,6 +88,9 @@ def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_
         raise FileExistsError(f"{db} exists: simulate into an empty directory")
     clock = VirtualClock()
     store = Store(db, clock)
+    config = {"simulated": True, "seed": seed, "rig": list(RIG), "tick_hz": 1000}
+    if settings:  # only then: without settings the config is what it always was
+        config["settings"] = [list(pair) for pair in settings]
     started = time.perf_counter()
     try:
         total = participants * len(plan_session(study, 0))  # every participant's plan is as long
@@ -93,7 +100,7 @@ def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_
             hub = VirtualHub(devices, seed=seed)
             clock.hub, clock.day = hub, index
             experiment = Experiment(store, hub, studies_dir=study_path.parent, software_version=__version__,
-                                    config={"simulated": True, "seed": seed, "rig": list(RIG), "tick_hz": 1000},
+                                    config=config,
                                     record_every=10)
             session = experiment.create_session(study_id=study.id, participant=f"SIM{index:02d}",
                                                 experimenter="simulator", device="+".join(RIG),
@@ -128,7 +135,7 @@ def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_
 
 
 def _perform(hub: VirtualHub, devices: dict[str, VirtualDevice], trial: dict, person,
-             agent_params: AgentParams, motor) -> str:
+             agent_params: AgentParams | Mapping[str, AgentParams], motor) -> str:
     """What the participant does during the trial; a reason if it could not be completed."""
     params, kind = trial["params"], trial["kind"]
     if kind == "training":
@@ -137,6 +144,8 @@ def _perform(hub: VirtualHub, devices: dict[str, VirtualDevice], trial: dict, pe
     if trial["scenario"] == "positioning-v1" and kind in ("trial", "main"):
         cue = params.get("cue") or trial["scenario_params"].get("cue")
         device = devices["ferrovibe" if cue == "3dof" else "fingertac"]
+        if isinstance(agent_params, Mapping):
+            agent_params = agent_params.get(device.name, AgentParams())
         try:
             PositioningAgent(hub, device.feel, agent_params, motor).run_trial(params["object"], cue)
         except GaveUp as exc:
