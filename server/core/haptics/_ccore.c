@@ -46,8 +46,8 @@
 #define EXIT_REACH 1e3
 
 /* broad phase */
-#define LIST_WIDTH 0.05   /* candidate list: bodies whose bound is within this of the nearest */
-#define LIST_SLACK 0.02   /* rebuilt once the start point moves this far from where it was built */
+#define LIST_WIDTH 0.15   /* candidate list: bodies whose bound is within this of the nearest */
+#define LIST_SLACK 0.05   /* rebuilt once the start point moves this far from where it was built */
 
 enum { SPHERE, BOX, CYLINDER, CONE, PLANE, HEMISPHERE, NSHAPES };
 
@@ -424,19 +424,21 @@ typedef struct {
     PyObject_HEAD
     double radius, tolerance;
     int max_iterations;
-    char use_shortcut;
+    char use_shortcut, broad;    /* broad: skip far bodies by their bounding balls (results unchanged) */
     int has_proxy, sticking;
     V3 proxy;
     PyObject *friction_body;     /* id of the one body touched last tick, or NULL */
     /* the scene: the body list it was built from (strong refs), its bodies, scratch */
     PyObject **objs;
+    PyObject *scene_tuple;       /* the body tuple the scene was built from, if a tuple (immutable) */
     CBody *B;
     int n, cap;
     int *all, *cand, ncand, list_valid;
     V3 ref;
     double lout;                 /* lower bound of sd at ref of every body not in cand */
     Ev *ev0, *evs;
-    unsigned char *have0;
+    unsigned char *in_cand;
+    unsigned *seen, gen;         /* ev0[i] holds body i's eval at the tick's start when seen[i] == gen */
     int *idx, *idx2;
 } GodCore;
 
@@ -468,14 +470,17 @@ static inline double lout_at(const GodCore *g, V3 q)
 static void tick_at(Tick *T, V3 p)
 {
     T->start = p;
-    memset(T->g->have0, 0, (size_t)T->n);
+    if (++T->g->gen == 0) {  /* wrapped: forget every mark */
+        memset(T->g->seen, 0, sizeof(unsigned) * (size_t)T->n);
+        T->g->gen = 1;
+    }
     T->lout_s = lout_at(T->g, p);
 }
 
 static inline Ev ev_start(Tick *T, int i)
 {
     GodCore *g = T->g;
-    if (!g->have0[i]) { g->ev0[i] = body_eval(&T->B[i], T->start); g->have0[i] = 1; }
+    if (g->seen[i] != g->gen) { g->ev0[i] = body_eval(&T->B[i], T->start); g->seen[i] = g->gen; }
     return g->ev0[i];
 }
 
@@ -483,26 +488,41 @@ static inline Ev ev_start(Tick *T, int i)
  * upper bound (a body's distance is at most |p - c|, c being inside it) */
 static void build_list(GodCore *g, V3 p)
 {
-    double ub = INFINITY;
+    double ub2 = INFINITY, ub = INFINITY;
     for (int i = 0; i < g->n; i++) {
         const CBody *b = &g->B[i];
-        double u = b->bounded ? norm3(p.x - b->cx, p.y - b->cy, p.z - b->cz) : body_eval(b, p).s;
-        if (u < ub) ub = u;
+        if (b->bounded) {
+            double dx = p.x - b->cx, dy = p.y - b->cy, dz = p.z - b->cz, d2 = dx * dx + dy * dy + dz * dz;
+            if (d2 < ub2) ub2 = d2;
+        } else {
+            double u = body_eval(b, p).s;
+            if (u < ub) ub = u;
+        }
     }
-    double thr = ub + LIST_WIDTH, lout = INFINITY;
+    ub = dmin(ub, sqrt(ub2));
+    /* listed: bound |p - c| - rho <= thr; every other body's bound exceeds thr, so thr is a
+     * lower bound of their distances (no square root per body) */
+    double thr = ub + LIST_WIDTH;
     g->ncand = 0;
     for (int i = 0; i < g->n; i++) {
-        double lb = bound_at(&g->B[i], p);
-        if (lb <= thr) g->cand[g->ncand++] = i;
-        else if (lb < lout) lout = lb;
+        const CBody *b = &g->B[i];
+        int in = 1;
+        if (b->bounded) {
+            double dx = p.x - b->cx, dy = p.y - b->cy, dz = p.z - b->cz, d2 = dx * dx + dy * dy + dz * dz;
+            double lim = thr + b->rho;
+            in = lim >= 0.0 && d2 <= lim * lim * (1.0 + 1e-12);
+        }
+        g->in_cand[i] = (unsigned char)in;
+        if (in) g->cand[g->ncand++] = i;
     }
     g->ref = p;
-    g->lout = lout;
+    g->lout = thr;
     g->list_valid = 1;
 }
 
 static void ensure_list(GodCore *g, V3 p)
 {
+    if (!g->broad) { g->list_valid = 0; return; }
     if (g->list_valid && norm3(p.x - g->ref.x, p.y - g->ref.y, p.z - g->ref.z) <= LIST_SLACK) return;
     build_list(g, p);
 }
@@ -510,7 +530,7 @@ static void ensure_list(GodCore *g, V3 p)
 /* the bodies to look at for a test that only bodies with a lower bound <= thr can pass */
 static inline const int *scan(Tick *T, double lout_minus, double thr, int *nx)
 {
-    if (lout_minus > thr) { *nx = T->g->ncand; return T->g->cand; }
+    if (T->g->broad && lout_minus > thr) { *nx = T->g->ncand; return T->g->cand; }
     *nx = T->n;
     return T->g->all;
 }
@@ -561,7 +581,7 @@ static int first_hit(Tick *T, V3 a, V3 b, int known, int ki, const Ev *kev, int 
     for (int q = 0; q < nx; q++) {
         int i = ix[q];
         if (i == skip) continue;
-        if (B[i].bounded && bound_at(&B[i], T->start) - r > reach) continue;
+        if (T->g->broad && B[i].bounded && bound_at(&B[i], T->start) - r > reach) continue;
         if (ev_start(T, i).s - r <= reach) idx[m++] = i;
     }
     if (m == 0) return 0;
@@ -636,7 +656,7 @@ static void push_out(Tick *T, V3 x)
     const int *ix = scan(T, T->lout_s - r, -EPS_SURFACE, &nx);
     for (int q = 0; q < nx; q++) {
         int i = ix[q];
-        if (B[i].bounded && bound_at(&B[i], x) - r > -EPS_SURFACE) continue;
+        if (T->g->broad && B[i].bounded && bound_at(&B[i], x) - r > -EPS_SURFACE) continue;
         if (ev_start(T, i).s - r <= -EPS_SURFACE) { if (!ninside) inside = i; ninside++; }
     }
     if (!ninside) return;
@@ -651,7 +671,7 @@ static void push_out(Tick *T, V3 x)
             ix = scan(T, T->lout_s - r, -EPS_SURFACE, &nx);
             for (int q = 0; q < nx && out_all; q++) {
                 int i = ix[q];
-                if (B[i].bounded && bound_at(&B[i], y) - r > -EPS_SURFACE) continue;
+                if (T->g->broad && B[i].bounded && bound_at(&B[i], y) - r > -EPS_SURFACE) continue;
                 if (!(ev_start(T, i).s - r > -EPS_SURFACE)) out_all = 0;
             }
             if (out_all) return;
@@ -713,7 +733,7 @@ static int touching(Tick *T, const int *ix, int nx, int ki, const Ev *kev, V3 x,
     int non = 0;
     for (int q = 0; q < nx; q++) {
         int i = ix[q];
-        if (bound_skip && B[i].bounded && bound_at(&B[i], x) - r > CONTACT_TOL) continue;
+        if (bound_skip && T->g->broad && B[i].bounded && bound_at(&B[i], x) - r > CONTACT_TOL) continue;
         Ev ev = i == ki ? *kev : body_eval(&B[i], x);
         if (fabs(ev.s - r) <= CONTACT_TOL) { out[non].i = i; out[non].ev = ev; non++; }
     }
@@ -870,13 +890,18 @@ static void god_step(GodCore *g, V3 hip, StepOut *o, Touch *tbuf)
     double hx = hip.x - start.x, hy = hip.y - start.y, hz = hip.z - start.z;
     double dh = sqrt(hx * hx + hy * hy + hz * hz);
     double sep = (hip_i >= 0 ? hip_ev.s : INFINITY) - r;
-    {
+    /* the candidates first (the nearest bodies are among them), then the others unless their
+     * common bound already says none is nearer: the minimum does not depend on the order */
+    int listed = g->broad && g->list_valid;
+    for (int pass = listed ? 0 : 1; pass < 2; pass++) {
         int nx;
-        const int *ix = scan(&T, (T.lout_s - r) - dh, sep, &nx);
+        const int *ix = pass == 0 ? g->cand : g->all;
+        nx = pass == 0 ? g->ncand : g->n;
+        if (pass == 1 && listed && (T.lout_s - r) - dh > sep) break;
         for (int q = 0; q < nx; q++) {
             int i = ix[q];
-            if (i == hip_i) continue;
-            if (g->B[i].bounded && (bound_at(&g->B[i], start) - r) - dh >= sep) continue;
+            if (i == hip_i || (pass == 1 && listed && g->in_cand[i])) continue;
+            if (g->broad && g->B[i].bounded && (bound_at(&g->B[i], start) - r) - dh >= sep) continue;
             double f = ev_start(&T, i).s - r;
             if (f - dh < sep) sep = dmin(sep, body_eval(&g->B[i], hip).s - r);
         }
@@ -899,7 +924,7 @@ static void god_step(GodCore *g, V3 hip, StepOut *o, Touch *tbuf)
         const int *ix = scan(&T, (T.lout_s - r) - dx, CONTACT_TOL + CULL_MARGIN, &nx);
         for (int q = 0; q < nx; q++) {
             int i = ix[q];
-            if (g->B[i].bounded && (bound_at(&g->B[i], start) - r) - dx > CONTACT_TOL + CULL_MARGIN) continue;
+            if (g->broad && g->B[i].bounded && (bound_at(&g->B[i], start) - r) - dx > CONTACT_TOL + CULL_MARGIN) continue;
             if ((ev_start(&T, i).s - r) - dx <= CONTACT_TOL + CULL_MARGIN) near[nnear++] = i;
         }
     }
@@ -1039,6 +1064,7 @@ static int convert_body(PyObject *obj, CBody *cb)
 
 static void core_clear_scene(GodCore *g)
 {
+    Py_CLEAR(g->scene_tuple);
     for (int i = 0; i < g->n; i++) Py_XDECREF(g->objs[i]);
     g->n = 0;
     g->list_valid = 0;
@@ -1058,7 +1084,8 @@ static int core_reserve(GodCore *g, int n)
     GROW(cand, int, cap)
     GROW(ev0, Ev, cap)
     GROW(evs, Ev, cap)
-    GROW(have0, unsigned char, cap)
+    GROW(seen, unsigned, cap)
+    GROW(in_cand, unsigned char, cap)
     GROW(idx, int, cap)
     GROW(idx2, int, cap)
 #undef GROW
@@ -1070,6 +1097,7 @@ static int core_reserve(GodCore *g, int n)
  * Bodies are frozen, so the same objects in the same order are the same scene. */
 static int core_sync(GodCore *g, PyObject *bodies)
 {
+    if (bodies == g->scene_tuple) return 1;  /* a tuple cannot have changed: no per-body check */
     PyObject *seq = PySequence_Fast(bodies, "bodies must be a sequence");
     if (!seq) return -1;
     Py_ssize_t n = PySequence_Fast_GET_SIZE(seq);
@@ -1090,9 +1118,12 @@ static int core_sync(GodCore *g, PyObject *bodies)
         Py_INCREF(items[i]);
         g->objs[i] = items[i];
         g->all[i] = (int)i;
+        g->seen[i] = 0;
     }
     g->n = (int)n;
     g->list_valid = 0;
+    g->gen = 1;
+    if (PyTuple_CheckExact(bodies)) { Py_INCREF(bodies); Py_XSETREF(g->scene_tuple, bodies); }
     Py_DECREF(seq);
     return 1;
 }
@@ -1173,6 +1204,7 @@ static int core_init(GodCore *g, PyObject *args, PyObject *kw)
     int iters = 16, sc = 1;
     if (!PyArg_ParseTupleAndKeywords(args, kw, "|didp", kwlist, &radius, &iters, &tol, &sc)) return -1;
     g->radius = radius; g->max_iterations = iters; g->tolerance = tol; g->use_shortcut = (char)sc;
+    g->broad = 1;
     g->has_proxy = 0; g->sticking = 0;
     Py_CLEAR(g->friction_body);
     return 0;
@@ -1183,7 +1215,7 @@ static void core_dealloc(GodCore *g)
     core_clear_scene(g);
     Py_CLEAR(g->friction_body);
     PyMem_Free(g->objs); PyMem_Free(g->B); PyMem_Free(g->all); PyMem_Free(g->cand); PyMem_Free(g->ev0);
-    PyMem_Free(g->evs); PyMem_Free(g->have0); PyMem_Free(g->idx); PyMem_Free(g->idx2);
+    PyMem_Free(g->evs); PyMem_Free(g->seen); PyMem_Free(g->in_cand); PyMem_Free(g->idx); PyMem_Free(g->idx2);
     Py_TYPE(g)->tp_free((PyObject *)g);
 }
 
@@ -1243,6 +1275,7 @@ static PyMemberDef core_members[] = {
     {"max_iterations", T_INT, offsetof(GodCore, max_iterations), 0, NULL},
     {"tolerance", T_DOUBLE, offsetof(GodCore, tolerance), 0, NULL},
     {"use_shortcut", T_BOOL, offsetof(GodCore, use_shortcut), 0, NULL},
+    {"broad_phase", T_BOOL, offsetof(GodCore, broad), 0, "skip far bodies by their bounding balls (the bench turns it off to show what it saves)"},
     {NULL}
 };
 
