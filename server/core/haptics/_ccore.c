@@ -440,6 +440,7 @@ typedef struct {
     unsigned char *in_cand;
     unsigned *seen, gen;         /* ev0[i] holds body i's eval at the tick's start when seen[i] == gen */
     int *idx, *idx2;
+    struct Touch *tbuf;          /* the touching bodies, twice (the friction step's second look) */
 } GodCore;
 
 typedef struct {
@@ -721,7 +722,7 @@ static int shortcut(Tick *T, V3 x, int i, Ev ev_x, V3 hip, int *hip_i, Ev *hip_e
     return 1;
 }
 
-typedef struct { int i; Ev ev; double depth; } Touch;
+typedef struct Touch { int i; Ev ev; double depth; } Touch;
 
 /* GodObject._touching over ix[0..nx); known: body ki's eval at x (ki < 0: none). Returns count. */
 static int touching(Tick *T, const int *ix, int nx, int ki, const Ev *kev, V3 x, V3 hip, Touch *out,
@@ -1072,7 +1073,7 @@ static void core_clear_scene(GodCore *g)
 
 static int core_reserve(GodCore *g, int n)
 {
-    if (n <= g->cap) return 0;
+    if (n <= g->cap && g->cap > 0) return 0;
     int cap = n < 8 ? 8 : n;
     void *p;
 #define GROW(field, type, count) \
@@ -1088,6 +1089,7 @@ static int core_reserve(GodCore *g, int n)
     GROW(in_cand, unsigned char, cap)
     GROW(idx, int, cap)
     GROW(idx2, int, cap)
+    GROW(tbuf, Touch, 2 * cap + 2)
 #undef GROW
     g->cap = cap;
     return 0;
@@ -1143,7 +1145,16 @@ static int to_v3(PyObject *o, V3 *v)
     return 0;
 }
 
-static PyObject *v3_tuple(V3 v) { return Py_BuildValue("(ddd)", v.x, v.y, v.z); }
+static PyObject *v3_tuple(V3 v)
+{
+    PyObject *t = PyTuple_New(3), *a = PyFloat_FromDouble(v.x), *b = PyFloat_FromDouble(v.y),
+             *c = PyFloat_FromDouble(v.z);
+    if (!t || !a || !b || !c) { Py_XDECREF(t); Py_XDECREF(a); Py_XDECREF(b); Py_XDECREF(c); return NULL; }
+    PyTuple_SET_ITEM(t, 0, a);
+    PyTuple_SET_ITEM(t, 1, b);
+    PyTuple_SET_ITEM(t, 2, c);
+    return t;
+}
 
 /* a frozen dataclass instance without running its __init__ (whose object.__setattr__ per field
  * costs more than the whole contact query) */
@@ -1166,9 +1177,7 @@ static PyObject *core_step(GodCore *g, PyObject *const *args, Py_ssize_t nargs)
     int rc = core_sync(g, args[0]);
     if (rc < 0) return NULL;
     if (rc == 0) Py_RETURN_NONE;
-    Touch stack[8], *tbuf = stack;
-    size_t need = 2 * ((size_t)g->n + 1);
-    if (need > 8 && !(tbuf = PyMem_Malloc(sizeof(Touch) * need))) return PyErr_NoMemory();
+    Touch *tbuf = g->tbuf;
     StepOut o;
     god_step(g, hip, &o, tbuf);
     PyObject *contacts = PyTuple_New(o.ntouch);
@@ -1185,7 +1194,6 @@ static PyObject *core_step(GodCore *g, PyObject *const *args, Py_ssize_t nargs)
         if (!c) { Py_CLEAR(contacts); break; }
         PyTuple_SET_ITEM(contacts, q, c);
     }
-    if (tbuf != stack) PyMem_Free(tbuf);
     if (!contacts) return NULL;
     PyObject *force;
     if (o.ntouch == 0) { force = zero_vec; Py_INCREF(force); } else force = v3_tuple(o.force);
@@ -1215,7 +1223,7 @@ static void core_dealloc(GodCore *g)
     core_clear_scene(g);
     Py_CLEAR(g->friction_body);
     PyMem_Free(g->objs); PyMem_Free(g->B); PyMem_Free(g->all); PyMem_Free(g->cand); PyMem_Free(g->ev0);
-    PyMem_Free(g->evs); PyMem_Free(g->seen); PyMem_Free(g->in_cand); PyMem_Free(g->idx); PyMem_Free(g->idx2);
+    PyMem_Free(g->evs); PyMem_Free(g->seen); PyMem_Free(g->in_cand); PyMem_Free(g->idx); PyMem_Free(g->idx2); PyMem_Free(g->tbuf);
     Py_TYPE(g)->tp_free((PyObject *)g);
 }
 
