@@ -467,6 +467,13 @@ def _bench_accuracy(args: argparse.Namespace) -> int:
     return _print_bench(result, args.json)
 
 
+def _bench_objects(args: argparse.Namespace) -> int:
+    from server.bench.objects import run_objects_bench
+
+    result = run_objects_bench(Path(args.out), quick=args.quick)
+    return _print_bench(result, args.json)
+
+
 def _bench_stability(args: argparse.Namespace) -> int:
     from server.bench.stability import run_stability_bench
 
@@ -801,7 +808,9 @@ def build_parser() -> argparse.ArgumentParser:
     for name, func, what in (("accuracy", _bench_accuracy, "cost against error of every contact method on fixed "
                                                            "trajectories over the thesis scenes"),
                              ("stability", _bench_stability, "where each method fails: speed x thickness, stiffness "
-                                                             "x loop rate, tracker noise x hysteresis")):
+                                                             "x loop rate, tracker noise x hysteresis"),
+                             ("objects", _bench_objects, "the god-object's cost per tick against the number of "
+                                                         "objects (1 to 1000 primitives)")):
         sweep = bench_sub.add_parser(name, help=f"{what} (JSON + charts)")
         sweep.add_argument("--out", required=True, metavar="DIR", help=f"{name}.json and the charts go here")
         sweep.add_argument("--quick", action="store_true", help="a reduced grid (well under 2 min)")

@@ -32,9 +32,10 @@ from matplotlib.figure import Figure
 
 from scenarios.registry import SCENARIOS
 from server.analysis.figures import save
-from server.bench.contact_methods import ContactMethod, build_methods
+from server.bench.contact_methods import REFERENCE_LABEL, ContactMethod, build_methods, reference_method
 from server.bench.machine import machine_info
 from server.bench.trajectories import SCENES, Trajectory, scene_trajectory
+from server.core.haptics.compiled import COMPILED
 
 BUDGET_US = 250.0  # a quarter of the 1 kHz tick: the rest is the scenario, the gate and I/O
 TIE_MM = 1e-3
@@ -97,6 +98,30 @@ def run_method(method: ContactMethod, traj: Trajectory) -> dict:
             "contact_mismatch": wrong / len(traj.hips), "ticks": len(traj.hips)}
 
 
+def contact_query_cost(bodies, radius: float, traj: Trajectory) -> dict:
+    """The compiled contact query alone, per tick: ``GodCore.step`` (the C step and the
+    ProxyStep it returns), without the Python wrapper of GodObject and of the bench's method."""
+    from server.core.haptics.compiled import ccore
+
+    scene = tuple(bodies)
+    costs = []
+    clock = time.perf_counter_ns
+    for _ in range(2):  # the first pass warms caches and code paths
+        core = ccore.GodCore(radius)
+        costs = []
+        gc.collect()
+        gc.disable()
+        try:
+            for hip in traj.hips:
+                t0 = clock()
+                core.step(scene, hip)
+                costs.append((clock() - t0) / 1000.0)
+        finally:
+            gc.enable()
+    return {"p50_us": round(_pct(costs, 50), 3), "p99_us": round(_pct(costs, 99), 3),
+            "p999_us": round(_pct(costs, 99.9), 3), "ticks": len(costs)}
+
+
 def pareto(points: list[dict]) -> list[str]:
     """Labels not dominated in (cost p50, error p99): nothing is both cheaper and more accurate."""
     front = []
@@ -130,6 +155,8 @@ def run_accuracy_bench(out: Path, quick: bool = False) -> dict:
         traj = scene_trajectory(scene, radius, QUICK_SPEED if quick else 1.0)
         t0 = time.perf_counter()
         methods = build_methods(bodies, radius, quick=quick)
+        if COMPILED:  # the analytic method is the compiled core: show the reference beside it
+            methods.insert(1, reference_method(bodies, radius))
         build_s = time.perf_counter() - t0
         points = [run_method(m, traj) for m in methods]
         choice = choose(points)
@@ -137,10 +164,11 @@ def run_accuracy_bench(out: Path, quick: bool = False) -> dict:
             "trajectory": {"ticks": len(traj.hips), "contact_ticks": sum(t is not None for t in traj.truths),
                            "segments": [{"what": w, "ticks": n} for w, n in traj.segments]},
             "proxy_radius": radius, "build_s": round(build_s, 2), "methods": points,
+            "contact_query": contact_query_cost(bodies, radius, traj) if COMPILED else None,
             "pareto": pareto(points), "choice": choice, "server": SERVER_METHOD,
             "server_follows_chart": choice == SERVER_METHOD}
     overall = _overall(scenes)
-    result = {"bench": "accuracy", "quick": quick, "machine": machine_info(), "tick_hz": 1000,
+    result = {"bench": "accuracy", "quick": quick, "compiled_core": COMPILED, "machine": machine_info(), "tick_hz": 1000,
               "budget_us": BUDGET_US, "tie_mm": TIE_MM, "server_method": SERVER_METHOD,
               "scenes": scenes, "overall": overall, "wall_s": round(time.perf_counter() - started, 1)}
     (out / "accuracy.json").write_text(json.dumps(result, indent=1))
@@ -152,6 +180,9 @@ def run_accuracy_bench(out: Path, quick: bool = False) -> dict:
         summary[f"{scene} choice"] = s["choice"]
         summary[f"{scene} analytic cost p50/p99 us"] = f"{analytic['cost_p50_us']} / {analytic['cost_p99_us']}"
         summary[f"{scene} analytic err p99 mm"] = f"{analytic['err_p99_mm']:.3g}"
+        if s["contact_query"]:
+            q = s["contact_query"]
+            summary[f"{scene} compiled contact query p50/p99 us"] = f"{q['p50_us']} / {q['p99_us']}"
     summary["server follows chart"] = all(s["server_follows_chart"] for s in scenes.values())
     summary["json"] = str(out / "accuracy.json")
     summary["chart"] = str(paths["png"])
@@ -189,7 +220,8 @@ def chart(result: dict, out: Path) -> dict[str, Path]:
             colour, marker, size = FAMILY_STYLE[p["family"]]
             y = max(p["err_p99_mm"], FLOOR_MM)
             ax.plot([p["cost_p50_us"], p["cost_p99_us"]], [y, y], color=colour, alpha=0.35, lw=2)
-            ax.plot(p["cost_p50_us"], y, marker=marker, color=colour, ms=size, ls="none")
+            hollow = {"mfc": "none"} if p["label"] == REFERENCE_LABEL else {}  # same numbers, Python's cost
+            ax.plot(p["cost_p50_us"], y, marker=marker, color=colour, ms=size, ls="none", **hollow)
             ax.annotate(p["label"], (p["cost_p50_us"], y), textcoords="offset points", xytext=(5, 4), fontsize=7)
             if p["label"] == choice:
                 ax.plot(p["cost_p50_us"], y, marker="o", ms=size + 10, mfc="none", mec="black", mew=1.5)

@@ -4,7 +4,9 @@ Every method answers the same question each tick: given the HIP, where is the pr
 force k (proxy - HIP), and is there contact? They differ in how the geometry is represented and
 how the proxy is found:
 
-* ``analytic``: the server's god-object (server/core/haptics/god_object.py) on the exact primitives.
+* ``analytic``: the server's god-object (server/core/haptics/god_object.py) on the exact primitives:
+  the compiled core when it is built; `viestac bench accuracy` also runs the Python reference
+  (``analytic (Python reference)``, same numbers, its own cost).
 * ``mesh``: the same god-object on triangle-mesh tessellations of the primitives
   (server/bench/mesh_shape.py): the geometry error of a tessellation, at a mesh query's cost.
 * ``sdf``: the same god-object on signed-distance grids sampled from the primitives
@@ -20,8 +22,9 @@ from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import Sequence
 
-from server.core.haptics.god_object import GodObject
+from server.core.haptics.god_object import GodObject, ReferenceGodObject
 from server.bench.mesh_shape import LEVELS, MeshShape
+from server.core.haptics.compiled import COMPILED
 from server.core.haptics.primitives import Body, _Shape
 from server.bench.sdf_grid import CELLS, GridBody, GridShape
 from server.core.haptics.vec import Vec3
@@ -57,16 +60,17 @@ class ProxyMethod(ContactMethod):
     """The god-object on some representation of the bodies (analytic, mesh or grid bodies)."""
 
     def __init__(self, family: str, label: str, bodies: Sequence[Body], radius: float, detail: str = "",
-                 exact: bool = True) -> None:
+                 exact: bool = True, god: type[ReferenceGodObject] = GodObject) -> None:
         super().__init__(label, detail)
         self.family = family
-        self.bodies = list(bodies)
+        self.bodies = tuple(bodies)  # a tuple: the compiled core checks an unchanged scene by identity
         self.radius = radius
         self.exact = exact  # exact distance fields: the god-object may use its closest-point shortcut
-        self._god = GodObject(radius, shortcut=exact)
+        self.god = god
+        self._god = god(radius, shortcut=exact)
 
     def reset(self) -> None:
-        self._god = GodObject(self.radius, shortcut=self.exact)
+        self._god = self.god(self.radius, shortcut=self.exact)
 
     def step(self, hip: Vec3) -> MethodStep:
         s = self._god.step(self.bodies, hip)
@@ -131,7 +135,8 @@ def build_methods(bodies: Sequence[Body], radius: float, *, quick: bool = False)
     """Every method × resolution for these bodies (the reduced set when ``quick``): the analytic
     god-object, the god-object on mesh tessellations and on signed-distance grids, the penalty."""
     bodies = list(bodies)
-    methods: list[ContactMethod] = [ProxyMethod("analytic", "analytic", bodies, radius, "exact primitives")]
+    methods: list[ContactMethod] = [ProxyMethod("analytic", "analytic", bodies, radius, "exact primitives"
+                                                 + (", compiled core" if COMPILED else ", Python (core not built)"))]
     for level in QUICK_LEVELS if quick else LEVELS:
         meshed = mesh_bodies(bodies, level)
         faces = sum(b.shape.faces for b in meshed)
@@ -146,3 +151,13 @@ def build_methods(bodies: Sequence[Body], radius: float, *, quick: bool = False)
                                    exact=False))
     methods.append(PenaltyMethod(bodies, radius))
     return methods
+
+
+def reference_method(bodies: Sequence[Body], radius: float) -> ProxyMethod:
+    """The god-object's readable Python reference on the exact primitives: the analytic method's
+    numbers at the reference's cost (what the compiled core saves)."""
+    return ProxyMethod("analytic", REFERENCE_LABEL, bodies, radius, "exact primitives, Python reference",
+                       god=ReferenceGodObject)
+
+
+REFERENCE_LABEL = "analytic (Python reference)"

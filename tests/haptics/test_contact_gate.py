@@ -6,9 +6,21 @@ import random
 
 import pytest
 
-from server.core.haptics.contact_gate import ContactGate
-from server.core.haptics.god_object import GodObject
 from server.core.haptics.primitives import Body, Hemisphere, Plane
+
+from .implementations import GATES, GOD_OBJECTS
+
+ContactGate = GodObject = None  # the implementations under test, set per test by the fixture below
+
+
+@pytest.fixture(autouse=True, params=list(zip(GATES, GOD_OBJECTS)), ids=["reference", "compiled"])
+def _implementation(request, monkeypatch):
+    """Every test here runs against the Python reference and against the compiled core."""
+    gate, god = request.param
+    if any(m.name == "skipif" and m.args[0] for p in (gate, god) for m in p.marks):
+        pytest.skip(gate.marks[0].kwargs["reason"])
+    monkeypatch.setitem(globals(), "ContactGate", gate.values[0])
+    monkeypatch.setitem(globals(), "GodObject", god.values[0])
 
 RATE_HZ = 120.0  # Leap Motion frame rate
 SIGMA_M = 0.0005  # static jitter sigma (Guna et al. 2014: < 0.5 mm)

@@ -1,5 +1,6 @@
 """Acceptance tests for the god-object (server.core.haptics.god_object).
 
+Every test runs against both implementations (the Python reference and the compiled core).
 Ground truth is the analytic signed distance of each body (tested on its own in
 test_primitives.py); "free segment" is decided independently of Body.cast by minimising the
 convex function sd(a + t(b - a)) with a golden-section search.
@@ -14,9 +15,18 @@ import time
 import pytest
 
 from server.core.haptics import vec
-from server.core.haptics.god_object import GodObject
 from server.core.haptics.primitives import (Body, Box, Cone, Cylinder, Hemisphere, Plane, Pose,
                                        Sphere)
+
+from .implementations import GOD_OBJECTS
+
+GodObject = None  # the implementation under test, set per test by the fixture below
+
+
+@pytest.fixture(autouse=True, params=GOD_OBJECTS)
+def _implementation(request, monkeypatch):
+    """Every test here runs against the Python reference and against the compiled core."""
+    monkeypatch.setitem(globals(), "GodObject", request.param)
 
 Q = (0.9238795325112867, 0.2126311, -0.1876923, 0.25)  # an arbitrary rotation (normalised)
 

@@ -23,9 +23,12 @@ clock, so it is deterministic and testable.
 from __future__ import annotations
 
 from ..numbers import is_finite_number
+from .compiled import ccore
 
 
-class ContactGate:
+class ReferenceContactGate:
+    """The readable reference; ``ContactGate`` (below) is the compiled twin when it is built."""
+
     def __init__(self, band: float = 0.002, min_on_s: float = 0.030,
                  min_off_s: float = 0.030) -> None:
         for name, v in (("band", band), ("min_on_s", min_on_s), ("min_off_s", min_off_s)):
@@ -64,3 +67,11 @@ class ContactGate:
 def _elapsed(t_change: float | None, t_s: float) -> float:
     """Seconds since the last transition; +inf before the first one."""
     return float("inf") if t_change is None else t_s - t_change
+
+
+if ccore is not None:
+    class ContactGate(ccore.Gate):  # state, ``on``, ``reset`` and ``update`` in _ccore.c
+        __doc__ = ReferenceContactGate.__doc__
+        __init__ = ReferenceContactGate.__init__
+else:
+    ContactGate = ReferenceContactGate  # type: ignore[misc]

@@ -40,7 +40,8 @@ from dataclasses import dataclass
 from math import inf, isfinite, sqrt
 from typing import Sequence
 
-from .primitives import EPS_SURFACE, Body
+from .compiled import ccore
+from .primitives import EPS_SURFACE, SHAPE_TYPES, Body
 from .vec import Vec3, project_halfspaces
 
 CONTACT_TOL = 1e-9  # |sd(proxy) - radius| <= this: the proxy touches that body
@@ -184,8 +185,9 @@ def _exit_along(x, u, bodies, radius):
     return None
 
 
-class GodObject:
-    """Stateful proxy for one HIP; call ``step`` once per servo tick (1 kHz)."""
+class ReferenceGodObject:
+    """Stateful proxy for one HIP; call ``step`` once per servo tick (1 kHz). The readable
+    reference: ``GodObject`` (below) is this class with its step compiled."""
 
     def __init__(self, radius: float = 0.0, *, max_iterations: int = 16,
                  tolerance: float = 1e-12, shortcut: bool = True) -> None:
@@ -415,3 +417,37 @@ class GodObject:
         if h is None:
             h = _first_hit(bodies, phi0, start, cand, hip, r)
         return x if h is None else h[1]
+
+
+def _on_core(name: str) -> property:
+    return property(lambda self: getattr(self._core, name), lambda self, v: setattr(self._core, name, v))
+
+
+class CompiledGodObject(ReferenceGodObject):
+    """The god-object with its state and step in the compiled core (_ccore.c): the same API and
+    the same numbers as the reference. Bodies the core does not know (the bench's mesh and grid
+    baselines) take the reference's step, on the same state."""
+
+    def __init__(self, radius: float = 0.0, *, max_iterations: int = 16, tolerance: float = 1e-12,
+                 shortcut: bool = True) -> None:
+        self._core = ccore.GodCore()
+        super().__init__(radius, max_iterations=max_iterations, tolerance=tolerance, shortcut=shortcut)
+
+    radius = _on_core("radius")
+    max_iterations = _on_core("max_iterations")
+    tolerance = _on_core("tolerance")
+    use_shortcut = _on_core("use_shortcut")
+    _proxy = _on_core("proxy")
+    _friction_body = _on_core("friction_body")
+    _sticking = _on_core("sticking")
+
+    def step(self, bodies: Sequence[Body], hip: Vec3) -> ProxyStep:
+        s = self._core.step(bodies, hip)
+        return ReferenceGodObject.step(self, bodies, hip) if s is None else s
+
+
+if ccore is not None:
+    ccore.configure(Body, SHAPE_TYPES, ProxyStep, Contact)
+    GodObject: type[ReferenceGodObject] = CompiledGodObject
+else:
+    GodObject = ReferenceGodObject
