@@ -73,5 +73,13 @@ if ccore is not None:
     class ContactGate(ccore.Gate):  # state, ``on``, ``reset`` and ``update`` in _ccore.c
         __doc__ = ReferenceContactGate.__doc__
         __init__ = ReferenceContactGate.__init__
+        _STATE = ("band", "min_on_s", "min_off_s", "_on", "_t_change")
+
+        def __getstate__(self) -> dict:  # the state is in C, out of reach of copy and pickle
+            return {name: getattr(self, name) for name in self._STATE}
+
+        def __setstate__(self, state: dict) -> None:
+            for name in self._STATE:
+                setattr(self, name, state[name])
 else:
     ContactGate = ReferenceContactGate  # type: ignore[misc]

@@ -445,6 +445,17 @@ class CompiledGodObject(ReferenceGodObject):
         s = self._core.step(bodies, hip)
         return ReferenceGodObject.step(self, bodies, hip) if s is None else s
 
+    # The state lives in the C object, which copy and pickle cannot see: hand it over explicitly.
+    _STATE = ("radius", "max_iterations", "tolerance", "use_shortcut", "_proxy", "_friction_body", "_sticking")
+
+    def __getstate__(self) -> dict:
+        return {name: getattr(self, name) for name in self._STATE}
+
+    def __setstate__(self, state: dict) -> None:
+        self._core = ccore.GodCore()
+        for name in self._STATE:
+            setattr(self, name, state[name])
+
 
 if ccore is not None:
     ccore.configure(Body, SHAPE_TYPES, ProxyStep, Contact)
