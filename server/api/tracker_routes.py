@@ -64,7 +64,7 @@ async def _answer(coro) -> dict:
     return answer
 
 
-@router.post("/trackers/{source}/capture", responses=errors(404, 422, 503),
+@router.post("/trackers/{source}/capture", responses=errors(400, 404, 422, 503),
              summary="The mean raw position of each tracked point over the last seconds (for a calibration)")
 async def capture(source: str, body: Capture, request: Request) -> dict:
     host = _host(request)
@@ -72,7 +72,7 @@ async def capture(source: str, body: Capture, request: Request) -> dict:
     return await _answer(host.capture(source, body.seconds))
 
 
-@router.put("/trackers/{source}/calibration", responses=errors(404, 422, 503),
+@router.put("/trackers/{source}/calibration", responses=errors(400, 404, 422, 503),
             summary="Calibrate a tracker source from captured points and the scene points they touched")
 async def calibrate(source: str, body: CalibrationBody, request: Request) -> dict:
     host = _host(request)
@@ -99,7 +99,7 @@ async def calibrate(source: str, body: CalibrationBody, request: Request) -> dic
     return {"source": source, "calibration": answer["calibration"]}
 
 
-@router.delete("/trackers/{source}/calibration", responses=errors(404, 422, 503),
+@router.delete("/trackers/{source}/calibration", responses=errors(400, 404, 422, 503),
                summary="Back to the source kind's default calibration")
 async def reset_calibration(source: str, request: Request) -> dict:
     host = _host(request)

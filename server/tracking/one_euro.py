@@ -10,7 +10,7 @@ For a sample X_i at time t_i (T_e = t_i − t_{i−1}):
 The first sample passes unfiltered (X̂_1 = X_1, Ẋ̂_1 = 0). A vector is filtered per coordinate
 (the paper's scalar filter on each axis). Units: f_c in Hz, β in 1/(signal unit), times in s.
 
-Defaults for a fingertip in scene units (docs/trackers.md "Tuning the 1€ filter"): found with the
+Defaults for a fingertip in scene units (docs/trackers.md "Filtering: the 1€ filter"): found with the
 paper's procedure on `viestac bench tracking`'s noisy finger paths: β = 0, lower f_c,min until
 the jitter at rest is gone, then raise β until the lag in fast moves is gone.
 

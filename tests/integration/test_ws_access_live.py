@@ -87,7 +87,7 @@ def test_a_second_participant_cannot_drive_the_hip_while_the_real_one_is_connect
         intruder = await Client.connect(live_server.ws_url, token=stale)
         hand_id = (await hand.recv_type("welcome"))["client_id"]
         intruder_id = (await intruder.recv_type("welcome"))["client_id"]
-        refusals, drivers = [], set()
+        refusals, drivers = [], []
         deadline = time.monotonic() + 1.5
         seq = 0
         while time.monotonic() < deadline:
@@ -99,7 +99,7 @@ def test_a_second_participant_cannot_drive_the_hip_while_the_real_one_is_connect
         while time.monotonic() < end:
             message = await hand.recv(timeout=1.0)
             if message["type"] == "state" and message.get("driver"):
-                drivers.add(message["driver"][0])
+                drivers.append(message["driver"][0])
         end = time.monotonic() + 0.5  # it watches: state frames keep coming, read what came until now
         while time.monotonic() < end:
             message = await intruder.recv(timeout=1.0)
@@ -110,7 +110,12 @@ def test_a_second_participant_cannot_drive_the_hip_while_the_real_one_is_connect
         return hand_id, intruder_id, drivers, refusals
 
     hand_id, intruder_id, drivers, refusals = run(go())
-    assert drivers == {hand_id}, f"the HIP was driven by {drivers}, the participant is {hand_id}"
+    # An earlier source (another test's tracker bridge) may hold the HIP until it has been quiet for
+    # DRIVER_QUIET_S; from the participant's first applied sample on, only the participant drives.
+    assert hand_id in drivers, f"the participant {hand_id} never drove the HIP: {set(drivers)}"
+    since = drivers[drivers.index(hand_id):]
+    assert set(since) == {hand_id}, f"the HIP was driven by {set(since)}, the participant is {hand_id}"
+    assert intruder_id not in drivers
     assert refusals and {r["code"] for r in refusals} == {"forbidden"}
     # ~150 refused samples in 1.5 s: answered at most once a second
     assert len(refusals) <= 3
