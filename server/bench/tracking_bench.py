@@ -216,7 +216,8 @@ def switch_path(rate_hz: float = RATE_HZ):
 
 def latency_study(seconds: float, viewers: int) -> dict:
     from server.bench.leap_rig import LeapRig
-    from server.bench.loop_bench import admin_token, get_json, percentile
+    from server.bench.loop_bench import admin_token, get_json
+    from server.bench.quantiles import tail
 
     times, rows, switches = switch_path()
     cycle = len(rows)
@@ -256,7 +257,7 @@ def latency_study(seconds: float, viewers: int) -> dict:
             missed += 1
     lat.sort()
     return {"viewers": viewers, "seconds": seconds, "samples": len(lat), "missed": missed,
-            "p50_ms": percentile(lat, 0.5), "p99_ms": percentile(lat, 0.99), "max_ms": percentile(lat, 1.0),
+            **tail(lat, "", "_ms"),
             "period_p99_us": telemetry.get("period_p99_us"), "overruns": telemetry.get("overruns"),
             "rt": telemetry.get("rt"), "leap_source": {k: source.get(k) for k in ("status", "rate_hz", "gaps")},
             "end_point": "FerroVibe emulator's read of the first command frame showing the switch "

@@ -27,3 +27,13 @@ def test_cli_prints_json_and_writes_the_chart(tmp_path, capsys):
     printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert printed["filters"]["defaults_on_front"] is True
     assert (tmp_path / "tracking_filters.png").is_file() and (tmp_path / "tracking.json").is_file()
+
+
+def test_the_latency_part_measures_leap_sample_to_device_command_through_a_live_server(tmp_path, capsys):
+    """A short run of the end-to-end part (the bench's default is 130 s for > 1000 switches)."""
+    assert main(["bench", "tracking", "--out", str(tmp_path), "--latency-seconds", "4", "--viewers", "2",
+                 "--json"]) == 0
+    latency = json.loads(capsys.readouterr().out.strip().splitlines()[-1])["latency"]
+    assert latency["samples"] > 0 and latency["viewers"] == 2
+    assert 0 < latency["p50_ms"] <= latency["p99_ms"] <= latency["max_ms"]
+    assert "p99_ci95_ms" in latency
