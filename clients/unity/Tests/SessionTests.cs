@@ -86,7 +86,7 @@ namespace Viestac.Client.Tests
             var hello = Decode(t.Sent.Take());
             Assert.AreEqual("hello", hello["type"]); Assert.AreEqual("secret", hello["token"]); Assert.AreEqual("operator", hello["role"]);
             t.Push(Vector("welcome")); t.Push(Vector("scene-minimal")); t.Push(State(1)); t.Push(State(2));
-            Assert.IsTrue(WaitFor(() => s.Pending >= 4));
+            Assert.IsTrue(WaitFor(() => s.StatesReceived == 2 && s.Pending >= 4)); // both states read (Pending also counts status changes)
             Assert.IsEmpty(seen, "nothing fires before Drain()");
             int mainThread = Thread.CurrentThread.ManagedThreadId, handlerThread = -1;
             s.StateReceived += _ => handlerThread = Thread.CurrentThread.ManagedThreadId;
