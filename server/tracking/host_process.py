@@ -136,8 +136,9 @@ class Source:
             await asyncio.sleep(max(0.0, start + due - time.monotonic()))
             rows = cursor.due(time.monotonic() - start)
             if rows:
-                index, row = rows[-1]  # behind schedule: only the newest row matters
-                self.sample(row, track.times[index] + cursor._base, 1.0)
+                _, row = rows[-1]  # behind schedule: only the newest row matters
+                # its time on the replay's clock, rising across passes (the filters need that)
+                self.sample(row, cursor.last_time, 1.0)
         self.health.connected, self.health.note = False, "replay finished"
 
     async def _run_scripted(self) -> None:
