@@ -118,6 +118,7 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
         if settings.trackers and supervisor.tracker_sock is not None:  # sources run outside loop and hub
             trackers = TrackerHost(settings.tracker_specs(), app.state.tracker_udp, settings.data_dir)
             trackers.owner = hub.owner
+            trackers.on_sources = hub.on_tracker_sources  # a lost tracker makes health degraded
             trackers.start()
         app.state.tracker_host = trackers
         flusher = asyncio.get_running_loop().create_task(_flush_recorder(experiment))

@@ -2,7 +2,8 @@
 
 `viestac render --scene NAME|FILE.json --trajectory IN.csv --out OUT.csv [--tool POINT ...]`:
 the trajectory has columns t,x,y,z (seconds, scene units; extra columns are ignored): the primary
-point, the HIP. Or it is a multi-point CSV (server/core/records.py; what export writes for a
+point, the HIP; an exported trial's trajectory file (`t_s`, `hip_x`, `hip_y`, `hip_z`, docs/data.md)
+reads as that. Or it is a multi-point CSV (server/core/records.py; what export writes for a
 recording of several points): `t`, then NAME.x,NAME.y,NAME.z per point name (server/core/points.py),
 a cell left empty where a point was not tracked. Each point that names a tool (the primary point,
 the scenario's `fingers`, and every --tool) drives that tool, the others are the hand's drawn
@@ -26,6 +27,7 @@ from server.core.cues import cue_to_wire
 from scenarios import registry
 from scenarios.free import FreeExploration
 from server.core.points import PRIMARY_POINT, check_point_name
+from server.core.records import EXPORT_TRAJECTORY_AS_SAMPLES
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
 from server.core.scene import Scene
@@ -55,13 +57,17 @@ def read_trajectory(path: str | Path) -> list[tuple]:
 
 def _read_single(path, reader: csv.DictReader) -> list[tuple[float, float, float, float]]:
     rows = []
-    missing = {"t", "x", "y", "z"} - set(reader.fieldnames or [])
+    names = set(reader.fieldnames or [])
+    keys = {k: k for k in "txyz"}
+    if not set(keys) <= names and set(EXPORT_TRAJECTORY_AS_SAMPLES.values()) <= names:
+        keys = EXPORT_TRAJECTORY_AS_SAMPLES  # an exported trial's trajectory file: the HIP as recorded
+    missing = set(keys.values()) - names
     if missing:
         raise TrajectoryError(f"{path}: missing column(s) {', '.join(sorted(missing))}; need t,x,y,z "
-                              "(or t and NAME.x,NAME.y,NAME.z per point)")
+                              "(or t and NAME.x,NAME.y,NAME.z per point, or an exported trajectory file)")
     for line, row in enumerate(reader, start=2):
         try:
-            values = tuple(float(row[k]) for k in ("t", "x", "y", "z"))
+            values = tuple(float(row[keys[k]]) for k in ("t", "x", "y", "z"))
         except (TypeError, ValueError):
             raise TrajectoryError(f"{path}:{line}: t,x,y,z must be numbers") from None
         _check_row(path, line, values, rows)

@@ -220,7 +220,7 @@ class FaultBench:
         # health: degraded after the fault and ok again (process faults); ok at the end (the rest)
         ok_ns = await self.until(lambda: health_status(self.latest_health()) == "ok", HEALTH_OK_S)
         samples = self.health_samples()
-        if kind in fm.PROCESS_FAULTS:
+        if kind in fm.HEALTH_FAULTS:
             rep["degraded_ms"], rep["ok_ms"] = fm.health_times(samples, fault_ns)
         else:  # an input fault: did health say degraded while it lasted (a wedged loop must)
             rep["degraded_ms"] = fm.health_times(samples, fault_ns, end_ns)[0]
@@ -312,13 +312,21 @@ class FaultBench:
         return await self._replace_emulator("ferrovibe", UNPLUGGED_S)
 
     async def fault_tracker_loss(self) -> dict:
+        """The participant's tracker goes silent while it presses (its samples carry a ttl, as a
+        hand tracker's do; the connection stays open), then sends again."""
+        self.participant.ttl_ms = fm.TRACKER_TTL_MS
+        await asyncio.sleep(0.2)  # samples with the ttl are applied
         t0 = time.monotonic_ns()
-        await self.participant.stop()
+        self.participant.paused = True
         await asyncio.sleep(1.2)
         held, off_us = fm.all_off_after(self.read_timelines(), t0 // 1000)
-        await self.participant.start()
-        return {"fault_ns": t0, "end_ns": t0, "held": held,
-                "actuators_off_ms": off_ms(t0, off_us)}
+        codes = self.codes_between(t0, time.monotonic_ns())
+        back = time.monotonic_ns()
+        self.participant.paused = False
+        await asyncio.sleep(0.1)
+        self.participant.ttl_ms = None  # held as before between samples (other faults pause it)
+        return {"fault_ns": t0, "end_ns": back, "held": held, "actuators_off_ms": off_ms(t0, off_us),
+                "tracker_lost_reported": "tracker_lost" in (codes or ())}
 
     async def _flood(self, what: str) -> dict:
         """A second participant, in a process of its own, sends FLOOD_RATE messages a second for

@@ -106,6 +106,7 @@ class Participant(WsClient):
     def __init__(self, url: str, fmt: str = "msgpack"):
         super().__init__(url, "participant", fmt, "bench-faults-participant")
         self.paused = False
+        self.ttl_ms: float | None = None  # stamped on each sample when set (protocol v1.4 `ttl`)
         self.pos = CONTACT_POS
         self.seq = 0
         self._sender: asyncio.Task | None = None
@@ -131,7 +132,10 @@ class Participant(WsClient):
         self.pos = CONTACT_POS
 
     async def tracker(self, pos) -> None:
-        await self.send({"type": "tracker", "seq": self.seq, "t": time.monotonic() * 1e3, "pos": list(pos)})
+        message = {"type": "tracker", "seq": self.seq, "t": time.monotonic() * 1e3, "pos": list(pos)}
+        if self.ttl_ms is not None:
+            message["ttl"] = self.ttl_ms
+        await self.send(message)
         self.seq += 1
 
     async def stop(self) -> None:

@@ -21,6 +21,9 @@ RECONNECT_MS = 1000.0          # device emulator killed and restarted -> connect
 DEGRADED_MS = 100.0            # a process or device fault -> /api/health (or the `health` message) degraded
 # Bounds the bench applies to the faults the issue names without a number (docs/reliability.md).
 TRACKER_LOSS_OFF_MS = 1000.0   # the participant's tracker is gone -> no contact cue stays on
+TRACKER_TTL_MS = 50.0          # the bench participant's sample ttl during the tracker-loss fault
+# A silent tracker is known lost only when its ttl has passed; from then on, as a process fault.
+TRACKER_LOSS_DEGRADED_MS = TRACKER_TTL_MS + DEGRADED_MS
 FRAME_GROWTH_MAX = 2.0         # a key flood may not grow the viewers' median frame more than this
 FRAME_RATE_KEEP = 0.8          # floods and slow readers: viewers keep this share of their frame rate
 RESUME_MS = 1000.0             # huge values: state frames from ticks after the bad samples within this
@@ -191,6 +194,7 @@ def all_true(name: str, values: list[bool | None]) -> Check:
 # Which measurements each fault is judged on (docs/reliability.md). A process or device fault
 # must show in health; an input fault must be refused at the edge without harming anyone else.
 PROCESS_FAULTS = ("loop_kill", "device_host_kill", "emulator_restart", "device_unplug")
+HEALTH_FAULTS = PROCESS_FAULTS + ("tracker_loss",)  # must show in health: degraded, then ok again
 
 
 def judge(kind: str, reps: list[dict]) -> list[Check]:
@@ -214,6 +218,7 @@ def judge(kind: str, reps: list[dict]) -> list[Check]:
     elif kind == "tracker_loss":
         checks.append(at_most("cue off after the tracker left (ms)",
                               [r.get("actuators_off_ms") for r in reps if r.get("held")], TRACKER_LOSS_OFF_MS))
+        checks.append(all_true("health names tracker_lost", col("tracker_lost_reported")))
     elif kind == "key_flood":
         checks.append(at_most("viewer frame median growth (x)", col("frame_growth"), FRAME_GROWTH_MAX))
     elif kind in ("tracker_flood", "slow_readers"):
@@ -225,8 +230,9 @@ def judge(kind: str, reps: list[dict]) -> list[Check]:
                               [r.get("degraded_ms") for r in reps if not r.get("recovered")], DEGRADED_MS))
     elif kind == "bad_frames":
         checks.append(all_true("connection open with an error reply", col("stayed_open")))
-    if kind in PROCESS_FAULTS:
-        checks.append(at_most("health degraded (ms)", col("degraded_ms"), DEGRADED_MS))
+    if kind in HEALTH_FAULTS:
+        checks.append(at_most("health degraded (ms)", col("degraded_ms"),
+                              TRACKER_LOSS_DEGRADED_MS if kind == "tracker_loss" else DEGRADED_MS))
         checks.append(all_true("health ok again", [r.get("ok_ms") is not None for r in reps]))
     else:
         checks.append(all_true("health ok after", col("ok_after")))

@@ -7,6 +7,10 @@ the store does not load the loop, every scenario and trimesh."""
 TRAJECTORY_COLUMNS = ("tick", "hip_x", "hip_y", "hip_z", "proxy_x", "proxy_y", "proxy_z", "contact",
                       "held", "held_x", "held_y", "held_z")
 
+# The export's trajectory file (docs/data.md) names its time `t_s` and the HIP's tracked position
+# hip_x/y/z: the columns that stand for `t,x,y,z` when it is read back as a trajectory (render, replay).
+EXPORT_TRAJECTORY_AS_SAMPLES = {"t": "t_s", "x": "hip_x", "y": "hip_y", "z": "hip_z"}
+
 # Several tracked points (more than one tool, or a hand's other joints): one row per recorded
 # tick, [tick, {point name: [x, y, z]}] of every tool's tracked point (not a position a scenario
 # holds it at) and every point that drives no tool; the primary tool is in the trajectory row too.

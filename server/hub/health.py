@@ -20,11 +20,13 @@ long the condition has held, seconds); the codes (docs/protocol.md `health`):
 - `device_host_down`: the device host process is not running;
 - `device_host_restarted`: for `restart_hold_s` after the device host came back;
 - `overruns`: more than `overrun_threshold` loop periods over 1.5 ms within the last
-  `overrun_window_s`, not counting the first `startup_grace_s` of a loop process.
+  `overrun_window_s`, not counting the first `startup_grace_s` of a loop process;
+- `tracker_lost` (TRACKER_CODES): a tracker source stopped (server/hub/tracker_health.py, fed by
+  `trackers` and `tracking`); one reason per such source.
 
 Notes (`notes`, never a reason for `degraded`): a device that is not connected but that the
 running scenario does not need (another connected device shows what it would show, or the
-scenario requires nothing it shows).
+scenario requires nothing it shows); a tracker replay that ran once and finished.
 """
 
 from __future__ import annotations
@@ -34,11 +36,13 @@ from dataclasses import dataclass, field
 from typing import Mapping
 
 from devices.capability import CONNECTED, missing, missing_device_text
+from server.hub.tracker_health import TRACKER_CODES, TrackingWatch
 
 OK, DEGRADED, STARTING = "ok", "degraded", "starting"
 HOST_DOWN = "unreachable (the device host process is down)"  # a device's status while nobody drives it
 CODES = ("loop_down", "loop_stalled", "tick_failures", "device_missing", "device_host_down",
-         "device_host_restarted", "overruns")
+         "device_host_restarted", "overruns")  # the processes' and devices' codes; tracking: TRACKER_CODES
+ALL_CODES = CODES + TRACKER_CODES
 
 
 @dataclass(frozen=True)
@@ -87,6 +91,7 @@ class Health:
         self._status_since: dict[str, float] = {}
         self._scenario = ""
         self._shown_by: dict[str, tuple[str, ...]] = {}  # required dimension → devices that show it
+        self._tracking = TrackingWatch()
 
     # ---- inputs: child processes -----------------------------------------------------------
     def loop_started(self, now_s: float) -> None:
@@ -141,6 +146,16 @@ class Health:
         self._scenario = scenario
         self._shown_by = dict(shown_by)
 
+    # ---- inputs: tracking (server/hub/tracker_health.py) ------------------------------------
+    def trackers(self, sources, now_s: float) -> bool:
+        """Each configured tracker source's health as the tracker host reported it; True when a
+        status changed."""
+        return self._tracking.sources(sources, now_s)
+
+    def tracking(self, lost, lost_tools, now_s: float) -> bool:
+        """The loop's `tracking.lost` sources and the tools they left released; True when changed."""
+        return self._tracking.loop(lost, lost_tools, now_s)
+
     # ---- the verdict -----------------------------------------------------------------------
     def evaluate(self, now_s: float) -> HealthReport:
         reasons: list[dict] = []
@@ -189,9 +204,12 @@ class Health:
                 f"times in the last {self.overrun_window_s:g} s (more than {self.overrun_threshold}): the machine "
                 "is overloaded or the loop lacks real-time priority (see telemetry.rt)")
 
+        tracking_reasons, tracking_notes = self._tracking.evaluate(now_s)
+        reasons += tracking_reasons
         notes = tuple({"code": "device_disconnected", "since_s": round(now_s - self._status_since[name], 3),
                        "message": f"device '{name}' is {status}; the running scenario does not need it"}
                       for name, status in self._statuses.items() if status != CONNECTED and name not in needed)
+        notes += tuple(tracking_notes)
         if self._last_state_s is None and loop.exited_s is None:
             status = STARTING  # nothing ticks yet; devices may still be identifying themselves
         else:

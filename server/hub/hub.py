@@ -46,6 +46,7 @@ log = logging.getLogger("viestac.hub")
 SLICE = 8
 HEALTH_EVERY_S = 0.025  # a fault shows in health within 100 ms: 50 ms stall rule + this + a poll
 FLUSH_BEFORE_CLOSE_S = 2.0
+_NO_TRACKING = {"lost": []}  # a state record without `tracking` (an older loop)
 MAX_CONNECTIONS_PER_TOKEN = 256  # 64 viewers of a bench run, with room; a leaked token cannot open thousands
 
 
@@ -86,6 +87,7 @@ class Hub:
         self.last_state: dict | None = None
         self.states_received = 0
         self._device_report: dict | None = None
+        self._tracking_lost = False  # the last state record listed a lost tracker source
         self.tracker_applied: deque[list] = deque(maxlen=4096)  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.log_records: deque[dict] = deque(maxlen=200)
         self._frames: dict[str, bytes | str] = {}
@@ -218,7 +220,14 @@ class Hub:
     def _on_state(self, rec: dict) -> None:
         # The devices got this tick's cues already: the loop sent them to the device host's feed.
         overruns = self.telemetry.add(rec["samples"])
-        self.health.state(time.monotonic(), rec.get("failures", 0), overruns)
+        now = time.monotonic()
+        self.health.state(now, rec.get("failures", 0), overruns)
+        lost = (rec.get("tracking") or _NO_TRACKING)["lost"]
+        if lost or self._tracking_lost:  # a tracker source stopped, or it has just come back
+            tools = [t["name"] for t in rec.get("tools", ()) if t.get("lost")]
+            self._tracking_lost = bool(lost)
+            if self.health.tracking(lost, tools, now):
+                self.check_health()
         self.telemetry.resyncs = rec.get("resyncs", 0)
         if rec["trackers"]:
             self.tracker_applied.extend(rec["trackers"])
@@ -346,6 +355,12 @@ class Hub:
         cls = self.control.scenario_cls
         if cls is not None:
             self.health.needs(cls.id, showing(tuple(cls.REQUIRES), self._device_profiles))
+
+    def on_tracker_sources(self, sources: list[dict]) -> None:
+        """The tracker host's health of each configured source (every 0.1 s, and when it exits)."""
+        self.owner.check()
+        if self.health.trackers(sources, time.monotonic()):
+            self.check_health()
 
     def on_child_start(self, what: str) -> None:
         """A child process ("loop" or "device_host") started (the supervisor's on_start hook)."""

@@ -40,6 +40,7 @@ class TrackerHost(ChildProcess):
         self.info: dict = {}
         self._requests: dict[int, asyncio.Future] = {}
         self._ids = itertools.count(1)
+        self.on_sources = lambda sources: None  # the hub's health hears every report (Hub.on_tracker_sources)
 
     def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
         proc = subprocess.Popen(
@@ -54,6 +55,7 @@ class TrackerHost(ChildProcess):
         kind = record[0]
         if kind == "health":
             self.sources = record[1]
+            self.on_sources(self.sources)
         elif kind == "answer":
             future = self._requests.pop(record[1], None)
             if future is not None and not future.done():
@@ -67,6 +69,7 @@ class TrackerHost(ChildProcess):
             if not future.done():
                 future.set_exception(TrackerHostUnavailable("the tracker host process exited (restarting)"))
         self.sources = [dict(s, status="lost", reasons=["tracker host restarting"]) for s in self.sources]
+        self.on_sources(self.sources)
 
     async def _ask(self, record: list) -> dict:
         request = next(self._ids)

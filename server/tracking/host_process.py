@@ -65,6 +65,11 @@ class Source:
         family = socket.AF_INET6 if ":" in target[0] else socket.AF_INET
         self.sock = socket.socket(family, socket.SOCK_DGRAM)
         self.sock.setblocking(False)
+        # Bound now, so its health names the source as the loop does (`tracking.lost`, the applied
+        # rows): "udp:HOST:PORT" of this socket (the tracker port is on loopback, as is this end).
+        self.sock.bind((target[0], 0))
+        local = self.sock.getsockname()
+        self.client_id = f"udp:{local[0]}:{local[1]}"
         self.raw: deque = deque()  # (monotonic s, raw points)
         self.sent = 0
         self.send_errors = 0
@@ -131,8 +136,9 @@ class Source:
             await asyncio.sleep(max(0.0, start + due - time.monotonic()))
             rows = cursor.due(time.monotonic() - start)
             if rows:
-                index, row = rows[-1]  # behind schedule: only the newest row matters
-                self.sample(row, track.times[index] + cursor._base, 1.0)
+                _, row = rows[-1]  # behind schedule: only the newest row matters
+                # its time on the replay's clock, rising across passes (the filters need that)
+                self.sample(row, cursor.last_time, 1.0)
         self.health.connected, self.health.note = False, "replay finished"
 
     async def _run_scripted(self) -> None:
@@ -168,7 +174,7 @@ class TrackerHost:
         out = []
         for src in self.sources.values():
             snap = src.health.snapshot(now)
-            snap.update(sent=src.sent, send_errors=src.send_errors, outside=src.pipeline.outside,
+            snap.update(sent=src.sent, send_errors=src.send_errors, outside=src.pipeline.outside, client_id=src.client_id,
                         target=src.spec.target, calibration=src.pipeline.calibration.to_dict(),
                         ttl_ms=src.pipeline.ttl)
             out.append(snap)

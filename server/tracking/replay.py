@@ -2,7 +2,8 @@
 
 Reads the two CSV formats of docs/data.md and `viestac render`: `t,x,y,z` (seconds, the primary
 point, scene units) and the multi-point form, `t` then `NAME.x,NAME.y,NAME.z` per point (a column
-name is split with rsplit(".", 1)). `ReplayCursor` says which rows are due at an elapsed time,
+name is split with rsplit(".", 1)), and an exported trial's trajectory file (`t_s`, `hip_x`..`hip_z`:
+the HIP as the loop applied it). `ReplayCursor` says which rows are due at an elapsed time,
 once or looping (a loop restarts after the last row plus one median period).
 
 Pure: text in, rows out; the tracker host's task sleeps until each row is due.
@@ -16,6 +17,7 @@ import math
 from dataclasses import dataclass
 
 from server.core.points import PRIMARY_POINT, check_point_name
+from server.core.records import EXPORT_TRAJECTORY_AS_SAMPLES
 
 
 @dataclass(frozen=True)
@@ -40,10 +42,15 @@ class ReplayTrack:
 def parse_csv(text: str, *, where: str = "replay") -> ReplayTrack:
     reader = csv.reader(io.StringIO(text))
     header = [h.strip() for h in next(reader, [])]
-    if not header or header[0] != "t":
-        raise ValueError(f"{where}: the first column must be 't' (seconds), got {header[:1]}")
+    t_index = 0
     columns: dict[str, list[int]] = {}
-    if header[1:] == ["x", "y", "z"]:
+    if set(EXPORT_TRAJECTORY_AS_SAMPLES.values()) <= set(header) and "t" not in header:
+        # an exported trial's trajectory file (docs/data.md): its time and the HIP as recorded
+        t_index = header.index(EXPORT_TRAJECTORY_AS_SAMPLES["t"])
+        columns[PRIMARY_POINT] = [header.index(EXPORT_TRAJECTORY_AS_SAMPLES[a]) for a in "xyz"]
+    elif not header or header[0] != "t":
+        raise ValueError(f"{where}: the first column must be 't' (seconds), got {header[:1]}")
+    elif header[1:] == ["x", "y", "z"]:
         columns[PRIMARY_POINT] = [1, 2, 3]
     else:
         for i, name in enumerate(header[1:], start=1):
@@ -62,7 +69,7 @@ def parse_csv(text: str, *, where: str = "replay") -> ReplayTrack:
         if not record or not "".join(record).strip():
             continue
         try:
-            t = float(record[0])
+            t = float(record[t_index])
             row = {point: tuple(float(record[i]) for i in idx) for point, idx in columns.items()}
         except (ValueError, IndexError):
             raise ValueError(f"{where}: line {line_no} is not numbers in every column") from None
@@ -95,6 +102,7 @@ class ReplayCursor:
         self.track, self.loop = track, loop
         self._next = 0
         self._base = 0.0  # elapsed time at which the current pass started
+        self.last_time: float | None = None  # elapsed time of the last row `due` gave (the source's clock)
         self.passes = 0
         self.done = False
 
@@ -105,8 +113,9 @@ class ReplayCursor:
 
     def due(self, elapsed_s: float) -> list[tuple[int, dict]]:
         out = []
-        while not self.done and self.next_time() <= elapsed_s:
+        while not self.done and (when := self.next_time()) <= elapsed_s:
             out.append((self._next, self.track.rows[self._next]))
+            self.last_time = when
             self._next += 1
             if self._next == len(self.track.rows):
                 self.passes += 1

@@ -325,8 +325,8 @@ HEALTH = Message("health", "server_to_client", "after `welcome` and the first `s
           "loop's first tick", since=2),
     Field("reasons", array(mapping(string(), "map `{code, message}`"), "array of `{code, message}`"),
           "why it is not `ok`: `code` is one of `loop_down`, `loop_stalled`, `tick_failures`, `device_missing`, "
-          "`device_host_down`, `device_host_restarted`, `overruns` (a client treats a code it does not know like "
-          "any other); `message` is a sentence for a person, e.g. \"device 'ferrovibe' is disconnected: check its "
+          "`device_host_down`, `device_host_restarted`, `overruns`, `tracker_lost` (v1.4; a client treats a code it "
+          "does not know like any other); `message` is a sentence for a person, e.g. \"device 'ferrovibe' is disconnected: check its "
           "cable and power; the running scenario 'contact-angle' needs it for macro-roughness (tilt)\". "
           "`GET /api/health` lists the same reasons", since=2),
 ))

@@ -112,3 +112,25 @@ def test_a_live_loop_kill_is_measured():
     assert report["samples"]["integrity_check"] == "ok" and report["samples"]["completed_trials"] + \
         report["samples"]["interrupted"] == 1
     assert isinstance(report["pass"], bool)
+
+
+def test_a_tracker_loss_must_show_in_health_after_its_ttl_and_clear():
+    good = {"held": True, "actuators_off_ms": 60.0, "degraded_ms": 80.0, "ok_ms": 1300.0, "ok_after": True,
+            "tracker_lost_reported": True, "samples_lost": 0}
+    assert fm.passed(fm.judge("tracker_loss", [good]))
+    names = {c.name for c in fm.judge("tracker_loss", [good])}
+    assert {"health degraded (ms)", "health ok again", "health names tracker_lost"} <= names
+    assert not fm.passed(fm.judge("tracker_loss", [{**good, "degraded_ms": None}])), "health never said so"
+    assert not fm.passed(fm.judge("tracker_loss", [{**good, "tracker_lost_reported": False}]))
+    late = fm.judge("tracker_loss", [{**good, "degraded_ms": fm.TRACKER_TTL_MS + fm.DEGRADED_MS + 1}])
+    assert not fm.passed(late), "degraded later than 100 ms after the ttl ran out"
+
+
+@pytest.mark.slow
+def test_a_live_tracker_loss_is_reported_degraded_and_recovers():
+    report = run_fault_bench(repeat=1, kinds=("tracker_loss",))
+    fault = report["faults"]["tracker_loss"]
+    rep = fault["repetitions"][0]
+    assert rep["held"] and rep["actuators_off_ms"] is not None, rep
+    assert rep["tracker_lost_reported"] and "tracker_lost" in rep["reasons"], rep
+    assert rep["degraded_ms"] is not None and rep["ok_ms"] is not None, rep

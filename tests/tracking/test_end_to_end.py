@@ -33,6 +33,15 @@ def held_path(angle_deg: float, rate: float = 110.0):
     return times, [{"right.index.tip": point_at_angle(angle_deg, TOUCH)} for _ in times]
 
 
+def wait_health(base: str, status: str, timeout_s: float = 3.0) -> dict:
+    deadline = time.monotonic() + timeout_s
+    while True:
+        health = get_json(base + "/api/health")
+        if health["status"] == status or time.monotonic() > deadline:
+            return health
+        time.sleep(0.01)
+
+
 def tilt_edges(emulator, since_us: int = 0):
     return [e for e in emulator.snapshot_edges() if e.cause == "command" and e.t_us >= since_us]
 
@@ -79,6 +88,11 @@ def test_tracker_loss_turns_cues_off_within_100ms_and_recovers():
         state = get_json(rig.base + "/api/state")
         assert state["tracking"]["lost"], state["tracking"]
         assert state["tools"][0]["lost"] and not state["tools"][0]["contact"]
+        # health says so: which source, and the finger it released
+        health = wait_health(rig.base, "degraded")
+        lost = [r for r in health["reasons"] if r["code"] == "tracker_lost"]
+        assert health["status"] == "degraded" and len(lost) == 1, health["reasons"]
+        assert "tracker source 'leap'" in lost[0]["message"] and "right.index.tip" in lost[0]["message"], lost
         # the service comes back (same port): the client reconnects and contact returns
         back_from_us = time.monotonic_ns() // 1000
         rig.start_leap()
@@ -88,6 +102,8 @@ def test_tracker_loss_turns_cues_off_within_100ms_and_recovers():
             time.sleep(0.05)
         assert any(e.magnitude > 0 for e in tilt_edges(emulator, back_from_us)), "no cue after the tracker came back"
         assert not get_json(rig.base + "/api/state")["tracking"]["lost"]
+        health = wait_health(rig.base, "ok")
+        assert health["status"] == "ok", health["reasons"]
         assert math.isfinite(rig.source()["age_ms"])
 
 

@@ -69,3 +69,17 @@ def test_pipeline_filters_each_point():
     pipe.process({"right.index.tip": (0.0, 0.0, 0.0)}, 0.0)
     msg = pipe.process({"right.index.tip": (0.0, 0.0, 0.01)}, 0.01)
     assert 0.0 < msg["pos"][2] < 0.01
+
+
+def test_a_looping_replays_row_times_keep_rising_across_passes():
+    """The filters see the source's clock: the last row of a pass must not carry the next pass's
+    start (it did: every row of the second pass then came 'before' it and the HIP froze)."""
+    from server.tracking.replay import ReplayCursor, parse_csv
+    track = parse_csv("t,x,y,z\n0,0,0,1\n0.01,0,0,1.1\n0.02,0,0,1.2\n")
+    cursor = ReplayCursor(track, loop=True)
+    times = []
+    for k in range(9):
+        if cursor.due(k * 0.01 + 1e-9):
+            times.append(cursor.last_time)
+    assert times == sorted(times) and len(set(times)) == len(times) == 9, times
+    assert times[3] == pytest.approx(0.03), "the second pass starts one period after the first's last row"

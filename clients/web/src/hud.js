@@ -28,6 +28,7 @@ const HEALTH_WORDS = {
   loop_stalled: 'server not responding',
   tick_failures: 'server error',
   overruns: 'server overloaded',
+  tracker_lost: 'tracking lost',
 };
 
 /** The short line for a `health` message: '' when ok or starting, else

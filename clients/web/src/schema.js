@@ -1040,7 +1040,7 @@ export const SCHEMA = {
      },
      "required": true,
      "since": 2,
-     "meaning": "why it is not `ok`: `code` is one of `loop_down`, `loop_stalled`, `tick_failures`, `device_missing`, `device_host_down`, `device_host_restarted`, `overruns` (a client treats a code it does not know like any other); `message` is a sentence for a person, e.g. \"device 'ferrovibe' is disconnected: check its cable and power; the running scenario 'contact-angle' needs it for macro-roughness (tilt)\". `GET /api/health` lists the same reasons"
+     "meaning": "why it is not `ok`: `code` is one of `loop_down`, `loop_stalled`, `tick_failures`, `device_missing`, `device_host_down`, `device_host_restarted`, `overruns`, `tracker_lost` (v1.4; a client treats a code it does not know like any other); `message` is a sentence for a person, e.g. \"device 'ferrovibe' is disconnected: check its cable and power; the running scenario 'contact-angle' needs it for macro-roughness (tilt)\". `GET /api/health` lists the same reasons"
     }
    ]
   },

@@ -40,6 +40,14 @@ test('the participant line names each cause once, in plain words', () => {
   assert.equal(healthLine(null), '');
 });
 
+test('a lost tracker reads as tracking lost, on the participant line and in the console banner', () => {
+  const lost = { code: 'tracker_lost', message: "tracker source 'leap' (leap, ws://127.0.0.1:6437/v6.json) is lost: no sample for 420 ms" };
+  assert.equal(healthLine(degraded(lost)), 'Tactile feedback paused — tracking lost');
+  const b = banner(degraded(lost));
+  assert.equal(b.hidden, false);
+  assert.deepStrictEqual(b.items, [{ code: 'tracker_lost', text: lost.message }]);
+});
+
 test('the HUD shows the line while degraded and hides it when ok', () => {
   const els = { hud: {}, status: { dataset: {} }, telemetry: {}, health: { hidden: true } };
   const hud = new Hud(els);
