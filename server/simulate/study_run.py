@@ -82,8 +82,7 @@ def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_
 
     workers > 1: the participants run in that many processes, each into a database of its own,
     appended to the study's in participant order (Store.append_database): the same rows as one
-    process writes (a participant's run depends on the seed and its index alone). make_participant
-    and agent_params must then be picklable."""
+    process writes (a participant's run depends on the seed and its index alone)."""
     study_path = Path(study_path)
     study = load_study(study_path)
     out = Path(out_dir)
@@ -169,21 +168,23 @@ def _participant(run: _Run, study, store: Store, clock: VirtualClock, index: int
     return sid, trials, aborted, hub.t_s
 
 
-_progress_queue = None  # a worker process's line back to the parent: one participant code per trial done
+_worker: tuple | None = None  # a worker process's (_Run, progress queue: one participant code per trial done)
 
 
-def _worker_init(queue) -> None:
-    global _progress_queue
-    _progress_queue = queue
+def _worker_init(run: _Run, queue) -> None:
+    """Forked, the worker inherits `run` as it is (never pickled: models hold mapping proxies)."""
+    global _worker
+    _worker = (run, queue)
 
 
-def _participant_into(run: _Run, index: int, path: Path) -> tuple[str, int, list, float]:
+def _participant_into(index: int, path: Path) -> tuple[str, int, list, float]:
     """A worker process: one participant into a database of its own at `path`."""
+    run, queue = _worker
     clock = VirtualClock()
     store = Store(path, clock)
     store.db.execute("PRAGMA synchronous=OFF")  # a scratch file: appended, then deleted
     try:
-        return _participant(run, load_study(run.study_path), store, clock, index, _progress_queue.put)
+        return _participant(run, load_study(run.study_path), store, clock, index, queue.put)
     finally:
         store.close()
 
@@ -199,8 +200,8 @@ def _in_processes(run: _Run, participants: int, workers: int, data_dir: Path, st
     queue = context.Queue()
     parts = data_dir / "parts"
     parts.mkdir(exist_ok=True)
-    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_init, initargs=(queue,)) as pool:
-        futures = [pool.submit(_participant_into, run, index, parts / f"{index:04d}.sqlite")
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_init, initargs=(run, queue)) as pool:
+        futures = [pool.submit(_participant_into, index, parts / f"{index:04d}.sqlite")
                    for index in range(participants)]
         try:
             for index, future in enumerate(futures):

@@ -9,6 +9,7 @@ import textwrap
 
 import pytest
 
+from server.simulate.effects import parse_settings
 from server.simulate.study_run import simulate_study
 from server.synthetic import SyntheticParticipant
 
@@ -125,10 +126,14 @@ def logical_dump(db):
 
 
 def test_participants_in_two_processes_write_the_rows_one_process_writes(study_file, tmp_path):
-    one = simulate_study(study_file, participants=3, seed=11, out_dir=tmp_path / "one", make_participant=participant)
+    # the CLI's population (its models hold mapping proxies, which do not pickle) with an effect setting
+    people = parse_settings(["agent.ferrovibe.duration_scale=1.1", "estimation.b=0.9"])
+    run = dict(participants=3, seed=11, make_participant=people.participant, agent_params=people.agent,
+               settings=people.settings)
+    one = simulate_study(study_file, out_dir=tmp_path / "one", **run)
     seen = []
-    two = simulate_study(study_file, participants=3, seed=11, out_dir=tmp_path / "two", make_participant=participant,
-                         workers=2, progress=lambda done, total, label: seen.append((done, total, label[:5])))
+    two = simulate_study(study_file, out_dir=tmp_path / "two", workers=2,
+                         progress=lambda done, total, label: seen.append((done, total, label[:5])), **run)
     a, b = logical_dump(one.data_dir / "viestac.sqlite"), logical_dump(two.data_dir / "viestac.sqlite")
     assert len(a["sessions"]) == 3 and len(a["samples"]) > 1000 and len(a["events"]) > 100
     assert a == b, "every table, row for row, in the same order and with the same ids"
