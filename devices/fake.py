@@ -147,6 +147,10 @@ class SimulatedLink:
         self._dirty = True
 
     def run_until(self, t_end: float) -> None:
+        if not self._dirty and (self._wake is None or self._wake > t_end) and (
+                not self._arrivals or self._arrivals[0][0] > t_end):
+            self.t = max(self.t, t_end)  # nothing due on the line before t_end: the loop below would only do this
+            return
         while True:
             if self._dirty or (self._wake is not None and self._wake <= self.t):
                 self._poll()

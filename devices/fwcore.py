@@ -355,6 +355,7 @@ class FirmwareCore:
         self._out = ctypes.create_string_buffer(256)
         self._pending: list[Edge] = []
         self._now = 0
+        self._quiet_until = 0  # µs: before this the C core has nothing to do (its next edge or watchdog expiry)
 
     def __repr__(self) -> str:
         return f"FirmwareCore({self.model!r}, channels={self.channels}, caps=0x{self.caps:02x})"
@@ -378,6 +379,9 @@ class FirmwareCore:
             n = self._lib.vt_device_advance(self._dev, now_us, self._edges, self._BATCH)
             edges.extend(Edge._from_c(self._edges[i]) for i in range(n))
             if n < self._BATCH:
+                # vt_device_advance before the next edge (vt_device_next_edge_us, which includes
+                # the watchdog's expiry) changes nothing: advance() may skip the C call until then
+                self._quiet_until = self._lib.vt_device_next_edge_us(self._dev)
                 return edges
 
     def receive(self, data: bytes, now_us: int) -> None:
@@ -401,6 +405,8 @@ class FirmwareCore:
         """Run the scheduler up to now_us inclusive; every output change since the last call,
         in time order, each stamped with its exact time."""
         now_us = self._check_time(now_us)
+        if now_us < self._quiet_until and not self._pending:
+            return []  # a device between edges (most 1 kHz ticks): nothing is due
         edges, self._pending = self._pending, []
         edges.extend(self._run(now_us))
         return edges
@@ -415,6 +421,7 @@ class FirmwareCore:
     def set_watchdog(self, timeout_ms: int) -> None:
         """The watchdog's timeout as a sketch sets its power-up default (0 = off); it arms at the
         next valid frame. A host sets it with SET_WATCHDOG (docs/device-protocol.md §2)."""
+        self._quiet_until = 0  # the C state changed outside _run: ask it again
         if self._lib.vt_device_set_watchdog(self._dev, int(timeout_ms)) != 0:
             raise ValueError(f"watchdog timeout must be 0 or 10..60000 ms, got {timeout_ms!r}")
 

@@ -441,7 +441,8 @@ def as_seen_by(command: SetMessage, key: tuple[int, str]) -> SetMessage | None:
     no SET message says it (STOP's "temperature and friction off" has no SET equivalent)."""
     channel, layer = key
     if not isinstance(command, Stop):
-        return replace(command, channel=channel)
+        # messages are frozen: the command itself is what a copy on its own channel would be
+        return command if command.channel == channel else replace(command, channel=channel)
     if layer == STOP_LAYER:
         return Stop(channel)
     if layer == "pattern":

@@ -343,10 +343,14 @@ def _study(args: argparse.Namespace) -> int:
         return 2
     from server.simulate.study_run import progress_bar, simulate_study
 
+    if args.workers is not None and args.workers < 1:
+        print("viestac study: --workers must be at least 1", file=sys.stderr)
+        return 2
     try:
         result = simulate_study(args.study, participants=participants[0], seed=args.seed, out_dir=args.out,
                                 make_participant=people.participant, agent_params=people.agent,
-                                settings=people.settings, progress=None if args.quiet else progress_bar)
+                                settings=people.settings, progress=None if args.quiet else progress_bar,
+                                workers=args.workers or len(os.sched_getaffinity(0)))
     except FileExistsError as exc:
         print(f"viestac study: {exc}", file=sys.stderr)
         return 2
@@ -696,7 +700,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="an effect setting of the synthetic participants, e.g. estimation.b=0.9 or "
                             "agent.ferrovibe.duration_scale=1.3 (docs/synthetic.md, \"Effect settings\")")
     study.add_argument("--alpha", type=float, default=0.05, help="--power: significance level (default 0.05)")
-    study.add_argument("--workers", type=int, help="--power: local Dask worker processes (default: one per core)")
+    study.add_argument("--workers", type=int, help="--power: local Dask worker processes; --simulate: processes "
+                       "the participants run in, same data whatever the number (default: one per core)")
     study.add_argument("--scheduler", metavar="ADDRESS",
                        help="--power: a Dask scheduler (tcp://host:8786) to run on instead of a local cluster")
     study.add_argument("--out", required=True, metavar="DIR",

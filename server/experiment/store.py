@@ -221,6 +221,32 @@ class Store:
                    "VALUES (?, ?, ?, ?, ?, 'interrupted', ?)",
                    (t.session_id, t.id, t.attempt, self.utc(), tick, _dumps({"reason": reason})))
 
+    def append_database(self, path: str | Path) -> None:
+        """Every row of another store's database, after this one's, in one transaction: as if its
+        rows had been written here after every row already here. Its trials, events and responses
+        are renumbered from this store's highest ids (SQLite gives a new row max(id) + 1: the id
+        each would have got here), and the rows that name a trial follow. A simulated study runs
+        its participants in separate processes, each into its own database, and appends them in
+        participant order (server/simulate/study_run.py). The meta table is not copied."""
+        with self._lock:
+            self.db.execute("ATTACH DATABASE ? AS part", (str(path),))
+            try:
+                with self._tx() as db:
+                    offset = {t: db.execute(f"SELECT COALESCE(MAX(id), 0) FROM main.{t}").fetchone()[0]
+                              for t in ("trials", "events", "responses")}
+                    renumber = {"trials": {"id": offset["trials"]},
+                                "events": {"id": offset["events"], "trial_id": offset["trials"]},
+                                "responses": {"id": offset["responses"], "trial_id": offset["trials"]}}
+                    for table in ("sessions", "trials", "responses", "events", "samples", "cues", "point_samples"):
+                        shift = renumber.get(table, {"trial_id": offset["trials"]})
+                        columns = [r["name"] for r in db.execute(f"PRAGMA main.table_info({table})")]
+                        select = ", ".join(f"{c} + {shift[c]}" if c in shift else c for c in columns)
+                        order = "rowid" if table == "sessions" else "id" if "id" in columns else "trial_id, attempt, tick"
+                        db.execute(f"INSERT INTO main.{table} ({', '.join(columns)}) "
+                                   f"SELECT {select} FROM part.{table} ORDER BY {order}")
+            finally:
+                self.db.execute("DETACH DATABASE part")
+
     def integrity(self) -> str:
         with self._lock:
             return self.db.execute("PRAGMA integrity_check").fetchone()[0]

@@ -71,14 +71,18 @@ def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_
                    make_participant: Callable[[int, int], object],
                    progress: Callable[[int, int, str], None] | None = None,
                    agent_params: AgentParams | Mapping[str, AgentParams] = AgentParams(),  # noqa: B008 (frozen)
-                   settings: tuple[tuple[str, str], ...] = ()) -> SimulationResult:
+                   settings: tuple[tuple[str, str], ...] = (), workers: int = 1) -> SimulationResult:
     """Run `participants` synthetic sessions of the study into OUT/data/viestac.sqlite.
 
     make_participant(seed, index) → an object with answer(trial, question) and
     produce_level(target_level) (server/synthetic). agent_params: the positioning agent's, or
     one per device model (a device effect, server/simulate/effects.py); a model not in the
     mapping gets the defaults. settings: the effect settings these stand for (effects.py), recorded
-    in every session's config so the data say which population produced them."""
+    in every session's config so the data say which population produced them.
+
+    workers > 1: the participants run in that many processes, each into a database of its own,
+    appended to the study's in participant order (Store.append_database): the same rows as one
+    process writes (a participant's run depends on the seed and its index alone)."""
     study_path = Path(study_path)
     study = load_study(study_path)
     out = Path(out_dir)
@@ -86,52 +90,146 @@ def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_
     db = result.data_dir / "viestac.sqlite"
     if db.exists():
         raise FileExistsError(f"{db} exists: simulate into an empty directory")
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
     clock = VirtualClock()
     store = Store(db, clock)
     config = {"simulated": True, "seed": seed, "rig": list(RIG), "tick_hz": 1000}
     if settings:  # only then: without settings the config is what it always was
         config["settings"] = [list(pair) for pair in settings]
+    run = _Run(study_path, seed, config, make_participant, agent_params)
     started = time.perf_counter()
+    total = participants * len(plan_session(study, 0))  # every participant's plan is as long
+    done = 0
+
+    def trial_done(participant: str) -> None:
+        nonlocal done
+        done += 1
+        if progress:
+            progress(done, total, f"{participant} · {time.perf_counter() - started:.0f} s")
+
     try:
-        total = participants * len(plan_session(study, 0))  # every participant's plan is as long
-        done = 0
-        for index in range(participants):
-            devices = {model: VirtualDevice(model, profile_by_model(model)) for model in RIG}
-            hub = VirtualHub(devices, seed=seed)
-            clock.hub, clock.day = hub, index
-            experiment = Experiment(store, hub, studies_dir=study_path.parent, software_version=__version__,
-                                    config=config,
-                                    record_every=10)
-            session = experiment.create_session(study_id=study.id, participant=f"SIM{index:02d}",
-                                                experimenter="simulator", device="+".join(RIG),
-                                                participant_index=index)
-            person = make_participant(seed, index)
-            sid, token = session["id"], session["token"]
+        if workers == 1 or participants == 1:
+            parts = (_participant(run, study, store, clock, index, trial_done) for index in range(participants))
+        else:
+            parts = _in_processes(run, participants, workers, result.data_dir, store, trial_done)
+        for sid, trials, aborted, virtual_s in parts:  # in participant order
             result.sessions.append(sid)
-            for trial in session["trials"]:
-                experiment.start(sid, token, trial["seq"])
-                motor = derive_rng("motor", seed, index, trial["seq"])
-                reason = _perform(hub, devices, trial, person, agent_params, motor)
-                if reason:
-                    experiment.abort(sid, token, trial["seq"], reason)
-                    result.aborted.append((session["participant"], trial["seq"], reason))
-                else:
-                    planned = PlannedTrial(**{k: trial[k] for k in PlannedTrial.__dataclass_fields__})
-                    task = study.task(trial["task"])
-                    for q in trial["questions"]:
-                        value = person.answer(planned, task.question(q))
-                        experiment.answer(sid, token, trial["seq"], q, value, "synthetic participant")
-                    experiment.finish(sid, token, trial["seq"])
-                result.trials += 1
-                done += 1
-                if progress:
-                    progress(done, total, f"{session['participant']} · {time.perf_counter() - started:.0f} s")
-            result.virtual_s += hub.t_s
-            hub.listeners.clear()
+            result.trials += trials
+            result.aborted.extend(aborted)
+            result.virtual_s += virtual_s
     finally:
         store.close()
     result.wall_s = time.perf_counter() - started
     return result
+
+
+@dataclass(frozen=True)
+class _Run:
+    """What every participant's session needs besides its index (sent to worker processes)."""
+    study_path: Path
+    seed: int
+    config: dict
+    make_participant: Callable[[int, int], object]
+    agent_params: AgentParams | Mapping[str, AgentParams]
+
+
+def _participant(run: _Run, study, store: Store, clock: VirtualClock, index: int,
+                 trial_done: Callable[[str], None]) -> tuple[str, int, list, float]:
+    """One participant's session on a fresh virtual rig: (session id, trials, aborted, virtual s)."""
+    devices = {model: VirtualDevice(model, profile_by_model(model)) for model in RIG}
+    hub = VirtualHub(devices, seed=run.seed)
+    clock.hub, clock.day = hub, index
+    experiment = Experiment(store, hub, studies_dir=run.study_path.parent, software_version=__version__,
+                            config=run.config, record_every=10)
+    session = experiment.create_session(study_id=study.id, participant=f"SIM{index:02d}",
+                                        experimenter="simulator", device="+".join(RIG),
+                                        participant_index=index)
+    person = run.make_participant(run.seed, index)
+    sid, token = session["id"], session["token"]
+    trials, aborted = 0, []
+    for trial in session["trials"]:
+        experiment.start(sid, token, trial["seq"])
+        motor = derive_rng("motor", run.seed, index, trial["seq"])
+        reason = _perform(hub, devices, trial, person, run.agent_params, motor)
+        if reason:
+            experiment.abort(sid, token, trial["seq"], reason)
+            aborted.append((session["participant"], trial["seq"], reason))
+        else:
+            planned = PlannedTrial(**{k: trial[k] for k in PlannedTrial.__dataclass_fields__})
+            task = study.task(trial["task"])
+            for q in trial["questions"]:
+                value = person.answer(planned, task.question(q))
+                experiment.answer(sid, token, trial["seq"], q, value, "synthetic participant")
+            experiment.finish(sid, token, trial["seq"])
+        trials += 1
+        trial_done(session["participant"])
+    hub.listeners.clear()
+    return sid, trials, aborted, hub.t_s
+
+
+_worker: tuple | None = None  # a worker process's (_Run, progress queue: one participant code per trial done)
+
+
+def _worker_init(run: _Run, queue) -> None:
+    """Forked, the worker inherits `run` as it is (never pickled: models hold mapping proxies)."""
+    global _worker
+    _worker = (run, queue)
+
+
+def _participant_into(index: int, path: Path) -> tuple[str, int, list, float]:
+    """A worker process: one participant into a database of its own at `path`."""
+    run, queue = _worker
+    clock = VirtualClock()
+    store = Store(path, clock)
+    store.db.execute("PRAGMA synchronous=OFF")  # a scratch file: appended, then deleted
+    try:
+        return _participant(run, load_study(run.study_path), store, clock, index, queue.put)
+    finally:
+        store.close()
+
+
+def _in_processes(run: _Run, participants: int, workers: int, data_dir: Path, store: Store,
+                  trial_done: Callable[[str], None]):
+    """Participants in `workers` processes; yields their results in participant order, each
+    appended to `store` first. Forked workers: the parent's modules are loaded already."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    context = multiprocessing.get_context("fork")
+    queue = context.Queue()
+    parts = data_dir / "parts"
+    parts.mkdir(exist_ok=True)
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_init, initargs=(run, queue)) as pool:
+        futures = [pool.submit(_participant_into, index, parts / f"{index:04d}.sqlite")
+                   for index in range(participants)]
+        try:
+            for index, future in enumerate(futures):
+                while not future.done():
+                    _drain(queue, trial_done, timeout=0.1)
+                summary = future.result()
+                _drain(queue, trial_done)
+                path = parts / f"{index:04d}.sqlite"
+                store.append_database(path)
+                for leftover in parts.glob(f"{path.name}*"):
+                    leftover.unlink()
+                yield summary
+        finally:
+            for future in futures:
+                future.cancel()
+    _drain(queue, trial_done)
+    parts.rmdir()
+
+
+def _drain(queue, trial_done: Callable[[str], None], timeout: float | None = None) -> None:
+    import queue as queues
+
+    try:
+        trial_done(queue.get(timeout=timeout) if timeout else queue.get_nowait())
+        while True:
+            trial_done(queue.get_nowait())
+    except queues.Empty:
+        pass
 
 
 def _perform(hub: VirtualHub, devices: dict[str, VirtualDevice], trial: dict, person,

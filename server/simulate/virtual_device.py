@@ -121,6 +121,7 @@ class VirtualDevice:
         """Move the line and the firmware to t_s; the actuator edges since the last call."""
         self.link.run_until(t_s)
         edges = self.device.core.advance(_us(t_s))
-        self.feel.apply(edges)
-        self.edges.extend(edges)
+        if edges:  # most ticks fall between edges
+            self.feel.apply(edges)
+            self.edges.extend(edges)
         return edges

@@ -85,18 +85,19 @@ class VirtualHub:
 
     def advance(self, ticks: int = 1) -> None:
         """Run `ticks` loop ticks; the devices follow to the end of each tick."""
+        core, devices, tick_hz = self.core, tuple(self.devices.values()), self.tick_hz
         for _ in range(ticks):
-            out = self.core.tick((), self.core.sim.tick * TICK_NS)
+            out = core.tick((), core.sim.tick * TICK_NS)
             if out.records:
                 self._emit_all(out.records)
             if out.error is not None:
                 self.last_error = out.error
             if out.cues is not None:  # what the feed hands the devices: the decoded cue record
-                cues = tuple(cue_from_wire(c) for c in out.cues)
-                for device in self.devices.values():
+                cues = tuple([cue_from_wire(c) for c in out.cues])
+                for device in devices:
                     device.submit(cues)
-            t_end = (out.tick + 1) / self.tick_hz
-            for device in self.devices.values():
+            t_end = (out.tick + 1) / tick_hz
+            for device in devices:
                 device.run_until(t_end)
             if out.state is not None:
                 self.last_state = out.state
