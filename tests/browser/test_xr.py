@@ -63,7 +63,7 @@ def xr_page(browser, xr_rig):
     page = ctx.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda e: errors.append(str(e)))
-    page.goto(base + "/?xr_emulator=quest3")
+    page.goto(base + "/?xr_emulator=quest3&xr_ttl=400")
     page.wait_for_function("window.__viestac && window.__viestac.ready && window.__viestac.xrDevice", timeout=20_000)
     yield page, errors
     ctx.close()
@@ -108,7 +108,10 @@ def test_emulated_hand_touches_the_dome_contact_and_tilt(xr_page, xr_rig):
     # the hand above the dome: tracked (every joint a point), no contact
     angle = -30.0
     move_tip(page, on_dome(angle, 0.3))
-    wait_for(lambda: get_json(base + "/api/state")["tools"][0]["hip"][2] > DOME_R, timeout=5, what="the hand tracked")
+    # SwiftShader draws a frame in 50-100 ms on a busy machine: a sample is good for 400 ms
+    # (?xr_ttl=400; a headset's 100 ms default would call the hand lost between frames here)
+    wait_for(lambda: (lambda s: s["tools"][0]["hip"][2] > DOME_R and len(s["points"]) == 49)(get_json(base + "/api/state")),
+             timeout=5, what="the hand tracked")
     state = get_json(base + "/api/state")
     right = [n for n in state["points"] if n.startswith("right.")]
     assert not state["contact"] and len(right) == 24, "the index tip drives the HIP; the right hand's 24 other joints drawn"

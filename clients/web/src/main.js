@@ -35,6 +35,7 @@ function options(search) {
     xrEmulator: q.get('xr_emulator'),
     xrScale: Number(q.get('xr_scale')) > 0 ? Number(q.get('xr_scale')) : null,
     audio: q.get('audio'),
+    xrTtlMs: Number(q.get('xr_ttl')) >= 1 ? Number(q.get('xr_ttl')) : undefined,
   };
 }
 
@@ -122,7 +123,7 @@ async function main() {
       return r.json();
     },
   };
-  const xr = new XrSession({ view, conn, placementApi, scale: opts.xrScale,
+  const xr = new XrSession({ view, conn, placementApi, scale: opts.xrScale, ttlMs: opts.xrTtlMs,
     status: () => ({ hud: lastHud, health: hook.health, lost: lastLost }) });
   hook.xr = xr;
   const xrBar = document.getElementById('xr');

@@ -43,7 +43,8 @@ export class XrSession {
    * @param {() => {hud: string, health: object, lost: Array}} o.status  what the panels show
    * @param {(state: object) => void} [o.onFrame]
    */
-  constructor({ view, conn, placementApi, status, scale = null }) {
+  constructor({ view, conn, placementApi, status, scale = null, ttlMs = HAND_TTL_MS }) {
+    this.ttlMs = ttlMs;
     this.view = view;
     this.conn = conn;
     this.placementApi = placementApi;
@@ -232,17 +233,17 @@ export class XrSession {
     // the tracker sample of this frame (not while placing: the scene is not where the hand thinks)
     let sample = null;
     if (this.phase === 'running') {
-      sample = handSample(hands, this.placement, { ttl: HAND_TTL_MS });
+      sample = handSample(hands, this.placement, { ttl: this.ttlMs });
       this.stats.source = sample ? 'hand' : null;
       if (!sample && controller) {
-        sample = controllerSample(controller.origin, controller.dir, this.placement);
+        sample = controllerSample(controller.origin, controller.dir, this.placement, { ttl: this.ttlMs });
         this.stats.source = sample ? 'controller' : null;
       }
       if (sample) {
         const seq = this.conn.seq;
         if (this.conn.sendTracker(sample.pos, null, { point: sample.point, points: sample.points, ttl: sample.ttl })) {
           this.stats.samplesSent++;
-          this._push(this.log.samples, [seq, now, sample.pos]);
+          this._push(this.log.samples, [seq, now, sample.pos, this.stats.frames]);
         } else {
           this.stats.samplesDropped++;
         }
@@ -269,7 +270,7 @@ export class XrSession {
     const contact = drawn.held.includes(tools[0]?.name) || (!!tools[0]?.contact && !(tools[0]?.name in local));
     if (contact !== this._drawnContact) {
       this._drawnContact = contact;
-      this._push(this.log.draws, [drawnAt, contact]);
+      this._push(this.log.draws, [drawnAt, contact, this.stats.frames]);
     }
     this._count(now);
     this.selected = false;
