@@ -16,6 +16,7 @@ from server.api.access_routes import router as access_router
 from server.api.errors import GUARD_ERRORS
 from server.api.browser_safety import BrowserSafety, options_for
 from server.api.experiment_routes import router as experiment_router
+from server.api.placement_routes import router as placement_router
 from server.api.guard import AuditTrail, guard, install_access_doc
 from server.api.routes import router
 from server.api.tracker_routes import router as tracker_router
@@ -159,7 +160,7 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     app.state.tracker_udp = None  # "HOST:PORT" once bound
     app.state.tracker_host = None  # the tracker host process's handle, with --tracker
     # every /api operation passes the access guard first (server/api/guard.py)
-    for api in (router, experiment_router, access_router, tracker_router):
+    for api in (router, experiment_router, access_router, tracker_router, placement_router):
         app.include_router(api, dependencies=[Depends(guard)], responses=GUARD_ERRORS)  # each router says /api
     app.add_middleware(AuditTrail)
     install_access_doc(app)  # /openapi.json says who may call each operation

@@ -485,6 +485,12 @@ def _bench_stability(args: argparse.Namespace) -> int:
     return _print_bench(result, args.json)
 
 
+def _bench_xr(args: argparse.Namespace) -> int:
+    from server.bench.xr_bench import run_xr_bench
+
+    return _print_bench(run_xr_bench(touches=args.touches, seconds=args.seconds), args.json)
+
+
 def _bench_switch(args: argparse.Namespace) -> int:
     from server.bench.switch_bench import run_switch_bench
 
@@ -788,6 +794,13 @@ def build_parser() -> argparse.ArgumentParser:
     switch.add_argument("--start", default="contact-angle", help="the scenario the server starts with")
     switch.add_argument("--json", action="store_true", help="print one JSON object")
     switch.set_defaults(func=_bench_switch)
+    xr = bench_sub.add_parser("xr", help="the WebXR client in an emulated headset (iwer, headless Chromium): session "
+                                         "frame rate, hand pose -> proxy drawn, hand pose -> device command, "
+                                         "tactile leads picture (docs/xr.md)")
+    xr.add_argument("--touches", type=int, default=20, help="fingertip jumps onto the dome (default 20)")
+    xr.add_argument("--seconds", type=float, default=5.0, help="frame-rate window (default 5 s)")
+    xr.add_argument("--json", action="store_true", help="print one JSON object")
+    xr.set_defaults(func=_bench_xr)
     faults = bench_sub.add_parser("faults", help="kill -9 of each process, device unplug, tracker loss, floods, huge "
                                                  "and non-finite values, bad frames, slow readers: recovery times, "
                                                  "overruns, frames and samples lost (docs/reliability.md)")

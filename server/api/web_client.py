@@ -5,7 +5,9 @@ none of that is the client, so only these are served:
 - the two pages and their style sheets, and everything under `src/` and `skins/`;
 - `vendor/…`: the few files of the npm packages the pages import (their import maps point
   here): three.js's ES module build (which imports `three.core.js` beside it), its
-  OrbitControls, and msgpack's ES modules (`.mjs`, which import each other by relative path).
+  OrbitControls, msgpack's ES modules (`.mjs`, which import each other by relative path), and
+  the WebXR emulator's one-file bundle (iwer: tests and the XR bench; a page imports it only
+  when its URL asks, src/xr_emulator.js).
 Anything else is a 404, whatever exists on disk.
 """
 
@@ -25,6 +27,8 @@ VENDOR_FILES = {
     "vendor/three/three.module.js": "node_modules/three/build/three.module.js",
     "vendor/three/three.core.js": "node_modules/three/build/three.core.js",
     "vendor/three/addons/controls/OrbitControls.js": "node_modules/three/examples/jsm/controls/OrbitControls.js",
+    # the WebXR emulator: imported only by a page whose URL asks for it (src/xr_emulator.js)
+    "vendor/iwer/iwer.module.js": "node_modules/iwer/build/iwer.module.js",
 }
 # URL folder → (folder, the one file suffix served from it)
 VENDOR_TREES = {"vendor/msgpack/": ("node_modules/@msgpack/msgpack/dist.esm/", ".mjs")}

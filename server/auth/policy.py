@@ -120,6 +120,11 @@ POLICY: dict[str, Rule] = {
     "GET /api/tokens": Rule(ADMIN, doc="every token (no secrets)"),
     "POST /api/tokens": Rule(ADMIN, doc="a new token"),
     "DELETE /api/tokens/{token_id}": Rule(ADMIN, doc="revoke a token"),
+    # WebXR placement (server/api/placement_routes.py): read by every page; the rig's default is the
+    # lease holder's; a session's by whoever drives it (a participant's own session, or staff)
+    "GET /api/placement": _view("the scene's placement in the room (WebXR)"),
+    "PUT /api/placement/rig": _rig("the rig's default placement"),
+    "PUT /api/placement/session": Rule(DRIVERS, scope="self", doc="the session's placement (the headset's placement step)"),
     # /ws client messages
     "ws:hello": Rule(frozenset(), scope="public", doc="the token comes in it; the role granted follows the token"),
     "ws:tracker": Rule(DRIVERS, drive=True, doc="drive the HIP: the lease holder or a participant of lease.session"),

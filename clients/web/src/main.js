@@ -2,6 +2,8 @@
 // operator panel together.
 // URL query: ?ws=ws://host:port/ws  ?role=participant|operator|observer  ?format=msgpack|json
 //            ?depth_step=0.02 (scene units per wheel notch / PageUp/PageDown)
+//            ?audio=speech,contact (spoken instructions, contact clicks: off unless asked)
+//            ?xr_emulator=quest3 (tests, bench: the emulated headset, iwer) ?xr_scale=0.1 (m per unit)
 // URL fragment: #join=CODE (a participant join link) or #login=CODE, exchanged for a token at
 // once and removed from the address bar (auth.js); the token goes in hello.
 
@@ -14,7 +16,9 @@ import { OperatorPanel, httpBase } from './operator_panel.js';
 import { ROLES } from './protocol.js';
 import { TokenStore, redeemFragment, authHeaders } from './auth.js';
 import { waitingState } from './waiting.js';
-import { lostSources } from './tools_view.js';
+import { lostSources, toolsOf } from './tools_view.js';
+import { XrSession, supportedModes, MODES } from './xr_session.js';
+import { AudioPlan, Clicker, Speaker, audioSettings } from './audio.js';
 
 const CLIENT_NAME = 'viestac-web/0.1';
 
@@ -28,6 +32,10 @@ function options(search) {
     role: ROLES.includes(role) ? role : 'participant',
     format: q.get('format') === 'json' ? 'json' : 'msgpack',
     depthStep: Number.isFinite(depthStep) && depthStep > 0 ? depthStep : 0.02,
+    xrEmulator: q.get('xr_emulator'),
+    xrScale: Number(q.get('xr_scale')) > 0 ? Number(q.get('xr_scale')) : null,
+    audio: q.get('audio'),
+    xrTtlMs: Number(q.get('xr_ttl')) >= 1 ? Number(q.get('xr_ttl')) : undefined,
   };
 }
 
@@ -97,6 +105,50 @@ async function main() {
   };
   window.__viestac = hook;
 
+  // WebXR: Enter VR / Enter AR where the browser (or the emulator a test asks for) offers them.
+  if (opts.xrEmulator) {
+    const { installEmulator } = await import('./xr_emulator.js');
+    hook.xrDevice = (await installEmulator(opts.xrEmulator)).device;
+  }
+  const placementApi = {
+    get: async () => {
+      const r = await fetch(`${httpBase(opts.url)}/api/placement`, { headers: authHeaders(store.forRole(opts.role)) });
+      if (!r.ok) throw new Error(`GET /api/placement: HTTP ${r.status}`);
+      return r.json();
+    },
+    put: async (scope, placement) => {
+      const r = await fetch(`${httpBase(opts.url)}/api/placement/${scope}`, { method: 'PUT',
+        headers: { ...authHeaders(store.forRole(opts.role)), 'Content-Type': 'application/json' }, body: JSON.stringify(placement) });
+      if (!r.ok) throw new Error(`PUT /api/placement/${scope}: HTTP ${r.status}`);
+      return r.json();
+    },
+  };
+  const xr = new XrSession({ view, conn, placementApi, scale: opts.xrScale, ttlMs: opts.xrTtlMs,
+    status: () => ({ hud: lastHud, health: hook.health, lost: lastLost }) });
+  hook.xr = xr;
+  const xrBar = document.getElementById('xr');
+  if (xrBar && opts.role !== 'observer') {
+    const modes = await supportedModes();
+    for (const [label, mode] of [['Enter VR', MODES.vr], ['Enter AR', MODES.ar]]) {
+      if (!modes.includes(mode)) continue;
+      const b = document.createElement('button');
+      b.textContent = label;
+      b.dataset.mode = mode;
+      b.addEventListener('click', () => xr.enter(mode).catch((e) => {
+        stats.lastError = { code: 'xr', message: String(e.message || e), source: 'client' };
+        showStatus();
+      }));
+      xrBar.append(b);
+    }
+    xrBar.hidden = xrBar.children.length === 0;
+  }
+  const audioPlan = new AudioPlan(audioSettings(opts.audio));
+  const speaker = new Speaker();
+  const clicker = new Clicker();
+  hook.audio = { speaker, clicker };
+  let lastHud = '';
+  let lastLost = [];
+
   let statusText = 'connecting';
   const showStatus = () => {
     const who = hook.clientId === null ? opts.role : `${opts.role} #${hook.clientId}`;
@@ -141,6 +193,12 @@ async function main() {
     stateCount++;
     if (view.built) view.applyState(s);
     hud.setText(s.hud || sceneHudText); // an empty state hud shows the scene's hud text
+    lastHud = s.hud || sceneHudText;
+    lastLost = lostSources(s);
+    if (xr.active) xr.onState(s);
+    const say = audioPlan.say(lastHud);
+    if (say) speaker.speak(say);
+    for (let n = audioPlan.clicks(toolsOf(s)); n > 0; n--) clicker.click();
     hud.setValues(s.values);
     hud.addEvents(s.events);
     hud.setTracking(lostSources(s));
@@ -205,6 +263,10 @@ async function main() {
   let stateHz = 0;
 
   function frame(now) {
+    if (xr.active) { // the headset's frames draw (xr_session.js); the pointer does not drive
+      requestAnimationFrame(frame);
+      return;
+    }
     if (sends) {
       const p = pointer.peek();
       if (p !== null && conn.isOpen) {

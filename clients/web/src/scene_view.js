@@ -218,7 +218,11 @@ export class SceneView {
     this.scene.add(new THREE.HemisphereLight(0xffffff, 0x404040, 1.6));
     this.keyLight = new THREE.DirectionalLight(0xffffff, 2.0);
     this.scene.add(this.keyLight, this.keyLight.target);
-    this.scene.add(this.world);
+    // Everything in scene coordinates hangs off `root`: identity on the desktop; in WebXR it
+    // carries the placement (table height, origin, yaw, metres per scene unit: xr_placement.js).
+    this.root = new THREE.Group();
+    this.scene.add(this.root);
+    this.root.add(this.world);
 
     // One marker (HIP, proxy) per tool, made when a state frame first names the tool; the
     // primary one always exists (`hip`/`proxy` of the scene graph).
@@ -226,7 +230,7 @@ export class SceneView {
     this.tools = new Map(); // name → ToolMarker
     this.toolOrder = []; // the last frame's tools, primary first
     this.hand = new HandView();
-    this.scene.add(this.hand.group);
+    this.root.add(this.hand.group);
     this._marker(PRIMARY_POINT);
     this.resize();
   }
@@ -297,7 +301,7 @@ export class SceneView {
       marker.hip.renderOrder = HIP_RENDER_ORDER;
       marker.proxy.renderOrder = HIP_RENDER_ORDER;
       this._style(marker);
-      this.scene.add(marker.hip, marker.proxy);
+      this.root.add(marker.hip, marker.proxy);
       this.tools.set(name, marker);
     }
     return marker;

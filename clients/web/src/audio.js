@@ -1,0 +1,84 @@
+// Sound for the participant (thesis future work: audio matching the task descriptions): spoken
+// instructions with the Web Speech API where the browser has it, and optional contact sounds
+// (a short click at each contact onset, WebAudio). Both are off unless asked for: a study's
+// participant hears nothing its protocol did not plan (docs/xr.md "Audio").
+// URL: ?audio=speech,contact (either or both). The decisions are pure (AudioPlan); Speaker and
+// Clicker are thin shells over speechSynthesis and AudioContext.
+
+/** Which sounds are on: from the page's `audio` query value ('speech', 'contact', comma-separated). */
+export function audioSettings(query) {
+  const words = new Set(String(query ?? '').split(',').map((w) => w.trim().toLowerCase()).filter(Boolean));
+  return { speech: words.has('speech'), contact: words.has('contact') };
+}
+
+/** What to say and when to click, from the page's events. Pure. */
+export class AudioPlan {
+  constructor(settings) {
+    this.settings = settings;
+    this.spoken = null; // the instruction text last spoken
+    this.touching = new Set();
+  }
+
+  /** The instruction text (the HUD) now: the text to speak, or null (unchanged, empty, or off).
+   * A count-down ('3', '2', …) is spoken too: it is short. */
+  say(text) {
+    const t = String(text ?? '').trim();
+    if (!this.settings.speech || t === '' || t === this.spoken) return null;
+    this.spoken = t;
+    return t;
+  }
+
+  /** The tools of a state frame: how many contact onsets to click for (0 when off). */
+  clicks(tools) {
+    const now = new Set((tools ?? []).filter((t) => t.contact && !t.lost).map((t) => t.name));
+    const onsets = [...now].filter((n) => !this.touching.has(n)).length;
+    this.touching = now;
+    return this.settings.contact ? onsets : 0;
+  }
+}
+
+/** speechSynthesis, where present; a newer instruction interrupts the one being spoken. */
+export class Speaker {
+  constructor(synth = globalThis.speechSynthesis, Utterance = globalThis.SpeechSynthesisUtterance) {
+    this.synth = synth;
+    this.Utterance = Utterance;
+    this.spoken = [];
+  }
+
+  get available() {
+    return !!(this.synth && this.Utterance);
+  }
+
+  speak(text, lang = document?.documentElement?.lang || 'en') {
+    this.spoken.push(text);
+    if (!this.available) return;
+    this.synth.cancel();
+    const u = new this.Utterance(text);
+    u.lang = lang;
+    this.synth.speak(u);
+  }
+}
+
+/** A 15 ms click (a decaying 1 kHz tone): audible, short enough not to mask the tactile cue. */
+export class Clicker {
+  constructor() {
+    this.ctx = null;
+    this.count = 0;
+  }
+
+  click() {
+    this.count++;
+    const AC = globalThis.AudioContext ?? globalThis.webkitAudioContext;
+    if (!AC) return;
+    this.ctx = this.ctx ?? new AC();
+    const t = this.ctx.currentTime;
+    const osc = this.ctx.createOscillator();
+    const gain = this.ctx.createGain();
+    osc.frequency.value = 1000;
+    gain.gain.setValueAtTime(0.3, t);
+    gain.gain.exponentialRampToValueAtTime(0.001, t + 0.015);
+    osc.connect(gain).connect(this.ctx.destination);
+    osc.start(t);
+    osc.stop(t + 0.02);
+  }
+}
