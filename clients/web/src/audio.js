@@ -1,7 +1,7 @@
 // Sound for the participant (thesis future work: audio matching the task descriptions): spoken
 // instructions with the Web Speech API where the browser has it, and optional contact sounds
 // (a short click at each contact onset, WebAudio). Both are off unless asked for: a study's
-// participant hears nothing its protocol did not plan (docs/xr.md "Audio").
+// participant hears nothing its protocol did not plan (docs/xr.md "In XR: panels, answers, audio").
 // URL: ?audio=speech,contact (either or both). The decisions are pure (AudioPlan); Speaker and
 // Clicker are thin shells over speechSynthesis and AudioContext.
 
