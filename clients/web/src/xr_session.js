@@ -302,7 +302,7 @@ export class XrSession {
     const how = contact ? (drawn.predicted.includes(primary) ? 'predicted' : 'server') : null;
     if (how !== this._drawnContact) {
       this._drawnContact = how;
-      this._push(this.log.draws, [drawnAt, contact, this.stats.frames, how]);
+      this._push(this.log.draws, [drawnAt, contact, this.stats.frames, how, drawn.points[primary] ?? null]);
     }
     this._count(now);
     this.selected = false;
