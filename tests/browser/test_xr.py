@@ -3,7 +3,8 @@ Meta Quest 3 in hand-tracking mode (clients/web/src/xr_emulator.js, loaded by ?x
 enters an immersive-vr session from the participant page; a scripted hand motion brings the
 emulated right index fingertip onto the contact-angle hemisphere. The server must see the contact
 and the FerroVibe emulator must tilt toward the touched angle (within 2°); the page draws the
-fingertip held on the surface at the proxy (visual god-object). Screenshots of both eyes are saved
+fingertip held on the surface at the proxy (visual god-object): predicted in the frame that read
+the pose inside, then the server's proxy. Screenshots of both eyes are saved
 in tests/artifacts/browser/.
 """
 
@@ -120,11 +121,25 @@ def test_emulated_hand_touches_the_dome_contact_and_tilt(xr_page, xr_rig):
 
     # a scripted approach along the normal into the dome: 0.3 units out to 0.03 in, ~0.4 s
     since_us = time.monotonic_ns() // 1000
+    t_approach = page.evaluate("performance.now()")
     for out in np.linspace(0.3, -0.03, 9):
         page.evaluate(MOVE, [on_dome(angle, float(out))])
         page.wait_for_timeout(45)
     move_tip(page, on_dome(angle, -0.03))
     wait_for(lambda: get_json(base + "/api/state")["contact"], timeout=5, what="contact in the server's state")
+
+    # the frame that read the first pose inside drew the fingertip on the surface already, from
+    # the client's copy of the scene (predicted), before any state of the server said contact
+    log = page.evaluate("(() => { const l = window.__viestac.xr.log; return {samples: l.samples, draws: l.draws, states: l.states}; })()")
+    first_in = next(s for s in log["samples"] if s[1] >= t_approach and np.linalg.norm(s[2]) < DOME_R + PROXY_R)
+    drawn = next(d for d in log["draws"] if d[0] >= first_in[1] and d[1])
+    assert drawn[2] == first_in[3] and drawn[3] == "predicted", f"pose in frame {first_in[3]}, drawn {drawn}"
+    assert abs(np.linalg.norm(drawn[4]) - (DOME_R + PROXY_R)) < 1e-9, "drawn on the proxy-offset dome"
+    confirmed = next(s for s in log["states"] if s[0] >= first_in[1] and s[1])
+    assert confirmed[0] > drawn[0], "the server's contact came after that frame was drawn"
+    wait_for(lambda: page.evaluate("window.__viestac.xr.drawnPredicted.length === 0 && "
+                                   "window.__viestac.xr.drawnHeld.includes('right.index.tip')"),
+             timeout=3, what="the server's proxy replacing the prediction")
     state = get_json(base + "/api/state")
     assert abs(state["values"]["angle_deg"] - angle) < 2.0, state["values"]
     wait_for(lambda: tilt_edges(emulator, since_us), timeout=3, what="the FerroVibe to tilt")

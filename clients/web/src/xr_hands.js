@@ -71,19 +71,27 @@ export function controllerSample(origin, direction, placement, { reachM = 0.05, 
  * The hand as drawn in XR (scene frame): this frame's own joints (no network delay), except that a
  * fingertip whose tool is in contact is drawn at the tool's proxy, on the surface, while the real
  * finger goes in (a visual god-object). `local`: point name → scene position (this frame);
- * `tools`: the state's tools ({name, proxy, contact, lost}).
- * Returns {points, held: [names drawn at their proxy]}.
+ * `tools`: the state's tools ({name, proxy, contact, lost}); `predicted`: name → proxy guessed in
+ * this frame from the client's copy of the scene (xr_predict.js), drawn where the server does not
+ * (yet) say contact. Returns {points, held: [names drawn on the surface], predicted: [those of
+ * them drawn at a guess]}.
  */
-export function drawnHand(local, tools) {
+export function drawnHand(local, tools, predicted = {}) {
   const points = { ...local };
   const held = [];
+  const guessed = [];
   for (const t of tools ?? []) {
-    if (t.contact && !t.lost && t.name in points && Array.isArray(t.proxy)) {
+    if (!(t.name in points)) continue;
+    if (t.contact && !t.lost && Array.isArray(t.proxy)) {
       points[t.name] = t.proxy;
       held.push(t.name);
+    } else if (Array.isArray(predicted[t.name])) {
+      points[t.name] = predicted[t.name];
+      held.push(t.name);
+      guessed.push(t.name);
     }
   }
-  return { points, held };
+  return { points, held, predicted: guessed };
 }
 
 /** Whether a hand pinches: thumb tip and index tip closer than `closeM` (metres, XR frame). Used

@@ -35,6 +35,12 @@ export class Blend {
     this.at = nowMs;
   }
 
+  /** `key` was drawn at `p` by something other than the blend (a contact predicted in the
+   * frame, xr_predict.js): the next target blends from there instead of jumping. */
+  drawnAs(key, p) {
+    this.drawn.set(key, p);
+  }
+
   /** The positions to draw at `nowMs`. */
   sample(nowMs) {
     const k = this.blendMs <= 0 ? 1 : Math.min(1, Math.max(0, (nowMs - this.at) / this.blendMs));

@@ -1,13 +1,17 @@
 // WebXR glue: Enter VR / Enter AR, the placement step, the headset's hands (or a controller's tip)
 // as the tracker, the hand drawn with its fingertips held at their proxies, panels that face the
 // user, and rendering at the headset's rate with the server's state blended between frames.
-// The decisions live in the pure modules (xr_placement, xr_hands, xr_interp, xr_panels); this
+// A fingertip that goes into an object is drawn on its surface in the same frame, from the
+// client's copy of the scene, until the server's proxy confirms it (xr_predict.js).
+// The decisions live in the pure modules (xr_placement, xr_hands, xr_interp, xr_predict, xr_panels); this
 // file reads WebXR, calls them and draws (docs/xr.md).
 
 import * as THREE from 'three';
 import { effectivePlacement, placementFromTouch, placementTransform, sceneToXr, xrToScene } from './xr_placement.js';
 import { HAND_TTL_MS, controllerSample, drawnHand, handSample } from './xr_hands.js';
 import { Blend, contactChanged } from './xr_interp.js';
+import { ContactPrediction } from './xr_predict.js';
+import { predictProxy, touchableBodies } from './surface_point.js';
 import { PinchLatch, angleAt, answerKey, choiceAt, choiceLayout, countdown, panelLines } from './xr_panels.js';
 import { TextPanel, XrHand } from './xr_view.js';
 import { toolsOf } from './tools_view.js';
@@ -56,6 +60,10 @@ export class XrSession {
     this.phase = 'idle'; // idle | placing | running
     this.camera = new THREE.PerspectiveCamera(70, 1, 0.01, 50);
     this.blend = new Blend();
+    this.predict = new ContactPrediction();
+    this.bodies = []; // the touchable bodies as the newest state leaves them (surface_point.js)
+    this._bodiesKey = null;
+    this.drawnPredicted = [];
     this.tools = [];
     this.question = null; // {id, kind: 'likert'|'angle', low, high, labels}
     this.answerSent = null;
@@ -63,7 +71,7 @@ export class XrSession {
     this.selected = false;
     this.stats = { frames: 0, fps: 0, samplesSent: 0, samplesDropped: 0, handSeen: false, source: null };
     this.log = { samples: [], draws: [], states: [] };
-    this._drawnContact = false;
+    this._drawnContact = null;
     this._stateContact = false;
     this._window = { frames: 0, start: 0 };
     this.joints = {};
@@ -171,7 +179,10 @@ export class XrSession {
   onState(state) {
     const tools = toolsOf(state);
     const now = performance.now();
-    const snap = contactChanged(this.tools, tools);
+    this._updateBodies(state);
+    this.predict.state(tools, state.driver ?? null, this.conn.welcome?.client_id, now);
+    // a contact drawn from the client's guess blends to the server's proxy; other changes snap
+    const snap = contactChanged(this.tools, tools).filter((n) => !this.drawnPredicted.includes(n));
     this.blend.push(Object.fromEntries(tools.filter((t) => Array.isArray(t.proxy)).map((t) => [t.name, t.proxy])), now, snap);
     this.tools = tools;
     const contact = !!tools[0]?.contact;
@@ -179,6 +190,15 @@ export class XrSession {
       this._stateContact = contact;
       this._push(this.log.states, [now, contact, state.frame]);
     }
+  }
+
+  _updateBodies(state) {
+    const spec = this.view.sceneSpec;
+    const key = JSON.stringify([state.scene, state.objects ?? [], state.haptic ?? {}]);
+    if (spec === this._bodiesSpec && key === this._bodiesKey) return;
+    this._bodiesSpec = spec;
+    this._bodiesKey = key;
+    this.bodies = touchableBodies(spec, state);
   }
 
   _push(list, row) {
@@ -232,6 +252,7 @@ export class XrSession {
 
     // the tracker sample of this frame (not while placing: the scene is not where the hand thinks)
     let sample = null;
+    let seq = null;
     if (this.phase === 'running') {
       sample = handSample(hands, this.placement, { ttl: this.ttlMs });
       this.stats.source = sample ? 'hand' : null;
@@ -240,7 +261,7 @@ export class XrSession {
         this.stats.source = sample ? 'controller' : null;
       }
       if (sample) {
-        const seq = this.conn.seq;
+        seq = this.conn.seq;
         if (this.conn.sendTracker(sample.pos, null, { point: sample.point, points: sample.points, ttl: sample.ttl })) {
           this.stats.samplesSent++;
           this._push(this.log.samples, [seq, now, sample.pos, this.stats.frames]);
@@ -254,8 +275,16 @@ export class XrSession {
     const proxies = this.blend.sample(now);
     const tools = this.tools.map((t) => ({ ...t, proxy: proxies[t.name] ?? t.proxy }));
     const local = sample ? { ...sample.points, [sample.point]: sample.pos } : {};
-    const drawn = drawnHand(local, tools);
-    this.hand.update(drawn.points, tools.filter((t) => t.name in drawn.points), (n) => toolColor(n, this.view.hipSpec?.color ?? '#ffd400'));
+    // the contact of this frame's pose, from the client's copy of the scene
+    const radius = Number(this.view.hipSpec?.proxy_radius) || 0;
+    const guesses = {};
+    for (const t of tools) if (t.name in local) guesses[t.name] = predictProxy(this.bodies, local[t.name], radius)?.pos ?? null;
+    const predicted = this.predict.frame(guesses, seq, now);
+    const drawn = drawnHand(local, tools, predicted);
+    for (const name of drawn.predicted) this.blend.drawnAs(name, drawn.points[name]);
+    this.drawnPredicted = drawn.predicted;
+    const shown = tools.filter((t) => t.name in drawn.points).map((t) => (drawn.predicted.includes(t.name) ? { ...t, contact: true } : t));
+    this.hand.update(drawn.points, shown, (n) => toolColor(n, this.view.hipSpec?.color ?? '#ffd400'));
     for (const t of tools) {
       const m = this.view.tools.get(t.name);
       if (m && t.name in local) m.hip.visible = false; // the finger is the hand drawn here
@@ -267,10 +296,13 @@ export class XrSession {
 
     renderer.render(this.view.scene, this.camera);
     const drawnAt = performance.now();
-    const contact = drawn.held.includes(tools[0]?.name) || (!!tools[0]?.contact && !(tools[0]?.name in local));
-    if (contact !== this._drawnContact) {
-      this._drawnContact = contact;
-      this._push(this.log.draws, [drawnAt, contact, this.stats.frames]);
+    const primary = tools[0]?.name;
+    const contact = drawn.held.includes(primary) || (!!tools[0]?.contact && !(primary in local));
+    // how the primary fingertip sits on the surface: the client's guess or the server's proxy
+    const how = contact ? (drawn.predicted.includes(primary) ? 'predicted' : 'server') : null;
+    if (how !== this._drawnContact) {
+      this._drawnContact = how;
+      this._push(this.log.draws, [drawnAt, contact, this.stats.frames, how, drawn.points[primary] ?? null]);
     }
     this._count(now);
     this.selected = false;
