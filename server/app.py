@@ -16,6 +16,7 @@ from server.api.access_routes import router as access_router
 from server.api.errors import GUARD_ERRORS
 from server.api.browser_safety import BrowserSafety, options_for
 from server.api.experiment_routes import router as experiment_router
+from server.api.participant_answers import ParticipantAnswers
 from server.api.placement_routes import router as placement_router
 from server.api.guard import AuditTrail, guard, install_access_doc
 from server.api.routes import router
@@ -86,6 +87,9 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
                             force_scenarios=settings.force)
 
     access = _access_control(settings, hub)
+    # participants answer the study's questions over /ws (protocol v1.5 `ask`, `answer`)
+    answers = ParticipantAnswers(experiment, hub, access.audit)
+    hub.on_answer, hub.participant_view, experiment.on_change = answers.answer, answers.view, answers.changed
 
     rig = (SimulatedRig(settings.rig_models, directory=default_rig_dir())
            if settings.simulated_rig and not settings.devices else None)

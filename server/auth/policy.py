@@ -130,6 +130,11 @@ POLICY: dict[str, Rule] = {
     "ws:tracker": Rule(DRIVERS, drive=True, doc="drive the HIP: the lease holder or a participant of lease.session"),
     "ws:input": Rule(DRIVERS, drive=True, doc="participant keys: the lease holder or a participant of lease.session"),
     "ws:input:operator": Rule(STAFF, lease=True, doc="an operator command: the lease holder"),
+    # a participant's own answer (v1.5): the session is its token's (another session's cannot be named);
+    # the engine takes it only while that session's trial runs and only for questions the study gives
+    # the participant. No lease: the running trial is the experimenter's permission.
+    "ws:answer": Rule(frozenset({"participant"}), scope="self",
+                      doc="a participant token's answer to its own session's question (answered_by participant)"),
 }
 
 

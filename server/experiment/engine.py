@@ -33,6 +33,7 @@ import uuid
 from pathlib import Path
 from typing import Any, Protocol
 
+from server.experiment.participant import participant_view
 from server.experiment.plan import plan_session
 from server.experiment.recorder import Recorder
 from server.experiment.store import Conflict, Store, StoreError, TrialRow
@@ -87,6 +88,9 @@ class Experiment:
         self._holders: dict[str, tuple[str, str]] = {}  # session → (experimenter, since UTC) of the token
         self._studies: dict[Path, tuple] = {}  # path → (mtime_ns, Study | None, StudyError | None)
         self._lock = threading.Lock()  # one change at a time: REST handlers run in a thread pool
+        # called with a session id after each change a participant's page shows (a trial started or
+        # ended, an answer recorded), outside the lock, on the caller's thread (server/api/participant_answers.py)
+        self.on_change = lambda session_id: None
 
     # -- studies ----------------------------------------------------------------------------
     def _load(self, path: Path) -> Study:
@@ -241,7 +245,10 @@ class Experiment:
         if active is None or active.interrupted is None:
             return None
         with self._lock:
-            return self._interrupted()
+            ended = self._interrupted()
+        if ended is not None:
+            self.on_change(ended.session_id)
+        return ended
 
     def _interrupted(self) -> TrialRow | None:
         """The recorded attempt could not go on (the recorder says why): rows to disk, trial pending."""
@@ -279,6 +286,7 @@ class Experiment:
             self.recorder.begin(session_id, started.id, started.attempt, self._trial_phase(started), started.index)
             self.hub.set_recording(self.record_every)
             self._set_trial(started)
+        self.on_change(session_id)
         return started.to_dict()
 
     def _prepare_loop(self, trial: TrialRow, force: bool = False) -> None:
@@ -316,16 +324,51 @@ class Experiment:
             trial = self._trial(session_id, seq)
             if trial.status not in ("running", "answered"):
                 raise Conflict(f"trial {seq} is {trial.status}; answers go to a running or answered trial")
-            if question not in trial.questions:
-                raise ExperimentError(f"trial {seq} asks {', '.join(trial.questions) or 'no questions'}; "
-                                      f"not {question!r}")
-            q = self.study(self.store.session(session_id)["study_id"]).task(trial.task).question(question)
-            try:
-                value = q.check(value)
-            except AnswerError as exc:
-                raise ExperimentError(str(exc)) from None
-            self.store.put_response(trial.id, question, value, entered_by)
+            value = self._record(trial, question, value, entered_by)
+        self.on_change(session_id)
         return {"seq": seq, "question": question, "value": value}
+
+    def _record(self, trial: TrialRow, question: str, value: Any, entered_by: str,
+                unasked: type[ExperimentError] = ExperimentError) -> Any:
+        """Check one answer against its question and store it (the caller holds the lock)."""
+        if question not in trial.questions:
+            raise unasked(f"trial {trial.seq} asks {', '.join(trial.questions) or 'no questions'}; not {question!r}")
+        q = self._question(trial, question)
+        try:
+            value = q.check(value)
+        except AnswerError as exc:
+            raise ExperimentError(str(exc)) from None
+        self.store.put_response(trial.id, question, value, entered_by)
+        return value
+
+    def _question(self, trial: TrialRow, question: str):
+        return self.study(self.store.session(trial.session_id)["study_id"]).task(trial.task).question(question)
+
+    def participant_answer(self, session_id: str, seq: int, question: str, value: Any) -> dict:
+        """A participant's own answer (protocol `answer`): the session is the participant token's,
+        so no control token; only while trial `seq` runs, and only to a question the study marks
+        `answered_by = "participant"` (Forbidden otherwise). Checked and stored as `answer` does,
+        with entered_by "participant"."""
+        with self._lock:
+            trial = self._trial(session_id, seq)
+            if trial.status != "running":
+                raise Conflict(f"trial {seq} is {trial.status}; a participant answers while its trial runs")
+            if question in trial.questions and self._question(trial, question).answered_by != "participant":
+                raise Forbidden(f"question {question!r} is answered by the experimenter")
+            value = self._record(trial, question, value, "participant", unasked=Conflict)
+        self.on_change(session_id)
+        return {"seq": seq, "question": question, "value": value}
+
+    def participant_view(self, session_id: str) -> dict:
+        """What the session's participant is asked now (protocol `ask`; participant.py)."""
+        session = self._visible(session_id, None)
+        trials = self.store.trials(session_id)
+        running = next((t for t in trials if t.status == "running"), None)
+        try:
+            study = self.study(session["study_id"])
+        except NotFound:
+            study = None
+        return participant_view(session_id, study, trials, self.store.responses(running.id) if running else {})
 
     def finish(self, session_id: str, token: str | None, seq: int, *, site: str | None = None) -> dict:
         """The running trial is done: answered (every required question has its answer)."""
@@ -339,14 +382,18 @@ class Experiment:
             missing = [q for q in trial.questions if task.question(q).required and q not in answers]
             if missing:
                 raise Conflict(f"trial {seq} still needs an answer to {', '.join(missing)}")
-            return self._end(trial, "answered")
+            ended = self._end(trial, "answered")
+        self.on_change(session_id)
+        return ended
 
     def abort(self, session_id: str, token: str | None, seq: int, reason: str = "", *,
               site: str | None = None) -> dict:
         with self._lock:
             self._check_site(session_id, site)
             self._check_token(session_id, token)
-            return self._end(self._running(session_id, seq), "aborted", reason)
+            ended = self._end(self._running(session_id, seq), "aborted", reason)
+        self.on_change(session_id)
+        return ended
 
     def _running(self, session_id: str, seq: int) -> TrialRow:
         trial = self._trial(session_id, seq)
@@ -397,7 +444,9 @@ class Experiment:
             if trial.status != "aborted":
                 raise Conflict(f"trial {seq} is {trial.status}; only an aborted trial can be retried")
             self.store.set_session_status(session_id, "open")
-            return self.store.transition(trial.id, "pending", expect="aborted", reason="retry").to_dict()
+            retried = self.store.transition(trial.id, "pending", expect="aborted", reason="retry").to_dict()
+        self.on_change(session_id)
+        return retried
 
     def set_notes(self, session_id: str, token: str | None, notes: str, *, site: str | None = None) -> None:
         with self._lock:

@@ -16,6 +16,8 @@ from server.core.numbers import is_finite_number
 from server.core.scenario import Param
 
 QUESTION_KINDS = ("likert", "number", "choice", "text")
+ANSWERERS = ("experimenter", "participant")  # who enters a question's answer (docs/studies.md)
+PARTICIPANT_KINDS = ("likert", "number", "choice")  # a participant answers by choosing, not typing
 TEXT_ANSWER_MAX = 2000                 # characters of a free-text answer
 
 
@@ -56,10 +58,16 @@ class Question:
     labels: Mapping[int, str] = field(default_factory=lambda: MappingProxyType({}))  # likert anchors
     choices: tuple = ()          # choice: the options as declared (strings or numbers)
     required: bool = True        # False: may be left unanswered (None)
+    answered_by: str = "experimenter"  # or "participant": chosen on the participant's page or in XR
 
     def __post_init__(self) -> None:
         if self.kind not in QUESTION_KINDS:
             raise ValueError(f"question {self.id}: kind must be one of {', '.join(QUESTION_KINDS)}")
+        if self.answered_by not in ANSWERERS:
+            raise ValueError(f"question {self.id}: answered_by must be one of {', '.join(ANSWERERS)}")
+        if self.answered_by == "participant" and self.kind not in PARTICIPANT_KINDS:
+            raise ValueError(f"question {self.id}: a participant answers a {' or '.join(PARTICIPANT_KINDS)} question "
+                             f"by choosing; a {self.kind} question is the experimenter's")
         if self.kind == "likert":  # the 7-point default, so Question(id, "likert", text) is 1..7
             object.__setattr__(self, "low", 1 if self.low is None else self.low)
             object.__setattr__(self, "high", 7 if self.high is None else self.high)
@@ -109,7 +117,7 @@ class Question:
     def to_dict(self) -> dict:
         return {"id": self.id, "kind": self.kind, "text": self.text, "low": self.low, "high": self.high,
                 "integer": self.integer, "labels": {str(k): v for k, v in self.labels.items()},
-                "choices": list(self.choices), "required": self.required}
+                "choices": list(self.choices), "required": self.required, "answered_by": self.answered_by}
 
 
 def question_from_answer(answer: Param, text: str) -> Question:

@@ -38,8 +38,8 @@ from devices.profiles import PROFILES
 from server.core.scenario import ParamError, Param, SubTask, Trial
 from scenarios.registry import UnknownScenario, check_scenario_params, resolve
 from server.experiment.order import ORDERS
-from server.experiment.question import (QUESTION_KINDS, Question, as_number, format_bound, frozen_mapping,
-                                        question_from_answer)
+from server.experiment.question import (ANSWERERS, PARTICIPANT_KINDS, QUESTION_KINDS, Question, as_number,
+                                        format_bound, frozen_mapping, question_from_answer)
 
 BLOCK_ORDERS = ("latin", "fixed", "random")
 DEVICE_MODELS = tuple(PROFILES)        # the built-in device profiles (devices/profiles.py)
@@ -53,6 +53,19 @@ class StudyError(ValueError):
 
 
 # ---- tasks, blocks, study --------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Audio:
+    """What the participant's page plays (docs/xr.md "Audio"): off unless the study turns it on."""
+    speech: bool = False           # speak each new instruction (Web Speech API where present)
+    contact_sounds: bool = False   # a short click at each contact onset
+
+    def to_dict(self) -> dict:
+        return {"speech": self.speech, "contact_sounds": self.contact_sounds}
+
+
+NO_AUDIO = Audio()
+
 
 @dataclass(frozen=True)
 class Task:
@@ -73,6 +86,7 @@ class Task:
     subtask: str | None = None                 # the scenario SUBTASKS entry the defaults came from
     instructions: str = ""                     # what the experimenter reads out or shows (added)
     training_conditions: tuple[Mapping[str, Any], ...] = ()  # training-phase trials sharing training_s (added)
+    audio: Audio = NO_AUDIO                    # the study's [audio], with this task's [tasks.audio] over it (added)
 
     def question(self, question_id: str) -> Question:
         """A question of this task (per trial or end of task) by id; KeyError if there is none."""
@@ -89,7 +103,7 @@ class Task:
                 "questions": [q.to_dict() for q in self.questions],
                 "end_questions": [q.to_dict() for q in self.end_questions], "block": self.block,
                 "subtask": self.subtask, "instructions": self.instructions,
-                "training_conditions": [dict(c) for c in self.training_conditions]}
+                "training_conditions": [dict(c) for c in self.training_conditions], "audio": self.audio.to_dict()}
 
 
 @dataclass(frozen=True)
@@ -113,6 +127,7 @@ class Study:
     blocks: tuple[Block, ...]
     source_hash: str            # SHA-256 (hex) of the file text
     description: str = ""       # (added)
+    audio: Audio = NO_AUDIO     # the study's [audio] (each task carries its own, resolved)
 
     def task(self, task_id: str) -> Task:
         for t in self.tasks:
@@ -123,7 +138,8 @@ class Study:
     def to_dict(self) -> dict:
         return {"id": self.id, "title": self.title, "version": self.version, "seed": self.seed,
                 "participants": self.participants, "description": self.description,
-                "source_hash": self.source_hash, "tasks": [t.to_dict() for t in self.tasks],
+                "source_hash": self.source_hash, "audio": self.audio.to_dict(),
+                "tasks": [t.to_dict() for t in self.tasks],
                 "blocks": [b.to_dict() for b in self.blocks]}
 
 
@@ -213,12 +229,13 @@ def _at_least(low: float, whole: bool) -> Callable[[Any], Any]:
 
 # ---- parsing ---------------------------------------------------------------------------------
 
-STUDY_FIELDS = ("id", "title", "version", "seed", "participants", "description", "tasks", "blocks")
+STUDY_FIELDS = ("id", "title", "version", "seed", "participants", "description", "tasks", "blocks", "audio")
 TASK_FIELDS = ("id", "title", "scenario", "device", "params", "subtask", "conditions", "repetitions", "order",
                "practice", "training_s", "training_conditions", "time_limit_s", "questions", "end_questions",
-               "instructions")
+               "instructions", "audio")
 BLOCK_FIELDS = ("id", "tasks", "order")
-QUESTION_FIELDS = ("id", "kind", "text", "low", "high", "integer", "labels", "choices", "required")
+AUDIO_FIELDS = ("speech", "contact_sounds")
+QUESTION_FIELDS = ("id", "kind", "text", "low", "high", "integer", "labels", "choices", "required", "answered_by")
 KIND_FIELDS = {"likert": ("low", "high", "labels"), "number": ("low", "high", "integer"),
                "choice": ("choices",), "text": ()}
 
@@ -243,13 +260,15 @@ def parse_study(text: str, name: str = "<study>") -> Study:
     head = {"id": top.get("id", _matching(_STUDY_ID), "an id of lower-case letters, digits, - and _"),
             "title": top.text("title"), "version": top.integer("version", 1, 1), "seed": top.integer("seed", 0),
             "participants": top.integer("participants", 1), "description": top.text("description", "")}
-    tasks = tuple(_parse_task(raw, f"{name}: task #{i + 1}", name) for i, raw in enumerate(top.tables("tasks")))
+    audio = _audio(top, NO_AUDIO)
+    tasks = tuple(_parse_task(raw, f"{name}: task #{i + 1}", name, audio)
+                  for i, raw in enumerate(top.tables("tasks")))
     if not tasks:
         raise top.error("a study needs at least one [[tasks]] table")
     _unique((t.id for t in tasks), f"{name}: task")
     blocks = tuple(_parse_block(raw, f"{name}: block #{i + 1}", name) for i, raw in enumerate(top.tables("blocks")))
     _unique((b.id for b in blocks), f"{name}: block")
-    return Study(**head, tasks=_assign_blocks(tasks, blocks, name), blocks=blocks,
+    return Study(**head, audio=audio, tasks=_assign_blocks(tasks, blocks, name), blocks=blocks,
                  source_hash=hashlib.sha256(text.encode("utf-8")).hexdigest())
 
 
@@ -261,7 +280,15 @@ def _unique(ids, what: str) -> None:
         seen.add(i)
 
 
-def _parse_task(raw: Any, where: str, name: str) -> Task:
+def _audio(t: _Table, default: Audio) -> Audio:
+    """An `[audio]` table (study or task): each field given overrides `default`'s."""
+    if not t.has("audio"):
+        return default
+    a = _Table(t.raw["audio"], f"{t.where}: audio", AUDIO_FIELDS)
+    return Audio(speech=a.flag("speech", default.speech), contact_sounds=a.flag("contact_sounds", default.contact_sounds))
+
+
+def _parse_task(raw: Any, where: str, name: str, audio: Audio = NO_AUDIO) -> Task:
     if isinstance(raw, dict) and isinstance(raw.get("id"), str):
         where = f'{name}: task "{raw["id"]}"'  # name the task as soon as it has a name
     if isinstance(raw, dict) and "block" in raw:
@@ -285,7 +312,7 @@ def _parse_task(raw: Any, where: str, name: str) -> Task:
         time_limit_s=_time_limit(t, sub.time_limit_s if sub else None),
         questions=_questions(t, "questions", _subtask_questions(sub)), end_questions=_questions(t, "end_questions", ()),
         subtask=sub.name if sub else None, instructions=t.text("instructions", ""),
-        training_conditions=training_conditions)
+        training_conditions=training_conditions, audio=_audio(t, audio))
     _check_task(t, task)
     return task
 
@@ -367,13 +394,17 @@ def _parse_question(raw: Any, where: str) -> Question:
     q = _Table(raw, where, QUESTION_FIELDS, ("id", "kind", "text"))
     kind = _choice(q, "kind", QUESTION_KINDS, "text")
     for name in raw:
-        if name in QUESTION_FIELDS[3:] and name != "required" and name not in KIND_FIELDS[kind]:
+        if name in QUESTION_FIELDS[3:] and name not in ("required", "answered_by") and name not in KIND_FIELDS[kind]:
             raise q.error(f"field {name!r} does not apply to a {kind} question")
     low, high = _bounds(q, kind)
     choices = _choices(q) if kind == "choice" else ()
+    answered_by = _choice(q, "answered_by", ANSWERERS, "experimenter")
+    if answered_by == "participant" and kind not in PARTICIPANT_KINDS:
+        raise q.error(f'answered_by = "participant" needs a {", ".join(PARTICIPANT_KINDS)} question (the participant '
+                      f"chooses on a panel); a {kind} question is answered by the experimenter")
     return Question(id=q.ident("id"), kind=kind, text=q.text("text"), low=low, high=high,
                     integer=q.flag("integer", False), labels=_labels(q, low, high), choices=choices,
-                    required=q.flag("required", True))
+                    required=q.flag("required", True), answered_by=answered_by)
 
 
 def _bounds(q: _Table, kind: str) -> tuple[float | None, float | None]:

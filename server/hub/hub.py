@@ -20,6 +20,10 @@ roles, errors, what each client is sent and in which order) and the fan-out of t
   reaches every client as a `lease` message (`set_lease`), and a client that drove the HIP and
   may no longer lets go of it (`tracker_gone`), so the HIP goes home. One token holds at most
   MAX_CONNECTIONS_PER_TOKEN connections.
+- A participant's study answers (v1.5 `answer`) go to `on_answer` on a worker thread (the engine
+  writes SQLite), and its refusal back to the client; what a session's participant is asked
+  (`publish_ask`, from the engine's changes) reaches that session's participant connections, and
+  a participant that connects later gets the latest (`participant_view`, read on a worker thread).
 """
 
 from __future__ import annotations
@@ -37,7 +41,7 @@ from server.core.scenario import ParamError
 from server.hub.control import BusyError, ScenarioControl
 from server.hub.health import HOST_DOWN, Health, HealthReport
 from server.hub.owner import Owner
-from server.hub.session import CLOSED, Close, Command, Gate, ServerInfo, Session, ToLoop
+from server.hub.session import CLOSED, Close, Command, Gate, ParticipantAnswer, ServerInfo, Session, ToLoop
 from server.hub.telemetry import LoopTelemetry
 from server.wire import codec, messages
 
@@ -101,6 +105,12 @@ class Hub:
         self.record_every = 0  # trajectory sampling asked of the loop (experiment recorder); 0 = off
         self.undelivered: deque[list] = deque(maxlen=1024)  # records for the loop that must not be lost (retried)
         self.listeners: list = []  # called with every loop record after the hub handled it (the recorder)
+        # participants' answers (wired by the app to the experiment engine; worker thread): None when
+        # recorded, else (error code, message) for the client
+        self.on_answer = lambda answer: ("conflict", "this server records no study answers")
+        self.participant_view = lambda session_id: None  # a session's `ask` view (worker thread), or None
+        self._asks: dict[str, dict[str, bytes | str]] = {}  # session → its latest `ask` per format
+        self._tasks: set[asyncio.Task] = set()  # answers and reads under way (held: a bare task may be collected)
 
     # ---- access control (server/auth) ------------------------------------------------------------
     @property
@@ -288,7 +298,10 @@ class Hub:
                 data = message.get("bytes")
                 if data is None:
                     data = message.get("text")
+                welcomed = session.welcomed
                 self._forward(c, session.receive(data, time.monotonic_ns()))
+                if not welcomed and session.asks_for is not None:
+                    self._offer_ask(c)
                 c.wake.set()
             # We are closing (e.g. unsupported version): let the sender flush the error first.
             await asyncio.wait_for(asyncio.shield(sender), FLUSH_BEFORE_CLOSE_S)
@@ -315,9 +328,58 @@ class Hub:
         except (WebSocketDisconnect, RuntimeError, OSError):
             return
 
-    def _forward(self, c: Connection, events: list[ToLoop | Command]) -> None:
+    # ---- study answers (protocol v1.5 `ask`, `answer`) ---------------------------------------
+    def publish_ask(self, session_id: str, view: dict | None) -> None:
+        """What `session_id`'s participant is asked now: to its participant connections."""
+        self.owner.check()
+        if view is None:
+            return
+        message = messages.ask(view)
+        frames = self._asks[session_id] = {fmt: codec.encode(message, fmt) for fmt in codec.FORMATS}
+        for c in list(self.connections.values()):
+            if c.session.asks_for == session_id:
+                c.session.set_ask(frames)
+                c.wake.set()
+
+    def _offer_ask(self, c: Connection) -> None:
+        """A participant of a session was welcomed: its latest `ask`, read first if need be."""
+        session_id = c.session.asks_for
+        frames = self._asks.get(session_id)
+        if frames is not None:
+            c.session.set_ask(frames)
+            return
+
+        async def read() -> None:
+            try:
+                view = await asyncio.to_thread(self.participant_view, session_id)
+            except Exception:  # an unknown or unreadable session: the page simply gets no `ask`
+                log.exception("could not read what session %s asks", session_id)
+                return
+            if session_id not in self._asks:  # a change published meanwhile is newer
+                self.publish_ask(session_id, view)
+        self._spawn(read())
+
+    def _spawn(self, coro) -> None:
+        task = asyncio.get_running_loop().create_task(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def _answer(self, c: Connection, answer: ParticipantAnswer) -> None:
+        try:
+            refusal = await asyncio.to_thread(self.on_answer, answer)
+        except Exception:
+            log.exception("a participant's answer failed")
+            refusal = ("busy", "the answer could not be recorded; send it again")
+        if refusal is not None:
+            c.session.reply_error(*refusal)
+            c.wake.set()
+
+    def _forward(self, c: Connection, events: list[ToLoop | Command | ParticipantAnswer]) -> None:
         """What a client's session asks of the loop; refusals go back to the client as errors."""
         for event in events:
+            if isinstance(event, ParticipantAnswer):
+                self._spawn(self._answer(c, event))
+                continue
             if isinstance(event, ToLoop):
                 if not self.send_to_loop(event.record):
                     if event.busy:

@@ -21,6 +21,9 @@ protocol decision about one client:
   with `rate_limited`, at most one such error a second (the rest are counted), so one client's
   key flood can neither flood the loop's events nor every viewer's state frames; refusals of
   tracker samples (a client that may not drive) are answered at the same pace;
+- a participant's study answers (v1.5 `answer`): they come out as `ParticipantAnswer` for the
+  experiment engine, always for the token's own session; a participant connection of a session
+  is sent that session's latest `ask` (`set_ask`);
 - per-client counters.
 
 What a client asks of the loop comes out of `receive` as events (`ToLoop`, `Command`); the hub
@@ -110,6 +113,18 @@ class Command:
 
 
 @dataclass(frozen=True)
+class ParticipantAnswer:
+    """A participant's answer (protocol v1.5 `answer`) for the experiment engine: the session is
+    the token's own, never one the client names."""
+    session_id: str
+    seq: int
+    question: str
+    value: Any
+    identity: Identity
+    client_id: int
+
+
+@dataclass(frozen=True)
 class Close:
     """Close the connection with this code (after everything queued before it)."""
     code: int
@@ -136,6 +151,7 @@ class Session:
         self._scene: tuple[str, bytes | str] | None = None  # the current scene in this client's format
         self._health: bytes | str | None = None  # the current `health` message in this client's format
         self._lease: bytes | str | None = None  # the current `lease` message in this client's format
+        self._ask: bytes | str | None = None  # the current `ask` message (participants of a session)
         self._driving = False  # tracker samples of this client went to the loop since it last lost the right
         self._tracker_refusal_ns: int | None = None  # when the last refused tracker was answered
         self._sent_scene: str | None = None  # the last scene handed to the sender
@@ -154,6 +170,15 @@ class Session:
     @property
     def closing(self) -> bool:
         return self.close_code is not None
+
+    @property
+    def asks_for(self) -> str | None:
+        """The session whose `ask` messages this client gets: a welcomed participant connection of a
+        participant token that names a session; else None."""
+        who = self.identity
+        if not self.welcomed or self.role != "participant" or who is None or who.role != "participant":
+            return None
+        return who.session
 
     def info(self) -> dict:
         who = self.identity
@@ -177,7 +202,7 @@ class Session:
             self._refuse("unauthorized", "no hello with a token within 1 s of connecting")
 
     # ---- frames from the client --------------------------------------------------------------
-    def receive(self, data: bytes | str | None, now_ns: int) -> list[ToLoop | Command]:
+    def receive(self, data: bytes | str | None, now_ns: int) -> list[ToLoop | Command | ParticipantAnswer]:
         """One frame from the client (None: a frame with no payload). Returns what the hub is to
         forward; replies (welcome, errors, close) are queued for the sender."""
         if self.closing:
@@ -204,16 +229,18 @@ class Session:
         return events
 
     def refusal(self, kind: str) -> str | None:
-        """None when this client may send messages of `kind` now ("tracker", "input", or
+        """None when this client may send messages of `kind` now ("tracker", "input", "answer", or
         "input:operator", an experimenter command), else the reason: the role it was welcomed
         with, then the declared policy (server.auth.policy) against its identity and the lease."""
         base = kind.split(":")[0]
         if self.role == "observer":
             return f"an observer may not send '{base}' messages"
         verdict = decide(POLICY[f"ws:{kind}"], self.identity, self.gate.lease())
+        if verdict is None and kind == "answer" and self.asks_for is None:
+            return "this participant token names no session: there is nothing to answer"
         return None if verdict is None else verdict[1]
 
-    def _handle(self, kind: str, message, now_ns: int) -> list[ToLoop | Command]:
+    def _handle(self, kind: str, message, now_ns: int) -> list[ToLoop | Command | ParticipantAnswer]:
         if isinstance(message, messages.Hello):
             self._hello(message)
             return []
@@ -235,6 +262,12 @@ class Session:
                 self._refuse_over_budget(now_ns)
                 return []
             return [Command(message.key, message.action, message.value, self.role, self.id)]
+        if isinstance(message, messages.Answer):
+            if not self._spend_input_token(now_ns):  # answers share the input budget: each one is a disk write
+                self._refuse_over_budget(now_ns)
+                return []
+            return [ParticipantAnswer(self.asks_for, message.seq, message.question, message.value, self.identity,
+                                      self.id)]
         return []
 
     def _spend_input_token(self, now_ns: int) -> bool:
@@ -340,6 +373,18 @@ class Session:
             self._control.append(("health", self._health, None))
         if self._lease is not None:
             self._control.append(("lease", self._lease, None))
+        if self._ask is not None and self.asks_for is not None:
+            self._control.append(("ask", self._ask, None))
+
+    def set_ask(self, frames: Mapping[str, bytes | str]) -> None:
+        """What the study asks of this participant now (`frames`: the `ask` message per format; the
+        hub offers it only to clients whose `asks_for` is its session). One still queued is
+        superseded: only the latest is true."""
+        self._ask = frames[self.fmt]
+        if self.asks_for is None or self.closing:
+            return
+        self._control = deque(item for item in self._control if not _is_kind(item, "ask"))
+        self._control.append(("ask", self._ask, None))
 
     def set_scene(self, scene_hash: str, frames: Mapping[str, bytes | str]) -> None:
         """The current scene (`frames`: its scene message encoded per format). A welcomed client

@@ -13,12 +13,12 @@ from typing import Any, Mapping
 
 from server.wire.check import check_message
 from server.wire.codec import WireError
-from server.wire.schema import (CLIENT_MESSAGE_NAMES, HELLO, INPUT, INPUT_ACTIONS, PROTOCOL_MINOR, PROTOCOL_VERSION,
-                                ROLES, SCENE_FORMAT_VERSION, STATE, TRACKER)
+from server.wire.schema import (ANSWER, CLIENT_MESSAGE_NAMES, HELLO, INPUT, INPUT_ACTIONS, PROTOCOL_MINOR,
+                                PROTOCOL_VERSION, ROLES, SCENE_FORMAT_VERSION, STATE, TRACKER)
 
-__all__ = ["PROTOCOL_VERSION", "PROTOCOL_MINOR", "ROLES", "INPUT_ACTIONS", "Hello", "Tracker", "Input",
+__all__ = ["PROTOCOL_VERSION", "PROTOCOL_MINOR", "ROLES", "INPUT_ACTIONS", "Hello", "Tracker", "Input", "Answer",
            "CLIENT_MESSAGES", "parse_client_message", "welcome", "scene_message", "state_message", "error", "health",
-           "lease"]
+           "lease", "ask"]
 
 
 @dataclass(frozen=True)
@@ -96,11 +96,27 @@ class Input:
         return msg
 
 
-CLIENT_MESSAGES = {"hello": Hello, "tracker": Tracker, "input": Input}
+@dataclass(frozen=True)
+class Answer:
+    """v1.5: a participant's answer to a question of its session's running trial."""
+    seq: int
+    question: str
+    value: float | str
+
+    @classmethod
+    def parse(cls, body: dict) -> Answer:
+        f = check_message(body, ANSWER)
+        return cls(f["seq"], f["question"], f["value"])
+
+    def to_wire(self) -> dict:
+        return {"type": "answer", "seq": self.seq, "question": self.question, "value": self.value}
+
+
+CLIENT_MESSAGES = {"hello": Hello, "tracker": Tracker, "input": Input, "answer": Answer}
 assert tuple(CLIENT_MESSAGES) == CLIENT_MESSAGE_NAMES
 
 
-def parse_client_message(body: dict) -> Hello | Tracker | Input:
+def parse_client_message(body: dict) -> Hello | Tracker | Input | Answer:
     """Validate a decoded client map; unknown types are refused with `unknown_type`."""
     kind = body["type"]
     parser = CLIENT_MESSAGES.get(kind)
@@ -191,3 +207,13 @@ def lease(snapshot: Mapping[str, Any]) -> dict:
     declared fields in their order."""
     return {"type": "lease", "holder": snapshot.get("holder"), "queue": list(snapshot.get("queue") or []),
             "session": snapshot.get("session"), "ttl_s": snapshot["ttl_s"]}
+
+
+def ask(view: Mapping[str, Any]) -> dict:
+    """The `ask` message for a participant view (server/experiment/participant.py), the declared
+    fields in their order."""
+    return {"type": "ask", "session": view["session"], "seq": view.get("seq"), "task": view.get("task"),
+            "questions": [dict(q) for q in view.get("questions") or []],
+            "audio": {"speech": bool((view.get("audio") or {}).get("speech")),
+                      "contact_sounds": bool((view.get("audio") or {}).get("contact_sounds"))},
+            "instructions": view.get("instructions") or ""}

@@ -36,9 +36,10 @@ from server.core.points import POINT_NAMES, PRIMARY_POINT
 from server.core.workspace import WORKSPACE_HALF_EXTENT_M
 
 PROTOCOL_VERSION = 1  # the major version: hello.v and welcome.v
-PROTOCOL_MINOR = 4    # v1.1: welcome.minor, state.stiffness/haptic/driver; v1.2: health, bounds, input budget;
+PROTOCOL_MINOR = 5    # v1.1: welcome.minor, state.stiffness/haptic/driver; v1.2: health, bounds, input budget;
                       # v1.3: hello.token, welcome.identity, lease, unauthorized;
-                      # v1.4: tracker.point/points/ttl, state.tools/points/tracking (several fingers)
+                      # v1.4: tracker.point/points/ttl, state.tools/points/tracking (several fingers);
+                      # v1.5: ask, answer (a participant answers a study's question; the study's audio)
 SCENE_FORMAT_VERSION = 1
 ROLES = ("participant", "operator", "observer")
 INPUT_ACTIONS = ("down", "up", "press")
@@ -216,13 +217,25 @@ INPUT = Message("input", "client_to_server", "keys and commands", (
           'a command\'s argument, e.g. `{"key": "tap_angle", "action": "press", "value": -30}`', required=False),
 ))
 
+ANSWER = Message("answer", "client_to_server", "a participant's answer to a question of its session's running "
+                 "trial that the study marks `answered_by = \"participant\"` (the `ask` message names them)", (
+    _type("answer"),
+    Field("seq", integer(min=0), "the trial (`ask.seq`)", since=5),
+    Field("question", string(1, 64), "the question's id (`ask.questions[].id`)", since=5),
+    Field("value", any_of(number(), string(max_len=200), doc="number \\| string ≤ 200 characters"),
+          "the answer: a Likert point, a number, or one of the choices; the server checks it against the question as "
+          "it checks the console's (`PUT /api/sessions/{id}/trials/{seq}/responses/{question}`) and records it "
+          "with `entered_by` `\"participant\"`; a refusal is an `error` (`forbidden`, `bad_message`, `conflict`)",
+          since=5),
+))
+
 _OPT_STRING = any_of(null(), string(), doc="string \\| null")
 _IDENTITY = mapping(doc="map `{token_id, role, site, session}`")
 
 WELCOME = Message("welcome", "server_to_client", "reply to `hello`, or sent on connect to clients without one", (
     _type("welcome"),
     Field("v", integer(), "server's protocol major version (1)"),
-    Field("minor", integer(min=0), "server's protocol minor version (4 for this document; absent from v1.0 "
+    Field("minor", integer(min=0), "server's protocol minor version (5 for this document; absent from v1.0 "
           "servers)", required=False, since=1),
     Field("client_id", integer(min=1), "this connection's id (`driver` in `state` names a /ws client by it)"),
     Field("role", enum(ROLES), "the role the server assigned (may differ from the one asked for; clients follow "
@@ -347,8 +360,27 @@ LEASE = Message("lease", "server_to_client", "after `welcome`, `scene` and `heal
           "queued requester) loses its place", since=3),
 ))
 
-MESSAGES: dict[str, Message] = {m.name: m for m in (HELLO, TRACKER, INPUT, WELCOME, SCENE, STATE, ERROR, HEALTH,
-                                                    LEASE)}
+_ASKED = mapping(doc="map `{id, kind, text, low, high, integer, labels, choices, required, answer}`")
+_AUDIO = mapping(boolean(), "map `{speech, contact_sounds}`")
+
+ASK = Message("ask", "server_to_client", "to a participant connection of a session (its token's `session`): after "
+              "`welcome` and whenever the session's running trial, its answers or its audio change", (
+    _type("ask"),
+    Field("session", string(min_len=1), "the participant's session", since=5),
+    Field("seq", any_of(null(), integer(min=0), doc="int ≥ 0 \\| null"), "the running trial, or null when none "
+          "runs", since=5),
+    Field("task", _OPT_STRING, "the task of the running trial, else of the next pending one (null: none)", since=5),
+    Field("questions", array(_ASKED, "array of maps"), "the running trial's questions the participant answers "
+          "(study `answered_by = \"participant\"`), in the study's order: the question as in the study file "
+          "(docs/studies.md \"Question\") and `answer`, the recorded value or null; `[]` when none", since=5),
+    Field("audio", _AUDIO, "what the page plays for this task (the study's `[audio]`): `speech` speaks each new "
+          "instruction, `contact_sounds` clicks at each contact onset; both false unless the study turns them on",
+          since=5),
+    Field("instructions", string(), "the task's `instructions` (empty when none)", since=5),
+))
+
+MESSAGES: dict[str, Message] = {m.name: m for m in (HELLO, TRACKER, INPUT, ANSWER, WELCOME, SCENE, STATE, ERROR,
+                                                    HEALTH, LEASE, ASK)}
 CLIENT_MESSAGE_NAMES = tuple(name for name, m in MESSAGES.items() if m.direction == "client_to_server")
 
 ERROR_CODES: dict[str, str] = {
@@ -365,6 +397,7 @@ ERROR_CODES: dict[str, str] = {
     "busy": "the loop's input mailbox is full; the message was dropped",
     "out_of_range": "a finite number beyond the protocol's bounds: an integer outside ±(2^53 − 1), a tracker "
                     "`pos` outside the workspace, a `t` beyond ±(2^53 − 1) ms (\"Bounds\")",
+    "conflict": "an `answer` to a trial that is not running (any more), or to a question it does not ask",
     "rate_limited": "the client sent `input` faster than its budget (\"Input budget\"); the message was dropped "
                     "(at most one such error a second); or the token already has 256 connections open (the "
                     "connection then closes, code 1008)",

@@ -8,10 +8,11 @@ from __future__ import annotations
 import msgpack
 import pytest
 
+from server.auth.identity import Identity
 from server.auth.lease import Lease
 from server.auth.policy import POLICY, decide
-from server.hub.session import (FORBIDDEN_TRACKER_ERROR_EVERY_NS, HELLO_TIMEOUT_NS, Close, Command, ServerInfo,
-                                Session, ToLoop)
+from server.hub.session import (FORBIDDEN_TRACKER_ERROR_EVERY_NS, HELLO_TIMEOUT_NS, INPUT_BURST, Close, Command,
+                                Gate, ParticipantAnswer, ServerInfo, Session, ToLoop)
 from server.wire import codec, messages
 from server.wire.schema import CLIENT_MESSAGE_NAMES
 from tests.hub.access_fakes import (ADMIN, EXP_A, EXP_B, OBSERVER, PART_1, PART_2, SECRET, Clock, gate)
@@ -21,7 +22,9 @@ T0 = 5_000_000_000
 SCENE = {fmt: codec.encode({"type": "scene", "v": 1, "hash": "aaaa", "scene": {}}, fmt) for fmt in codec.FORMATS}
 TRACKER = {"type": "tracker", "seq": 1, "t": 0, "pos": [0, 0, 1]}
 KEY = {"type": "input", "key": "ArrowUp", "action": "press"}
-SAMPLE = {"tracker": TRACKER, "input": KEY}  # one valid message of each client type but hello
+ANSWER = {"type": "answer", "seq": 3, "question": "roughness", "value": 5}
+SAMPLE = {"tracker": TRACKER, "input": KEY, "answer": ANSWER}  # one valid message of each client type but hello
+DRIVING = ("input", "tracker")  # the kinds that drive the rig (the lease rule); `answer` has its own
 
 
 def frame(message: dict) -> bytes:
@@ -138,7 +141,7 @@ def test_the_welcome_grants_the_role_the_token_allows_and_says_who_it_is(who, as
     out = sent(s)
     granted = GRANTS[who][asked]
     welcome = out[0]
-    assert welcome["type"] == "welcome" and welcome["role"] == granted == s.role and welcome["minor"] == 4
+    assert welcome["type"] == "welcome" and welcome["role"] == granted == s.role and welcome["minor"] == 5  # v1.5 (was 4)
     assert welcome["identity"] == {"token_id": who.token_id, "role": who.role, "site": who.site,
                                    "session": who.session}
     if granted == asked:
@@ -186,7 +189,7 @@ CASES = [pytest.param(who, state, id=f"{who.role}-{who.token_id}-{state}") for w
          if not (state == "mine" and who.role in ("participant", "observer"))]
 
 
-@pytest.mark.parametrize("kind", sorted(SAMPLE))
+@pytest.mark.parametrize("kind", DRIVING)
 @pytest.mark.parametrize("who, state", CASES)
 def test_each_message_is_allowed_exactly_when_the_policy_and_the_lease_say_so(kind, who, state):
     lease = _lease_state(state, who)
@@ -276,3 +279,74 @@ def test_a_participant_of_a_session_that_is_no_longer_open_leaves_the_hip():
     assert s.set_lease(lease_frames(lease)) == [ToLoop(["tracker_gone", 7])]
     other, _ = connect(PART_2, "participant", lease)
     assert len(other.receive(frame(TRACKER), T0 + 2)) == 1
+
+
+# ---- a participant's study answers (v1.5 `answer`, `ask`) ---------------------------------------------------
+@pytest.mark.parametrize("who, state", CASES)
+def test_only_a_participant_connection_of_a_participant_token_may_answer_and_only_for_its_own_session(who, state):
+    """The lease does not matter (the running trial is the experimenter's permission); the session
+    answered is always the token's own: a participant of s-2 cannot reach s-1's trial."""
+    lease = _lease_state(state, who)
+    s, _ = connect(who, "participant", lease)
+    sent(s)
+    events = s.receive(frame(ANSWER), T0 + 10)
+    if who.role == "participant":
+        assert sent(s) == []
+        assert events == [ParticipantAnswer(who.session, 3, "roughness", 5.0, who, 7)]
+    else:
+        assert events == []
+        (error,) = sent(s)
+        assert error["code"] == "forbidden"
+        assert ("an observer may not" if who.role == "observer" else "allowed: participant") in error["message"]
+
+
+def test_an_observer_connection_of_a_participant_token_and_a_token_without_a_session_may_not_answer():
+    s, _ = connect(PART_1, "observer")
+    sent(s)
+    assert s.receive(frame(ANSWER), T0 + 1) == [] and [m["code"] for m in sent(s)] == ["forbidden"]
+    loose = Identity("par00009", "participant", site="lab-a", session=None)
+    g, _ = gate()
+    s = Session(7, "msgpack", SERVER, T0, gate=Gate(lambda secret: loose, g.lease))
+    s.receive(hello("participant", "anything"), T0)
+    sent(s)
+    assert s.receive(frame(ANSWER), T0 + 1) == []
+    (error,) = sent(s)
+    assert error["code"] == "forbidden" and "names no session" in error["message"]
+
+
+def test_answers_spend_the_input_budget():
+    s, _ = connect(PART_1, "participant")
+    sent(s)
+    got = [s.receive(frame(ANSWER), T0 + 10) for _ in range(INPUT_BURST + 1)]
+    assert all(len(e) == 1 for e in got[:INPUT_BURST]) and got[-1] == []
+    assert [m["code"] for m in sent(s)] == ["rate_limited"]
+
+
+def _asks(session_id: str, seq) -> dict:
+    view = {"session": session_id, "seq": seq, "task": "t", "questions": [], "audio": {"speech": True},
+            "instructions": ""}
+    return {fmt: codec.encode(messages.ask(view), fmt) for fmt in codec.FORMATS}
+
+
+def test_ask_goes_to_participant_connections_of_its_session_after_the_welcome_and_supersedes():
+    s, _ = connect(PART_1, "participant")
+    assert s.asks_for == "s-1"
+    s.set_ask(_asks("s-1", 0))
+    s.set_ask(_asks("s-1", 1))  # the newer one replaces the one not yet sent
+    out = sent(s)
+    assert kinds(out)[-1] == "ask" and [m["seq"] for m in out if m["type"] == "ask"] == [1]
+    assert out[-1]["audio"] == {"speech": True, "contact_sounds": False}
+    # held before the welcome, sent right after it
+    g, _ = gate()
+    late = Session(8, "msgpack", SERVER, T0, gate=g)
+    late.set_ask(_asks("s-1", 2))
+    assert sent(late) == [] and late.asks_for is None
+    late.receive(hello("participant", SECRET[PART_1.token_id]), T0)
+    assert late.asks_for == "s-1"
+    # observers and staff have no session to be asked about
+    for who, role in ((PART_1, "observer"), (EXP_A, "participant"), (ADMIN, "operator")):
+        other, _ = connect(who, role)
+        assert other.asks_for is None
+        sent(other)
+        other.set_ask(_asks("s-1", 3))
+        assert "ask" not in kinds(sent(other))

@@ -68,6 +68,10 @@ namespace Viestac.Client
                 case "input":
                     CheckInput(Protocol.Field(m, "key") as string, Protocol.Field(m, "action") as string, Protocol.Field(m, "value"));
                     break;
+                case "answer":
+                    CheckAnswer(Protocol.AsInt(Protocol.Field(m, "seq"), "answer.seq", 0), Protocol.Field(m, "question") as string,
+                                Protocol.Field(m, "value"));
+                    break;
                 default: throw new ProtocolException("unknown_type", "no client message of type '" + type + "'");
             }
         }
@@ -153,6 +157,24 @@ namespace Viestac.Client
             var s = value as string;
             if (s == null) throw Protocol.Bad("input.value is a number, a bool or a string");
             if (CodePoints(s) > MaxValueText) throw Protocol.Bad("input.value is at most 200 characters");
+        }
+
+        /// <summary>v1.5 `answer`: a trial, a question id of 1..64 characters, a number or a string ≤ 200.</summary>
+        public static void CheckAnswer(long seq, string question, object value)
+        {
+            if (seq < 0) throw Protocol.Bad("answer.seq is an int >= 0");
+            if (question == null || CodePoints(question) < 1 || CodePoints(question) > 64)
+                throw Protocol.Bad("answer.question is a string of 1..64 characters");
+            if (value is long || value is int) return;
+            if (value is double || value is float)
+            {
+                double d = Convert.ToDouble(value);
+                if (double.IsNaN(d) || double.IsInfinity(d)) throw new ProtocolException("non_finite", "NaN or Infinity in a number");
+                return;
+            }
+            var s = value as string;
+            if (s == null) throw Protocol.Bad("answer.value is a number or a string");
+            if (CodePoints(s) > MaxValueText) throw Protocol.Bad("answer.value is at most 200 characters");
         }
 
         /// <summary>Unicode code points (the protocol counts them; C# strings count UTF-16 units).</summary>

@@ -32,7 +32,7 @@ namespace Viestac.Client
         }
     }
 
-    public enum MessageType { Welcome, Scene, State, Error, Health, Lease }
+    public enum MessageType { Welcome, Scene, State, Error, Health, Lease, Ask }
 
     public abstract class ServerMessage
     {
@@ -255,6 +255,16 @@ namespace Viestac.Client
         public readonly List<LeaseParty> Queue = new List<LeaseParty>();
         public string Session;
         public double TtlS;
+    }
+
+    /// <summary>v1.5: what the study asks of this participant now (docs/protocol.md `ask`).</summary>
+    public sealed class Ask : ServerMessage
+    {
+        public override MessageType Type { get { return MessageType.Ask; } }
+        public string Session, Task, Instructions;
+        public long? Seq;  // the running trial, or null
+        public readonly List<Dictionary<string, object>> Questions = new List<Dictionary<string, object>>();
+        public bool Speech, ContactSounds;
     }
 
     public static class Roles

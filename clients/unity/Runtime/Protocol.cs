@@ -74,6 +74,17 @@ namespace Viestac.Client
             if (value != null) { w.WriteString("value"); w.WriteValue(value); }
         }
 
+        /// <summary>v1.5: a participant's answer to a question of its session's running trial (`ask`).
+        /// `value` is a number or a string.</summary>
+        public static void WriteAnswer(MsgPackWriter w, long seq, string question, object value)
+        {
+            w.WriteMapHeader(4);
+            w.WriteString("type"); w.WriteString("answer");
+            w.WriteString("seq"); w.WriteInt(seq);
+            w.WriteString("question"); w.WriteString(question);
+            w.WriteString("value"); w.WriteValue(value);
+        }
+
         // ---- server → client ------------------------------------------------------------
 
         /// <summary>A decoded frame as a typed message; null for a type this client does not know
@@ -93,6 +104,7 @@ namespace Viestac.Client
                     return new ErrorMessage { Code = Str(m, "error", "code"), Message = Str(m, "error", "message") };
                 case "health": return ParseHealth(m);
                 case "lease": return ParseLease(m);
+                case "ask": return ParseAsk(m);
                 default: return null;
             }
         }
@@ -313,6 +325,24 @@ namespace Viestac.Client
                 lease.Queue.Add(Party(q));
             }
             return lease;
+        }
+
+        static Ask ParseAsk(Dictionary<string, object> m)
+        {
+            var ask = new Ask { Session = Str(m, "ask", "session"), Task = OptStr(m, "ask", "task"),
+                                Instructions = Str(m, "ask", "instructions") };
+            if (Field(m, "seq") != null) ask.Seq = Int(m, "ask", "seq", 0);
+            foreach (var e in List(m, "ask", "questions"))
+            {
+                var q = e as Dictionary<string, object>;
+                if (q == null) throw Bad("ask.questions[n] is a map");
+                ask.Questions.Add(q);
+            }
+            var audio = Map(m, "ask", "audio", true);
+            foreach (var kv in audio) Bool(kv.Value, "ask.audio." + kv.Key);
+            ask.Speech = audio.ContainsKey("speech") && (bool)audio["speech"];
+            ask.ContactSounds = audio.ContainsKey("contact_sounds") && (bool)audio["contact_sounds"];
+            return ask;
         }
 
         static LeaseParty Party(Dictionary<string, object> h)

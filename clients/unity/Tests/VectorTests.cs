@@ -88,6 +88,9 @@ namespace Viestac.Client.Tests
                     case "input":
                         Protocol.WriteInput(w, (string)m["key"], (string)m["action"], m.ContainsKey("value") ? m["value"] : null);
                         break;
+                    case "answer":
+                        Protocol.WriteAnswer(w, Convert.ToInt64(m["seq"]), (string)m["question"], m["value"]);
+                        break;
                     default: Assert.Fail("a client message of type " + m["type"]); break;
                 }
                 Assert.AreEqual((string)v["msgpack_hex"], TestPaths.ToHex(w.ToArray()), (string)v["name"]);

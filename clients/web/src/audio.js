@@ -2,8 +2,10 @@
 // instructions with the Web Speech API where the browser has it, and optional contact sounds
 // (a short click at each contact onset, WebAudio). Both are off unless asked for: a study's
 // participant hears nothing its protocol did not plan (docs/xr.md "In XR: panels, answers, audio").
-// URL: ?audio=speech,contact (either or both). The decisions are pure (AudioPlan); Speaker and
-// Clicker are thin shells over speechSynthesis and AudioContext.
+// A study turns them on in its file (`[audio]`, docs/studies.md), which reaches the page with each
+// `ask` (protocol v1.5); the URL's ?audio=speech,contact (either or both) adds to it for demos.
+// The decisions are pure (AudioPlan); Speaker and Clicker are thin shells over speechSynthesis and
+// AudioContext.
 
 /** Which sounds are on: from the page's `audio` query value ('speech', 'contact', comma-separated). */
 export function audioSettings(query) {
@@ -11,12 +13,23 @@ export function audioSettings(query) {
   return { speech: words.has('speech'), contact: words.has('contact') };
 }
 
+/** The sounds on: the page's flag (demos) or the study's `ask.audio` ({speech, contact_sounds}). */
+export function mergedSettings(flag, study) {
+  return { speech: !!(flag?.speech || study?.speech), contact: !!(flag?.contact || study?.contact_sounds) };
+}
+
 /** What to say and when to click, from the page's events. Pure. */
 export class AudioPlan {
   constructor(settings) {
+    this.flag = settings; // the URL's, fixed for the page
     this.settings = settings;
     this.spoken = null; // the instruction text last spoken
     this.touching = new Set();
+  }
+
+  /** The study's audio for the task at hand (an `ask` message's `audio`). */
+  setStudy(audio) {
+    this.settings = mergedSettings(this.flag, audio);
   }
 
   /** The instruction text (the HUD) now: the text to speak, or null (unchanged, empty, or off).

@@ -37,6 +37,7 @@ export class Connection {
     this.onState = noop;
     this.onHealth = noop; // the server's health: {status, reasons: [{code, message}]}
     this.onLease = noop; // the control lease: {holder, queue, session, ttl_s} (protocol v1.3)
+    this.onAsk = noop; // what the study asks of this participant: {session, seq, task, questions, audio, instructions} (v1.5)
     this.onUnauthorized = noop; // (message): the token was refused; connect() again with a new one
     this.onError = noop; // (ProtocolError-like {code, message}, source: 'server' | 'client')
     this.onStatus = noop; // (status string, detail string)
@@ -131,6 +132,13 @@ export class Connection {
     return true;
   }
 
+  /** v1.5: the participant's answer to question `question` of trial `seq` (an `ask`). Returns true if sent. */
+  sendAnswer(seq, question, value) {
+    if (!this.isOpen || !this.canSend) return false;
+    this._send(protocol.answer(seq, question, value));
+    return true;
+  }
+
   // -- internals --------------------------------------------------------------------------------
 
   _send(msg) {
@@ -180,6 +188,9 @@ export class Connection {
         break;
       case 'lease':
         this.onLease(msg);
+        break;
+      case 'ask':
+        this.onAsk(msg);
         break;
       case 'error':
         if (msg.code === 'unauthorized') this.unauthorized = msg.message ?? 'unauthorized';

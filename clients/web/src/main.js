@@ -18,6 +18,7 @@ import { TokenStore, redeemFragment, authHeaders } from './auth.js';
 import { waitingState } from './waiting.js';
 import { lostSources, toolsOf } from './tools_view.js';
 import { XrSession, supportedModes, MODES } from './xr_session.js';
+import { questionOf } from './xr_panels.js';
 import { AudioPlan, Clicker, Speaker, audioSettings } from './audio.js';
 
 const CLIENT_NAME = 'viestac-web/0.1';
@@ -88,6 +89,7 @@ async function main() {
     health: null, // the server's last `health` message
     identity: null, // welcome.identity: {token_id, role, site, session}
     lease: null, // the last `lease` message
+    ask: null, // the last `ask` message: what the study asks of this participant (v1.5)
     waiting: () => waiting.waiting,
     stats,
     renderer: view.rendererInfo(),
@@ -171,6 +173,49 @@ async function main() {
     leaseAt = performance.now();
     updateWaiting();
   };
+  // What the study asks (v1.5 `ask`): its audio, and the participant's questions — in XR on a
+  // panel (xr_session.js), on the desktop page as a row of buttons.
+  const answerEl = document.getElementById('answer');
+  conn.onAsk = (a) => {
+    hook.ask = a;
+    audioPlan.setStudy(a.audio);
+    const say = audioPlan.say(a.instructions);
+    if (say) speaker.speak(say);
+    const q = questionOf(a);
+    xr.ask(q);
+    showQuestion(q);
+  };
+  function showQuestion(q) {
+    if (!answerEl) return;
+    answerEl.replaceChildren();
+    answerEl.hidden = q === null;
+    if (q === null) return;
+    const text = document.createElement('p');
+    text.textContent = q.text;
+    answerEl.append(text);
+    const send = (value) => conn.sendAnswer(q.seq, q.id, value);
+    if (q.kind === 'angle') { // a number: typed on the desktop page
+      const input = document.createElement('input');
+      input.type = 'number';
+      input.name = q.id;
+      const ok = document.createElement('button');
+      ok.textContent = 'Answer';
+      ok.addEventListener('click', () => input.value !== '' && send(Number(input.value)));
+      answerEl.append(input, ok);
+      return;
+    }
+    const items = q.kind === 'likert'
+      ? Array.from({ length: q.high - q.low + 1 }, (_, i) => ({ label: String(q.low + i), value: q.low + i,
+        anchor: q.labels?.[q.low + i] ?? '' }))
+      : q.items;
+    for (const it of items) {
+      const b = document.createElement('button');
+      b.textContent = it.anchor ? `${it.label} (${it.anchor})` : it.label;
+      b.dataset.value = String(it.value);
+      b.addEventListener('click', () => send(it.value));
+      answerEl.append(b);
+    }
+  }
   conn.onUnauthorized = (why) => {
     showWaiting(joinError ?? (opts.role === 'participant'
       ? `This page is not admitted (${why}). Open the join link the experimenter gives you.`

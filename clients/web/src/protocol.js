@@ -202,6 +202,13 @@ export function input(key, action, value = undefined) {
   return msg;
 }
 
+/** v1.5: a participant's answer to a question of its session's running trial (`ask`). */
+export function answer(seq, question, value) {
+  if (typeof value === 'number' && !Number.isFinite(value)) throw new ProtocolError('non_finite', `value is ${value}`);
+  return { type: 'answer', seq: checked('answer', 'seq', seq), question: checked('answer', 'question', question),
+    value: checked('answer', 'value', value) };
+}
+
 // ---------------------------------------------------------------------------------------------
 // Validation against the declaration. Fields not declared are ignored (minor protocol
 // additions); an optional field may be absent or null. The kinds are those of

@@ -73,6 +73,25 @@ export class PinchLatch {
   }
 }
 
+/**
+ * The question to show from an `ask` message (protocol v1.5): the first of the participant's
+ * questions not yet answered, as a panel spec with the trial's `seq` — a Likert scale, a choice
+ * as buttons, a number as the angle the right index tip points at on the angle scale (within the
+ * question's bounds). null when nothing is asked.
+ */
+export function questionOf(ask) {
+  const q = (ask?.questions ?? []).find((x) => x.answer === null || x.answer === undefined);
+  if (!q || ask.seq === null || ask.seq === undefined) return null;
+  const base = { id: q.id, text: q.text, seq: ask.seq };
+  if (q.kind === 'likert') {
+    const labels = Object.fromEntries(Object.entries(q.labels ?? {}).map(([k, v]) => [Number(k), v]));
+    return { ...base, kind: 'likert', low: q.low ?? 1, high: q.high ?? 7, labels };
+  }
+  if (q.kind === 'choice') return { ...base, kind: 'buttons', items: q.choices.map((c) => ({ label: String(c), value: c })) };
+  if (q.kind === 'number') return { ...base, kind: 'angle', low: q.low ?? null, high: q.high ?? null };
+  return null;
+}
+
 /** The `input` key that carries a participant's XR answer to the console's event list (a key,
  * not a command value: the running scenario declares no answer command). */
 export function answerKey(question, value) {

@@ -169,8 +169,10 @@ export class XrSession {
     this._placeEnd = null;
   }
 
-  /** Ask the participant (a study question for this trial): likert {low, high, labels} or angle. */
+  /** Ask the participant (a study question for this trial, xr_panels.questionOf): likert {low, high,
+   * labels}, buttons {items} or angle; null asks nothing. The same question again keeps its state. */
   ask(question) {
+    if (question && this.question && question.id === this.question.id && question.seq === this.question.seq) return;
     this.question = question;
     this.answerSent = null;
   }
@@ -352,7 +354,9 @@ export class XrSession {
     if (q.kind === 'angle') {
       const scale = (this.view.sceneSpec?.overlays ?? []).find((o) => o.kind === 'angle_scale') ?? { centre: [0, 0, 0] };
       const tip = local['right.index.tip'];
-      const angle = tip ? angleAt(tip, scale) : null;
+      let angle = tip ? angleAt(tip, scale) : null;
+      if (angle !== null && q.low != null) angle = Math.max(q.low, angle); // the question's bounds
+      if (angle !== null && q.high != null) angle = Math.min(q.high, angle);
       this.choice.show([angle === null ? 'Point at the scale' : `${angle}° — pinch the other hand or select to answer`]);
       if (angle !== null && this.selected) this._answer(q, angle);
       return;
@@ -365,8 +369,12 @@ export class XrSession {
   }
 
   _answer(q, value) {
-    this.conn.sendInput(answerKey(q.id, value), 'down');
-    this.conn.sendInput(answerKey(q.id, value), 'up');
+    if (q.seq !== undefined && q.seq !== null) { // a study's question (an `ask`): the server records it
+      this.conn.sendAnswer(q.seq, q.id, value);
+    } else { // a demo's question: an event for the console's list only
+      this.conn.sendInput(answerKey(q.id, value), 'down');
+      this.conn.sendInput(answerKey(q.id, value), 'up');
+    }
     this.answerSent = value;
   }
 
