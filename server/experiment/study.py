@@ -56,7 +56,7 @@ class StudyError(ValueError):
 
 @dataclass(frozen=True)
 class Audio:
-    """What the participant's page plays (docs/xr.md "Audio"): off unless the study turns it on."""
+    """What the participant's page plays (docs/xr.md "In XR: panels, answers, audio"): off unless the study turns it on."""
     speech: bool = False           # speak each new instruction (Web Speech API where present)
     contact_sounds: bool = False   # a short click at each contact onset
 
