@@ -75,6 +75,8 @@ def _round(v, digits: int = 9) -> list[float]:
 def finger_cues(output, tools) -> dict[str, list[dict]]:
     """The wire cues of every tool but the primary, by name (a tool the scenario gave none: [])."""
     given = output.tool_cues
+    if not given:  # no finger has a cue (the default, shared NO_TOOL_CUES): every list is empty
+        return {tool.name: [] for tool in tools[1:]}
     return {tool.name: [cue_to_wire(c) for c in given.get(tool.name, ())] for tool in tools[1:]}
 
 
@@ -130,6 +132,7 @@ class LoopCore:
         # pairs; the rows of moved objects; the last wire cues (see _state_record, wire_cues).
         self._rounded: list = [None] * 8
         self._object_rows: dict[str, tuple] = {}
+        self._tool_rounded: dict[str, tuple] = {}
         self._wire: list = [None, []]
         self.build_off_tick = build_off_tick  # True: the driver builds a switch off the tick (module doc)
         self.pending_switch: Switch | None = None  # asked, not yet installed
@@ -409,9 +412,13 @@ class LoopCore:
         hip, proxy = memo[1], memo[3]
         # the primary tool's entry shares the rounded hip and proxy above (r.tools[0] is that tool)
         tools = [{"name": tool.name, "hip": hip, "proxy": proxy, "contact": r.contact, "lost": r.tools[0].lost}]
-        for v in r.tools[1:]:
-            tools.append({"name": v.name, "hip": _round(v.hip), "proxy": _round(v.proxy), "contact": v.contact,
-                          "lost": v.lost})
+        if len(r.tools) > 1:
+            rounded = self._tool_rounded  # per other tool: (hip, rounded, proxy, rounded), as above
+            for v in r.tools[1:]:
+                kept = rounded.get(v.name)
+                if kept is None or kept[0] is not v.hip or kept[2] is not v.proxy:
+                    kept = rounded[v.name] = (v.hip, _round(v.hip), v.proxy, _round(v.proxy))
+                tools.append({"name": v.name, "hip": kept[1], "proxy": kept[3], "contact": v.contact, "lost": v.lost})
         record = {
             "frame": self.frames, "tick": r.tick, "t": now_ns / 1e9, "scene": sim.scene.hash,
             "hip": hip, "proxy": proxy, "force": memo[5],

@@ -108,6 +108,7 @@ class Simulation:
         self._primary_view: ToolView | None = None  # the primary tool's last view and the step it showed
         self._primary_step = None
         self._tools_view: tuple[ToolView, ...] | None = None
+        self._other_views: list[tuple | None] = [None] * len(self._others)  # (step, view) of each other tool
         self.points: dict[str, Vec3] = {}  # latest tracked points that drive no tool (a hand, for drawing)
         self._point_source: dict[str, int | str] = {}  # who sent each of `points`
         self._deadlines: dict[int | str, float] = {}  # source → simulation time its last sample's ttl ends
@@ -267,7 +268,7 @@ class Simulation:
             self._primary_view, self._primary_step = view, proxy_step
         others = self._others
         if others:
-            tools = (view, *[self._render(other, t_s) for other in others])
+            tools = (view, *self._render_others(others, t_s))
         elif view is not last or self._tools_view is None:
             tools = self._tools_view = (view,)
         else:
@@ -292,13 +293,26 @@ class Simulation:
         return TickResult(tick, t_s, hip, proxy_step.proxy, proxy_step.force, contacts, contact,
                           output, cues_changed, stiffness, haptic, tools)
 
-    def _render(self, tool: Tool, t_s: float) -> ToolView:
-        """A tool other than the primary: its own god-object against the bodies, its own gate."""
-        hip = tool.hip
-        step = tool.proxy_step(self.bodies, hip)
-        contact = tool.gate.update(t_s, bool(step.contacts), step.separation)
-        return ToolView(tool.name, hip, step.proxy, contact, frozenset(c.body_id for c in step.contacts),
-                        step.force, tool.lost)
+    def _render_others(self, others: tuple[Tool, ...], t_s: float) -> list[ToolView]:
+        """The tools other than the primary, in one loop: each its own god-object against the
+        bodies and its own gate. A tool whose step and gate did not change (its HIP held between
+        samples at a fixed point) shows the view it showed last tick."""
+        bodies = self.bodies
+        views = self._other_views
+        out = []
+        for i, tool in enumerate(others):
+            hip = tool.hip
+            step = tool.proxy_step(bodies, hip)
+            contacts = step.contacts
+            contact = tool.gate.update(t_s, bool(contacts), step.separation)
+            last = views[i]
+            if last is None or last[0] is not step or last[1].contact != contact or last[1].hip is not hip \
+                    or last[1].lost != tool.lost:
+                view = ToolView(tool.name, hip, step.proxy, contact, frozenset(c.body_id for c in contacts),
+                                step.force, tool.lost)
+                last = views[i] = (step, view)
+            out.append(last[1])
+        return out
 
     def _stamp(self, tick: int, t_s: float, output: ScenarioOutput) -> None:
         """Events with their tick; a trial's end as a `finished` entry and as a trial_done event."""
