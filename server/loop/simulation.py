@@ -240,7 +240,7 @@ class Simulation:
             return memo[2]
         best, best_d = None, float("inf")
         for body in self.bodies:
-            d = body.signed_distance(hip)
+            d = body._eval(hip)[0]  # Body.signed_distance without its call
             if d < best_d:
                 best, best_d = body.id, d
         self._nearest_memo = (hip, self.bodies, best)
