@@ -108,6 +108,7 @@ class ContactAngle:
         self.scale_override: bool | None = None
         self.pending = Pending()
         self._scale_shown: bool | None = None
+        self._memo: tuple = (None, None, None, (), "")  # (point, trial, angle, cues, hud) of the last contact tick
 
     def set_trial(self, trial: Trial | None) -> None:
         self.trial = trial
@@ -149,13 +150,18 @@ class ContactAngle:
         if shown != self._scale_shown:
             self.pending.visible[SCALE_ID] = self._scale_shown = shown
 
-        cues: tuple = ()
-        hud = self._hud(None)
         if in_contact_with(ctx, (DOME_ID,)):
-            angle = contact_angle_deg(ctx.hip if self.probe == "hip" else ctx.proxy)
-            values["angle_deg"] = angle
-            cues = (Tilt(tilt_direction(-angle), self.magnitude_pct),)
-            hud = self._hud(angle)
+            point = ctx.hip if self.probe == "hip" else ctx.proxy
+            memo = self._memo
+            # The point is held between tracker samples (~8 ticks a sample): the same point and
+            # trial give the same angle, cue and HUD, so the last tick's are this tick's.
+            if memo[0] is not point or memo[1] is not self.trial:
+                angle = contact_angle_deg(point)
+                memo = self._memo = (point, self.trial, angle, (Tilt(tilt_direction(-angle), self.magnitude_pct),),
+                                     self._hud(angle))
+            values["angle_deg"], cues, hud = memo[2], memo[3], memo[4]
+        else:
+            cues, hud = (), self._hud(None)
         if ctx.refusals:  # a device that cannot show tilt says so; the participant must not just feel nothing
             hud = "; ".join(ctx.refusals)
         return self.pending.flush(cues=cues, hud=hud, values=values, hold_hip=hold)

@@ -211,6 +211,7 @@ class Positioning:
         self.hole_dir = 1.0
         self._last_t: float | None = None
         self.pending = Pending()
+        self._arrow_at: tuple | None = None  # where the last output put the arrow (_place_arrow)
         self._begin(self.index)
 
     def _begin(self, index: int) -> None:
@@ -359,6 +360,9 @@ class Positioning:
     def _place_arrow(self, target) -> None:
         x, y, z = target
         top = z + ITEMS[self.index].half + 0.04
+        if (x, y, top) == self._arrow_at:
+            return  # it stands there already: the simulation keeps a moved object's last pose
+        self._arrow_at = (x, y, top)
         self.pending.poses["arrow_head"] = Pose((x, y, top + 0.12), DOWN)
         self.pending.poses["arrow_shaft"] = Pose((x, y, top + 0.12))
 

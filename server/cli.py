@@ -828,7 +828,7 @@ def build_parser() -> argparse.ArgumentParser:
                              ("stability", _bench_stability, "where each method fails: speed x thickness, stiffness "
                                                              "x loop rate, tracker noise x hysteresis"),
                              ("objects", _bench_objects, "the god-object's cost per tick against the number of "
-                                                         "objects (1 to 1000 primitives)")):
+                                                         "objects (1 to 1000 primitives) and tools (1 to 10 fingertips)")):
         sweep = bench_sub.add_parser(name, help=f"{what} (JSON + charts)")
         sweep.add_argument("--out", required=True, metavar="DIR", help=f"{name}.json and the charts go here")
         sweep.add_argument("--quick", action="store_true", help="a reduced grid (well under 2 min)")

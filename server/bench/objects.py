@@ -7,6 +7,10 @@ descent onto the object at the centre, a stroke on it, a lift. Timed per tick (p
 garbage collector off) for the compiled god-object (the server's), the same with its broad phase
 off (every body evaluated at the proxy each tick, as the reference does), and the Python
 reference; free ticks and contact ticks apart. Written: objects.json and objects.png/.svg.
+
+The second axis, tools (1 to 10 fingertips in contact on the contact-angle dome: the whole
+loop tick and the god-objects alone; server/bench/tools_axis.py), goes into the same JSON under
+"tools" and is charted in tools.png/.svg.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from matplotlib.figure import Figure
 
 from server.analysis.figures import save
 from server.bench.machine import machine_info
+from server.bench.tools_axis import run_tools_axis
 from server.core.haptics.compiled import COMPILED
 from server.core.haptics.god_object import ReferenceGodObject
 from server.core.haptics.primitives import Body, Box, Cone, Cylinder, Hemisphere, Plane, Pose, Sphere
@@ -120,18 +125,25 @@ def run_objects_bench(out: Path, quick: bool = False) -> dict:
             costs, contact = _time(make(), bodies, hips)
             row["methods"][label] = {"free": _stats(costs, contact, False), "contact": _stats(costs, contact, True)}
         rows.append(row)
+    tools = run_tools_axis(quick)
     result = {"bench": "objects", "quick": quick, "compiled": COMPILED, "machine": machine_info(),
-              "proxy_radius": RADIUS, "density_per_unit2": DENSITY, "rows": rows,
+              "proxy_radius": RADIUS, "density_per_unit2": DENSITY, "rows": rows, "tools": tools,
               "wall_s": round(time.perf_counter() - started, 1)}
     (out / "objects.json").write_text(json.dumps(result, indent=1))
     paths = chart(result, out)
+    tools_paths = chart_tools(result, out)
     summary: dict = {"wall_s": result["wall_s"], "compiled core": COMPILED}
     for row in rows:
         for label, m in row["methods"].items():
             summary[f"{row['objects']} objects, {label}: free / contact p50 µs"] = (
                 f"{m['free'].get('p50_us')} / {m['contact'].get('p50_us')}")
+    for row in tools:
+        summary[f"{row['tools']} tools: tick p50 / p99 µs, sample every 8th tick | every tick"] = (
+            f"{row['sample_every_8']['tick']['p50_us']} / {row['sample_every_8']['tick']['p99_us']} | "
+            f"{row['sample_every_tick']['tick']['p50_us']} / {row['sample_every_tick']['tick']['p99_us']}")
     summary["json"] = str(out / "objects.json")
     summary["chart"] = str(paths["png"])
+    summary["tools chart"] = str(tools_paths["png"])
     return summary
 
 
@@ -160,3 +172,26 @@ def chart(result: dict, out: Path) -> dict[str, Path]:
     fig.suptitle("Cost per tick against the number of objects (cluttered table, constant density; "
                  f"{'quick' if result['quick'] else 'full'})")
     return save(fig, out, "objects")
+
+
+TOOL_SERIES = (("sample_every_tick", "tick", "whole tick, a sample every tick", "#d62728", "o"),
+               ("sample_every_8", "tick", "whole tick, a sample every 8th tick (120 Hz)", "#1f77b4", "s"),
+               ("sample_every_tick", "god_object", "god-objects alone", "#2ca02c", "^"))
+
+
+def chart_tools(result: dict, out: Path) -> dict[str, Path]:
+    fig = Figure(figsize=(7.0, 4.6), layout="constrained")
+    ax = fig.subplots()
+    xs = [r["tools"] for r in result["tools"]]
+    for rate, part, label, colour, marker in TOOL_SERIES:
+        ax.plot(xs, [r[rate][part]["p50_us"] for r in result["tools"]], marker=marker, color=colour, label=f"{label} p50")
+        ax.plot(xs, [r[rate][part]["p99_us"] for r in result["tools"]], marker=marker, color=colour, ls=":", alpha=0.6,
+                label=f"{label} p99")
+    ax.set_yscale("log")
+    ax.set_xticks(xs)
+    ax.set_xlabel("tools (fingertips in contact)")
+    ax.set_ylabel("µs per tick (in-process, warm)")
+    ax.grid(True, which="both", alpha=0.2)
+    ax.legend(fontsize=7)
+    fig.suptitle(f"Cost per tick against the number of tools (contact-angle dome; {'quick' if result['quick'] else 'full'})")
+    return save(fig, out, "tools")

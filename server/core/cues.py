@@ -21,8 +21,8 @@ class _Ranged:
     def __post_init__(self) -> None:
         for name, (low, high) in self.RANGES.items():
             value = getattr(self, name)
-            if value is None:
-                continue
+            if value is None or (type(value) is float and low <= value <= high):
+                continue  # a float within the (finite) range is finite; NaN fails the compare
             if not (is_finite_number(value) and low <= value <= high):
                 raise ValueError(f"{type(self).__name__}.{name} must be in [{low}, {high}], got {value!r}")
 

@@ -23,6 +23,7 @@ from types import MappingProxyType
 from typing import Any, ClassVar, Mapping, NamedTuple, Protocol
 
 from server.core.cues import Cue
+from server.core.frozen import quick_init
 from server.core.haptics.primitives import Pose
 from server.core.haptics.vec import Vec3
 from server.core.numbers import is_finite_number
@@ -208,6 +209,7 @@ class _NoToolCues(Mapping):
 NO_TOOL_CUES: Mapping[str, tuple[Cue, ...]] = _NoToolCues()
 
 
+@quick_init  # built every tick (server/core/frozen.py)
 @dataclass(frozen=True)
 class TickContext:
     tick: int              # loop tick counter
@@ -223,6 +225,7 @@ class TickContext:
     tools: tuple[ToolView, ...] = ()
 
 
+@quick_init  # built every tick
 @dataclass(frozen=True)
 class ScenarioOutput:
     cues: tuple[Cue, ...] = ()   # the primary tool's devices' cues

@@ -75,6 +75,8 @@ def _round(v, digits: int = 9) -> list[float]:
 def finger_cues(output, tools) -> dict[str, list[dict]]:
     """The wire cues of every tool but the primary, by name (a tool the scenario gave none: [])."""
     given = output.tool_cues
+    if not given:  # no finger has a cue (the default, shared NO_TOOL_CUES): every list is empty
+        return {tool.name: [] for tool in tools[1:]}
     return {tool.name: [cue_to_wire(c) for c in given.get(tool.name, ())] for tool in tools[1:]}
 
 
@@ -126,6 +128,12 @@ class LoopCore:
         self._device_cues: tuple | None = None  # what the devices were last given; None: unknown (start)
         self._device_tool_cues: Mapping | None = None  # and the other tools' devices (ScenarioOutput.tool_cues)
         self._out = TickOutput()
+        # The last rounded hip, proxy, force and contacts of a state record, as (source, rounded)
+        # pairs; the rows of moved objects; the last wire cues (see _state_record, wire_cues).
+        self._rounded: list = [None] * 8
+        self._object_rows: dict[str, tuple] = {}
+        self._tool_rounded: dict[str, tuple] = {}
+        self._wire: list = [None, []]
         self.build_off_tick = build_off_tick  # True: the driver builds a switch off the tick (module doc)
         self.pending_switch: Switch | None = None  # asked, not yet installed
         self._waiting: list[list] = []  # trial records for the pending switch's scenario
@@ -333,7 +341,7 @@ class LoopCore:
             return None
         self._device_cues, self._device_tool_cues = cues, tool_cues
         self._out.finger_cues = finger_cues(output, self.sim.tools) if len(self.sim.tools) > 1 else None
-        return [cue_to_wire(c) for c in cues]
+        return self.wire_cues(cues)
 
     def resend_device_cues(self) -> None:
         """The last cues could not be handed over: the next tick sends its cues whatever they are."""
@@ -382,28 +390,45 @@ class LoopCore:
 
     def _state_record(self, r: TickResult, now_ns: int) -> dict[str, Any]:
         """The state record: the wire's state fields (docs/protocol.md) in their order, without
-        `type` and `telemetry` (the hub adds them), then what only the hub and recorder use."""
+        `type` and `telemetry` (the hub adds them), then what only the hub and recorder use.
+
+        Built only when one is due (60 Hz and at cue changes), never per tick. Between tracker
+        samples the HIP, proxy, contacts and object poses are the very objects of the last record,
+        so their rounded forms are kept and shared instead of rounded again (round() is ~0.25 µs a
+        number); nothing downstream changes a record's lists."""
         self.frames += 1
         out = r.output
         sim = self.sim
         tool = sim.tools[0]
-        hip, proxy = _round(r.hip), _round(r.proxy)
+        memo = self._rounded
+        if memo[0] is not r.hip:
+            memo[0], memo[1] = r.hip, _round(r.hip)
+        if memo[2] is not r.proxy:
+            memo[2], memo[3] = r.proxy, _round(r.proxy)
+        if memo[4] is not r.force:
+            memo[4], memo[5] = r.force, _round(r.force, 6)
+        if memo[6] is not r.contacts:
+            memo[6], memo[7] = r.contacts, [[c.body_id, _round(c.normal, 6), round(c.depth, 9)] for c in r.contacts]
+        hip, proxy = memo[1], memo[3]
         # the primary tool's entry shares the rounded hip and proxy above (r.tools[0] is that tool)
-        tools = [{"name": v.name, "hip": hip, "proxy": proxy, "contact": r.contact, "lost": v.lost}
-                 for v in r.tools[:1]]
-        for v in r.tools[1:]:
-            tools.append({"name": v.name, "hip": _round(v.hip), "proxy": _round(v.proxy), "contact": v.contact,
-                          "lost": v.lost})
+        tools = [{"name": tool.name, "hip": hip, "proxy": proxy, "contact": r.contact, "lost": r.tools[0].lost}]
+        if len(r.tools) > 1:
+            rounded = self._tool_rounded  # per other tool: (hip, rounded, proxy, rounded), as above
+            for v in r.tools[1:]:
+                kept = rounded.get(v.name)
+                if kept is None or kept[0] is not v.hip or kept[2] is not v.proxy:
+                    kept = rounded[v.name] = (v.hip, _round(v.hip), v.proxy, _round(v.proxy))
+                tools.append({"name": v.name, "hip": kept[1], "proxy": kept[3], "contact": v.contact, "lost": v.lost})
         record = {
             "frame": self.frames, "tick": r.tick, "t": now_ns / 1e9, "scene": sim.scene.hash,
-            "hip": hip, "proxy": proxy, "force": _round(r.force, 6),
+            "hip": hip, "proxy": proxy, "force": memo[5],
             "contact": r.contact,
-            "contacts": [[c.body_id, _round(c.normal, 6), round(c.depth, 9)] for c in r.contacts],
-            "objects": [[oid, _round(p.pos), [round(q, 9) for q in p.quat]] for oid, p in sim.moved.items()],
-            "cues": [cue_to_wire(c) for c in out.cues], "hud": out.hud, "values": out.values,
+            "contacts": memo[7],
+            "objects": self._objects(sim.moved) if sim.moved else [],
+            "cues": self.wire_cues(out.cues), "hud": out.hud, "values": out.values,
             "visible": dict(sim.visibility),
             "events": sim.events,
-            "scales": {oid: list(s) for oid, s in sim.scales.items()},
+            "scales": {oid: list(s) for oid, s in sim.scales.items()} if sim.scales else {},
             "stiffness": r.stiffness,  # never changed in place (Simulation): no copy needed
             "haptic": r.haptic,
             "driver": None if tool.driver is None else [tool.driver, tool.seq],
@@ -426,3 +451,22 @@ class LoopCore:
         sim.events = []
         sim.finished = []
         return record
+
+    def _objects(self, moved: Mapping[str, Any]) -> list[list]:
+        """`objects` of the state: [id, pos, quat] of each moved object, rounded once per pose."""
+        memo = self._object_rows
+        rows = []
+        for oid, pose in moved.items():
+            kept = memo.get(oid)
+            if kept is None or kept[0] is not pose:
+                kept = memo[oid] = (pose, [oid, _round(pose.pos), [round(q, 9) for q in pose.quat]])
+            rows.append(kept[1])
+        return rows
+
+    def wire_cues(self, cues: tuple) -> list[dict]:
+        """The wire form of a cue tuple (a fresh list); converted once while the scenario keeps
+        handing back the same tuple. The device command and the state record share the maps."""
+        memo = self._wire
+        if memo[0] is not cues:
+            memo[0], memo[1] = cues, [cue_to_wire(c) for c in cues]
+        return list(memo[1])

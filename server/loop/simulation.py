@@ -21,25 +21,36 @@ every tool it drives is released (home, out of contact at once), its points are 
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass, replace
 from typing import Any
 
 from server.core.cues import Cue
+from server.core.frozen import quick_init
 from server.core.scenario import Scenario, ScenarioOutput, TickContext, ToolView, Trial
 from server.core.haptics.contact_gate import ContactGate
 from server.core.haptics.god_object import Contact
-from server.core.haptics.primitives import Pose
+from server.core.haptics.primitives import Body, Pose
 from server.core.haptics.vec import Vec3
 from server.core.points import PRIMARY_POINT, check_point_name
 from server.core.scene import Scene
 from server.core.tool import Tool
 from server.core.workspace import clamp_to_workspace, in_workspace
 
+_POSE_BITS = struct.Struct("7d").pack
+
+
+def _bits(pose: Pose) -> bytes:
+    """A pose's seven numbers bit for bit (so 0.0 and -0.0 differ, as they may in arithmetic)."""
+    return _POSE_BITS(*pose.pos, *pose.quat)
+
+
 TRIAL_DONE = "trial_done"  # the event a trial's end is also shown as (clients and exports list events)
 TRACKER_LOST, TRACKER_BACK = "tracker_lost", "tracker_back"  # events of a source whose ttl passed, and its return
 MAX_LOST_SOURCES = 8  # lost sources listed in the state at most (a restarted UDP bridge is a new source)
 
 
+@quick_init  # built every tick (server/core/frozen.py)
 @dataclass(frozen=True)
 class TickResult:
     tick: int
@@ -97,12 +108,16 @@ class Simulation:
         self._primary_view: ToolView | None = None  # the primary tool's last view and the step it showed
         self._primary_step = None
         self._tools_view: tuple[ToolView, ...] | None = None
+        self._other_views: list[tuple | None] = [None] * len(self._others)  # (step, view) of each other tool
         self.points: dict[str, Vec3] = {}  # latest tracked points that drive no tool (a hand, for drawing)
         self._point_source: dict[str, int | str] = {}  # who sent each of `points`
         self._deadlines: dict[int | str, float] = {}  # source → simulation time its last sample's ttl ends
         self.lost_sources: dict[int | str, tuple[str, ...]] = {}  # source → the tools it drove when lost
         self._all_bodies = {b.id: b for b in self.scene.bodies()}
-        self.bodies = list(self._all_bodies.values())  # the touchable ones, in scene order
+        # The touchable ones, in scene order: a tuple, built again only when one changes, which the
+        # compiled god-object recognises by identity (no per-body check of the scene each tick).
+        self.bodies: tuple[Body, ...] = tuple(self._all_bodies.values())
+        self._nearest_memo: tuple = (None, None, None)  # (hip, bodies, nearest body id): _nearest_body
         self.moved: dict[str, Pose] = {}  # objects whose pose differs from the scene's
         self.visibility: dict[str, bool] = {}  # objects/overlays shown or hidden against the scene
         self.scales: dict[str, tuple[float, float, float]] = {}  # objects drawn scaled (never touched scaled)
@@ -220,11 +235,15 @@ class Simulation:
         self.scenario.set_trial(trial)
 
     def _nearest_body(self, hip: Vec3) -> str | None:
+        memo = self._nearest_memo  # the HIP is held between tracker samples: same point, same bodies
+        if memo[0] is hip and memo[1] is self.bodies:
+            return memo[2]
         best, best_d = None, float("inf")
         for body in self.bodies:
-            d = body.signed_distance(hip)
+            d = body._eval(hip)[0]  # Body.signed_distance without its call
             if d < best_d:
                 best, best_d = body.id, d
+        self._nearest_memo = (hip, self.bodies, best)
         return best
 
     def step(self) -> TickResult:
@@ -249,7 +268,7 @@ class Simulation:
             self._primary_view, self._primary_step = view, proxy_step
         others = self._others
         if others:
-            tools = (view, *[self._render(other, t_s) for other in others])
+            tools = (view, *self._render_others(others, t_s))
         elif view is not last or self._tools_view is None:
             tools = self._tools_view = (view,)
         else:
@@ -265,20 +284,35 @@ class Simulation:
         if output.events or output.finished is not None:
             self._stamp(tick, t_s, output)
         tool_cues = output.tool_cues
-        cues_changed = output.cues != self.cues or (tool_cues is not self.tool_cues and tool_cues != self.tool_cues)
-        self.cues = output.cues
+        cues = output.cues  # a scenario that keeps its cue tuple while nothing changes skips the compare
+        cues_changed = (cues is not self.cues and cues != self.cues) or (
+            tool_cues is not self.tool_cues and tool_cues != self.tool_cues)
+        self.cues = cues
         self.tool_cues = tool_cues
         self.tick = tick + 1
         return TickResult(tick, t_s, hip, proxy_step.proxy, proxy_step.force, contacts, contact,
                           output, cues_changed, stiffness, haptic, tools)
 
-    def _render(self, tool: Tool, t_s: float) -> ToolView:
-        """A tool other than the primary: its own god-object against the bodies, its own gate."""
-        hip = tool.hip
-        step = tool.proxy_step(self.bodies, hip)
-        contact = tool.gate.update(t_s, bool(step.contacts), step.separation)
-        return ToolView(tool.name, hip, step.proxy, contact, frozenset(c.body_id for c in step.contacts),
-                        step.force, tool.lost)
+    def _render_others(self, others: tuple[Tool, ...], t_s: float) -> list[ToolView]:
+        """The tools other than the primary, in one loop: each its own god-object against the
+        bodies and its own gate. A tool whose step and gate did not change (its HIP held between
+        samples at a fixed point) shows the view it showed last tick."""
+        bodies = self.bodies
+        views = self._other_views
+        out = []
+        for i, tool in enumerate(others):
+            hip = tool.hip
+            step = tool.proxy_step(bodies, hip)
+            contacts = step.contacts
+            contact = tool.gate.update(t_s, bool(contacts), step.separation)
+            last = views[i]
+            if last is None or last[0] is not step or last[1].contact != contact or last[1].hip is not hip \
+                    or last[1].lost != tool.lost:
+                view = ToolView(tool.name, hip, step.proxy, contact, frozenset(c.body_id for c in contacts),
+                                step.force, tool.lost)
+                last = views[i] = (step, view)
+            out.append(last[1])
+        return out
 
     def _stamp(self, tick: int, t_s: float, output: ScenarioOutput) -> None:
         """Events with their tick; a trial's end as a `finished` entry and as a trial_done event."""
@@ -293,13 +327,21 @@ class Simulation:
             self.finished.append({"tick": tick, "metrics": dict(finished)})
 
     def _apply_changes(self, output: ScenarioOutput) -> None:
+        all_bodies, moved = self._all_bodies, self.moved
+        bodies_changed = False
         for object_id, pose in output.poses.items():
-            if object_id in self._all_bodies:
-                self._all_bodies[object_id] = replace(self._all_bodies[object_id], pose=pose)
+            last = moved.get(object_id)
+            if last is not None and (last is pose or _bits(last) == _bits(pose)):
+                continue  # where it is already (a carried object between tracker samples): same body, same row
+            body = all_bodies.get(object_id)
+            if body is not None:
+                all_bodies[object_id] = replace(body, pose=pose)
+                bodies_changed = True
             elif not self.scene.has_id(object_id):  # drawn-only objects move too, they just have no body
                 raise KeyError(f"scenario moves {object_id!r}, which is not in scene {self.scene.name!r}")
-            self.moved[object_id] = pose
+            moved[object_id] = pose
         if output.stiffness:
+            bodies_changed = True
             stiffness = dict(self.stiffness)
             for object_id, k in output.stiffness.items():
                 self._all_bodies[object_id] = replace(self._body(object_id), stiffness_n_per_m=k)
@@ -309,6 +351,7 @@ class Simulation:
                     stiffness[object_id] = k
             self.stiffness = stiffness
         if output.haptic:
+            bodies_changed = True
             haptic = dict(self.haptic)
             for object_id, on in output.haptic.items():
                 self._body(object_id)
@@ -328,7 +371,8 @@ class Simulation:
             if not self.scene.has_id(element_id):
                 raise KeyError(f"scenario shows/hides {element_id!r}, which is not in scene {self.scene.name!r}")
             self.visibility[element_id] = shown
-        self.bodies = [b for b in self._all_bodies.values() if b.id not in self.haptic]
+        if bodies_changed:
+            self.bodies = tuple(b for b in all_bodies.values() if b.id not in self.haptic)
         for tool in self.tools:
             tool.forget_fixed_point()  # the fixed point may have moved with the bodies
 

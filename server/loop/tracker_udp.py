@@ -26,6 +26,7 @@ admin controls, can move the HIP through it (docs/security.md).
 from __future__ import annotations
 
 import ipaddress
+import select
 import socket
 
 from server.wire import codec, messages
@@ -66,8 +67,14 @@ class TrackerPort:
         self.received = 0
         self.bad = 0
         self.notices: list[str] = []  # for the hub's log: the first bad datagram, then every NOTICE_EVERY-th
+        # Asked every tick whether anything waits: an epoll with timeout 0 answers in ~0.25 µs,
+        # where a recvfrom on the empty socket raises (~1.1 µs hot, 5+ µs on a cold cache).
+        self._ready = select.epoll()
+        self._ready.register(sock.fileno(), select.EPOLLIN)
 
     def drain(self, now_ns: int) -> list[list]:
+        if not self._ready.poll(0):
+            return []
         records = []
         for _ in range(MAX_PER_TICK):
             try:

@@ -34,3 +34,24 @@ def test_the_quick_bench_writes_every_count_and_method_with_free_and_contact_tic
                 s = m[phase]
                 assert s["ticks"] > 0 and 0.0 < s["p50_us"] <= s["p99_us"] and math.isfinite(s["p99_us"])
     assert len(path()) > 4 * len(path(reduced=True)) - 4
+
+
+def test_the_tools_axis_puts_every_fingertip_in_contact_and_moves_them():
+    from server.bench.tools_axis import FINGERTIPS, fingertip, sample, time_tools
+
+    assert len(set(FINGERTIPS)) == 10 and sample(3, 5, 1)[8].keys() == set(FINGERTIPS[1:3])
+    assert fingertip(0, 0) != fingertip(0, 100) and fingertip(0, 0) != fingertip(1, 0)
+    row = time_tools(3, 1, 50)
+    assert row["all_in_contact"] and row["states_per_tick"] == 1.0  # the primary's cue changes every tick
+    for part in ("tick", "god_object"):
+        assert 0.0 < row[part]["p50_us"] <= row[part]["p99_us"]
+
+
+@pytest.mark.slow
+def test_the_quick_bench_charts_the_tools_axis(tmp_path):
+    from server.bench.tools_axis import QUICK_TOOL_COUNTS
+
+    run_objects_bench(tmp_path, quick=True)
+    data = json.loads((tmp_path / "objects.json").read_text())
+    assert [r["tools"] for r in data["tools"]] == list(QUICK_TOOL_COUNTS)
+    assert (tmp_path / "tools.png").stat().st_size > 10_000

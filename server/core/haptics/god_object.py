@@ -441,6 +441,10 @@ class CompiledGodObject(ReferenceGodObject):
     _friction_body = _on_core("friction_body")
     _sticking = _on_core("sticking")
 
+    @property
+    def sticking(self) -> bool:  # read every tick (TickContext.sticking): one property, not two
+        return self._core.sticking
+
     def step(self, bodies: Sequence[Body], hip: Vec3) -> ProxyStep:
         s = self._core.step(bodies, hip)
         return ReferenceGodObject.step(self, bodies, hip) if s is None else s

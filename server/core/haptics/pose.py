@@ -36,6 +36,18 @@ def _floats(value: Any, n: int, what: str, positive: bool = False) -> tuple:
     return tuple(conv(c, f"{what}[{i}]") for i, c in enumerate(value))
 
 
+def _plain(t: Any, n: int) -> bool:
+    """`t` is already what _floats would make of it: a tuple of n finite floats (the poses a
+    scenario builds every tick), so the per-number checks can be skipped. A finite sum means no
+    component is NaN or infinite; an overflowing sum only sends a valid pose the slow way."""
+    if type(t) is not tuple or len(t) != n:
+        return False
+    for c in t:
+        if type(c) is not float:
+            return False
+    return 0.0 * sum(t) == 0.0
+
+
 @dataclass(frozen=True)
 class Pose:
     """Rigid transform local -> scene: p_scene = R(quat) p_local + pos; quat = (w, x, y, z)."""
@@ -44,8 +56,8 @@ class Pose:
     quat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        pos = _floats(self.pos, 3, "pose.pos")
-        q = _floats(self.quat, 4, "pose.quat")
+        pos = self.pos if _plain(self.pos, 3) else _floats(self.pos, 3, "pose.pos")
+        q = self.quat if _plain(self.quat, 4) else _floats(self.quat, 4, "pose.quat")
         n = hypot(*q)
         if not n > 0.0:
             raise ValueError(f"pose.quat must be non-zero, got {self.quat!r}")
