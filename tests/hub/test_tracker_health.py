@@ -5,7 +5,7 @@ to check); `ok` again when it returns. Made-up times; the live test is tests/tra
 
 import asyncio
 
-from server.hub.health import ALL_CODES, CODES, Health
+from server.hub.health import ALL_CODES, CODES
 from server.hub.hub import Hub
 from server.hub.tracker_health import TRACKER_CODES
 from server.wire import codec
