@@ -60,12 +60,15 @@ def _write(path: Path, data: dict) -> None:
 
 
 def _session_of(request: Request) -> str | None:
-    """The caller's session: a participant's own, else the participant session the lease holder
-    opened (staff placing the scene for it)."""
+    """The caller's session: a participant's own, else, for the lease holder, the participant
+    session it opened (staff placing the scene for it). Staff without the lease have none: another
+    lab's open session is not theirs to place (policy scope "self")."""
     who = identity(request)
     if who is not None and who.role == "participant":
         return who.session
     lease = getattr(getattr(request.app.state, "access", None), "lease", None)
+    if lease is None or who is None or not lease.holds(who):
+        return None
     return getattr(lease, "session", None)
 
 
@@ -93,7 +96,8 @@ def put_rig_placement(body: Placement, request: Request) -> dict:
 def put_session_placement(body: Placement, request: Request) -> dict:
     session = _session_of(request)
     if not session:
-        raise HTTPException(409, "no participant session is open: a session's placement needs one "
+        raise HTTPException(409, "no participant session of yours is open: a session's placement is its "
+                                 "participant's, or the lease holder's for the session it opened "
                                  "(PUT /api/placement/rig sets the rig's)")
     with _lock:
         data = _read(_path(request))

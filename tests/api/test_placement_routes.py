@@ -40,6 +40,15 @@ def test_rig_and_session_placements(tmp_path):
     ])
     assert rig.status_code == 200 and mine.status_code == 200
     assert bad.status_code == 422 and refused.status_code == 409
+    # staff without the lease may not place the session the holder opened (another lab's)
+    access.lease.session = "s-a"
+    other, _ = access.book.create("experimenter", "lab-b", label="b")
+    holder_places, other_places = _call(app, [("PUT", "/api/placement/session", admin, ROOM),
+                                              ("PUT", "/api/placement/session", other, {**ROOM, "yaw_deg": 90.0})])
+    assert holder_places.status_code == 200 and holder_places.json()["session_id"] == "s-a"
+    assert other_places.status_code == 409
+    access.lease.session = None
+    _call(app, [("PUT", "/api/placement/session", part_a, {**ROOM, "table_height_m": 0.9})])
     a, b = _call(app, [("GET", "/api/placement", part_a, None), ("GET", "/api/placement", part_b, None)])
     assert a.json()["placement"]["table_height_m"] == 0.9 and a.json()["rig"] == ROOM
     assert b.json()["session"] is None and b.json()["placement"] == ROOM, "another session falls back to the rig's"
