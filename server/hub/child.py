@@ -14,6 +14,7 @@ and comes.
 from __future__ import annotations
 
 import asyncio
+import itertools
 import logging
 import socket
 import subprocess
@@ -70,6 +71,8 @@ class ChildProcess:
         self._restart: asyncio.Task | None = None
         self._closing = False
         self.owner = Owner(f"the {self.what}")  # bound by start() unless the app shares the hub's
+        self._requests: dict[int, asyncio.Future] = {}  # asked of the child, waiting for its answer
+        self._ids = itertools.count(1)
 
     # ---- what a kind of child says --------------------------------------------------------
     def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
@@ -109,6 +112,36 @@ class ChildProcess:
             return ipc.send_record(self._sock, record)
         except OSError:  # the child is gone; it is being started again
             return False
+
+    async def _ask(self, record: list, timeout_s: float, unavailable: type[Exception]) -> dict:
+        """Send `[kind, request id, *rest]` for `record` = `[kind, *rest]` and wait for the child's
+        answer to that id (`_answered`); `unavailable` when it cannot go, times out or the child
+        goes away (`_fail_requests`)."""
+        request = next(self._ids)
+        future = asyncio.get_running_loop().create_future()
+        self._requests[request] = future
+        if not self._send([record[0], request, *record[1:]]):
+            self._requests.pop(request, None)
+            raise unavailable(f"the {self.what} is not running (restarting?)")
+        try:
+            return await asyncio.wait_for(future, timeout_s)
+        except asyncio.TimeoutError:
+            raise unavailable(f"the {self.what} did not answer within {timeout_s:g} s") from None
+        finally:
+            self._requests.pop(request, None)
+
+    def _answered(self, request: int, result) -> None:
+        """The child's answer to `_ask`'s request id (a late one, after a timeout, is dropped)."""
+        future = self._requests.pop(request, None)
+        if future is not None and not future.done():
+            future.set_result(result)
+
+    def _fail_requests(self, error: Exception) -> None:
+        """The child is gone: what it was asked will never come; say so now, not at the timeout."""
+        requests, self._requests = self._requests, {}
+        for future in requests.values():
+            if not future.done():
+                future.set_exception(error)
 
     def _readable(self) -> None:
         try:

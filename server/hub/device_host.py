@@ -11,8 +11,6 @@ while nobody reads wait in the socket (a full one makes the loop resend its cues
 
 from __future__ import annotations
 
-import asyncio
-import itertools
 import os
 import pickle
 import socket
@@ -45,8 +43,6 @@ class DeviceHost(ChildProcess):
         self.on_profiles = on_profiles
         self.device_end, self.loop_end = ipc.channel_pair()
         self.info: dict = {}
-        self._requests: dict[int, asyncio.Future] = {}
-        self._ids = itertools.count(1)
 
     def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
         proc = subprocess.Popen(
@@ -66,34 +62,18 @@ class DeviceHost(ChildProcess):
             self.on_profiles({name: DeviceProfile.from_dict(table, where=f"device {name}")
                               for name, table in record[1].items()})
         elif kind == "snapshot":
-            future = self._requests.pop(record[1], None)
-            if future is not None and not future.done():
-                future.set_result(record[2])
+            self._answered(record[1], record[2])
         elif kind == "hello":
             self.info = record[1]
 
     def _closed(self) -> None:
         """The process is gone: a snapshot it was asked for will never come; say so now, not
         after SNAPSHOT_TIMEOUT_S (the console polls /api/devices while devices come back)."""
-        requests, self._requests = self._requests, {}
-        for future in requests.values():
-            if not future.done():
-                future.set_exception(DeviceHostUnavailable("the device host process exited (restarting)"))
+        self._fail_requests(DeviceHostUnavailable("the device host process exited (restarting)"))
 
     async def snapshot(self, writes: int = 0) -> dict:
         """The devices as the console shows them (DeviceManager.snapshot plus the feed's info)."""
-        request = next(self._ids)
-        future = asyncio.get_running_loop().create_future()
-        self._requests[request] = future
-        if not self._send(["snapshot", request, writes]):
-            self._requests.pop(request, None)
-            raise DeviceHostUnavailable("the device host process is not running (restarting?)")
-        try:
-            return await asyncio.wait_for(future, SNAPSHOT_TIMEOUT_S)
-        except asyncio.TimeoutError:
-            raise DeviceHostUnavailable(f"the device host process did not answer within {SNAPSHOT_TIMEOUT_S:g} s") from None
-        finally:
-            self._requests.pop(request, None)
+        return await self._ask(["snapshot", writes], SNAPSHOT_TIMEOUT_S, DeviceHostUnavailable)
 
     async def stop(self) -> None:
         """Every actuator off, the ports drained and closed, the process gone."""

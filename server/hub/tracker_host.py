@@ -8,8 +8,6 @@ loop's tracker UDP port. What comes here is each source's health (every 0.1 s; s
 
 from __future__ import annotations
 
-import asyncio
-import itertools
 import json
 import os
 import socket
@@ -38,8 +36,6 @@ class TrackerHost(ChildProcess):
         self.sources: list[dict] = [{"name": s.name, "kind": s.kind, "status": "lost", "reasons": ["starting"]}
                                     for s in self.specs]
         self.info: dict = {}
-        self._requests: dict[int, asyncio.Future] = {}
-        self._ids = itertools.count(1)
         self.on_sources = lambda sources: None  # the hub's health hears every report (Hub.on_tracker_sources)
 
     def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
@@ -57,39 +53,20 @@ class TrackerHost(ChildProcess):
             self.sources = record[1]
             self.on_sources(self.sources)
         elif kind == "answer":
-            future = self._requests.pop(record[1], None)
-            if future is not None and not future.done():
-                future.set_result(record[2])
+            self._answered(record[1], record[2])
         elif kind == "hello":
             self.info = record[1]
 
     def _closed(self) -> None:
-        requests, self._requests = self._requests, {}
-        for future in requests.values():
-            if not future.done():
-                future.set_exception(TrackerHostUnavailable("the tracker host process exited (restarting)"))
+        self._fail_requests(TrackerHostUnavailable("the tracker host process exited (restarting)"))
         self.sources = [dict(s, status="lost", reasons=["tracker host restarting"]) for s in self.sources]
         self.on_sources(self.sources)
 
-    async def _ask(self, record: list) -> dict:
-        request = next(self._ids)
-        future = asyncio.get_running_loop().create_future()
-        self._requests[request] = future
-        if not self._send([record[0], request, *record[1:]]):
-            self._requests.pop(request, None)
-            raise TrackerHostUnavailable("the tracker host process is not running (restarting?)")
-        try:
-            return await asyncio.wait_for(future, ANSWER_TIMEOUT_S)
-        except asyncio.TimeoutError:
-            raise TrackerHostUnavailable(f"the tracker host process did not answer within {ANSWER_TIMEOUT_S:g} s") from None
-        finally:
-            self._requests.pop(request, None)
-
     async def capture(self, source: str, seconds: float) -> dict:
-        return await self._ask(["capture", source, float(seconds)])
+        return await self._ask(["capture", source, float(seconds)], ANSWER_TIMEOUT_S, TrackerHostUnavailable)
 
     async def calibrate(self, source: str, table: dict | None) -> dict:
-        return await self._ask(["calibrate", source, table])
+        return await self._ask(["calibrate", source, table], ANSWER_TIMEOUT_S, TrackerHostUnavailable)
 
     async def stop(self) -> None:
         await self._stop(["stop"], 3.0)
