@@ -5,30 +5,9 @@ from __future__ import annotations
 import pytest
 
 from server.experiment.question import Question
-from server.experiment.study import Audio, StudyError, parse_study
-
-HEAD = """
-id = "mini"
-title = "A small study"
-seed = 1
-participants = 4
-"""
-TASK = """
-[[tasks]]
-id = "angles"
-scenario = "contact-angle"
-conditions = [{ angle_deg = 10 }, { angle_deg = -10 }]
-"""
-
-
-def mini(*parts: str):
-    return parse_study(HEAD + "".join(parts), "mini.toml")
-
-
-def error_of(*parts: str) -> str:
-    with pytest.raises(StudyError) as caught:
-        mini(*parts)
-    return str(caught.value)
+from server.experiment.study import Audio
+from tests.experiment.test_study import ANGLES as TASK
+from tests.experiment.test_study import error_of, mini
 
 
 def question(kind: str, answered_by: str | None, extra: str = "") -> str:
