@@ -21,6 +21,7 @@ insertion, the mean end-point error (3-D and depth) over the 2 s hold that led t
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -68,6 +69,7 @@ ITEMS = (  # objects on the right, holes on the left, each at its own depth
 ITEM_IDS = tuple(i.id for i in ITEMS)
 
 
+@functools.lru_cache(maxsize=16)  # a Mesh is frozen: every scene built (a switch per trial) shares it
 def tube_mesh(hole: Hole, scale: float = 1.0) -> Mesh:
     """The hollow tube as a display mesh, base at z = 0 (trimesh: an annulus, or four wall boxes)."""
     import trimesh  # here, not at import: the loop process starts 0.4 s sooner without it
@@ -212,6 +214,7 @@ class Positioning:
         self._last_t: float | None = None
         self.pending = Pending()
         self._arrow_at: tuple | None = None  # where the last output put the arrow (_place_arrow)
+        self._target_memo: tuple = (None, None, None)  # (item, hole offset, target): target()
         self._begin(self.index)
 
     def _begin(self, index: int) -> None:
@@ -259,8 +262,13 @@ class Positioning:
         return item.hole_at[0], item.hole_at[1] + self.hole_offset
 
     def target(self, item: Item) -> tuple[float, float, float]:
+        memo = self._target_memo  # the same until the item or the holes move: the same tuple every tick
+        if memo[0] is item and memo[1] == self.hole_offset:
+            return memo[2]
         x, y = self.hole_xy(item)
-        return x, y, round(item.hole.height + TARGET_CLEARANCE + item.half, 9)
+        target = x, y, round(item.hole.height + TARGET_CLEARANCE + item.half, 9)
+        self._target_memo = (item, self.hole_offset, target)
+        return target
 
     # -- tick -------------------------------------------------------------------------------
     def step(self, ctx: TickContext) -> ScenarioOutput:
@@ -279,7 +287,9 @@ class Positioning:
                 self.path_length += math.dist(self.position, position)
             self.position = position
             self.pending.poses[item.id] = Pose(self.position)
-            at = all(abs(a - b) <= self.threshold for a, b in zip(self.position, target))
+            threshold = self.threshold
+            at = (abs(position[0] - target[0]) <= threshold and abs(position[1] - target[1]) <= threshold
+                  and abs(position[2] - target[2]) <= threshold)
             self._track_target(ctx.t_s, self.position, target, at)
             if self.phase == "go" and inserted(item, self.position, self.hole_xy(item), self.scale):
                 self._insert(ctx.t_s, item)
@@ -287,7 +297,7 @@ class Positioning:
                 cues = self._cues(self.position, target, at)
         if self.pending.visible.get("arrow_shaft") or self.phase in ("carry", "go"):
             self._place_arrow(target)
-        return self.pending.flush(cues=cues, hud=self._hud(ctx), values=self._values(target),
+        return self.pending.flush(cues=cues, hud=self._hud(ctx), values=self._values(target) if ctx.drawn else None,
                                   held=item.id if self.phase in ("carry", "go") else None)
 
     def _grasp(self, ctx: TickContext, item: Item) -> None:
@@ -373,7 +383,9 @@ class Positioning:
             values["distance"] = round(math.dist(self.position, target), 6)
         if self.hold_since is not None and self.phase == "carry":
             values["hold_s"] = round(self._last_t - self.hold_since, 3)
-        values.update({k: v for k, v in self.metrics().items() if v is not None})
+        for k, v in self.metrics().items():
+            if v is not None:
+                values[k] = v
         return values
 
     def _hud(self, ctx: TickContext) -> str:

@@ -207,6 +207,7 @@ class _NoToolCues(Mapping):
 
 
 NO_TOOL_CUES: Mapping[str, tuple[Cue, ...]] = _NoToolCues()
+_NOTHING: Mapping = MappingProxyType({})  # an output's change buffer with nothing in it (Pending.flush)
 
 
 @quick_init  # built every tick (server/core/frozen.py)
@@ -223,6 +224,9 @@ class TickContext:
     sticking: bool = False  # the proxy is held by static friction (god-object friction cone)
     # Every tool, primary first (tools[0] is hip/proxy/contact/touching above); one per rig point.
     tools: tuple[ToolView, ...] = ()
+    # False when no client draws this run (a simulated study): what only a viewer shows, the
+    # output's `values`, may be left empty. The HUD is still read (a synthetic participant reads it).
+    drawn: bool = True
 
 
 @quick_init  # built every tick
@@ -274,12 +278,30 @@ class Pending:
         self.finished = dict(metrics)
         self.emit("trial_done", **metrics)
 
-    def flush(self, **fields: Any) -> ScenarioOutput:
-        """This step's output: `fields` (cues, hud, values, hold_hip, held) and everything pending."""
-        out = ScenarioOutput(events=tuple(self.events), finished=self.finished, poses=self.poses,
-                             visible=self.visible, haptic=self.haptic, stiffness=self.stiffness,
-                             scales=self.scales, **fields)
-        self._clear()
+    def flush(self, cues: tuple = (), hud: str = "", values: dict | None = None, hold_hip: Vec3 | None = None,
+              held: str | None = None, tool_cues: Mapping[str, tuple[Cue, ...]] = NO_TOOL_CUES) -> ScenarioOutput:
+        """This step's output: the step's cues, hud, values, hold_hip, held and tool_cues, and
+        everything pending. A buffer with nothing in it is handed on as the shared empty mapping and
+        kept (most ticks change nothing but a pose): only a filled one is replaced."""
+        events, finished = self.events, self.finished
+        poses, visible, haptic, stiffness, scales = self.poses, self.visible, self.haptic, self.stiffness, self.scales
+        out = ScenarioOutput(cues, hud, {} if values is None else values,
+                             poses or _NOTHING, visible or _NOTHING, haptic or _NOTHING, stiffness or _NOTHING,
+                             scales or _NOTHING, hold_hip, tuple(events) if events else (), held, finished,
+                             tool_cues)
+        if events:
+            self.events = []
+        self.finished = None
+        if poses:
+            self.poses = {}
+        if visible:
+            self.visible = {}
+        if haptic:
+            self.haptic = {}
+        if stiffness:
+            self.stiffness = {}
+        if scales:
+            self.scales = {}
         return out
 
 

@@ -103,9 +103,14 @@ class TickOutput:
 
 class LoopCore:
     def __init__(self, sim: Simulation, *, state_hz: float = 60.0,
-                 make_sim: Callable[..., Simulation] | None = None, build_off_tick: bool = False):
+                 make_sim: Callable[..., Simulation] | None = None, build_off_tick: bool = False,
+                 drawn: bool = True):
         if not 0 < state_hz <= sim.tick_hz:
             raise ValueError("state_hz must be in (0, tick_hz]")
+        # False: no client draws this run's state (the simulated study's virtual hub): a state
+        # record carries only what the hub's recorder and a synthetic participant read (_state_record).
+        self.drawn = drawn
+        sim.drawn = drawn
         self.sim = sim
         self.make_sim = make_sim or (lambda scenario, seed: Simulation(scenario, tick_hz=sim.tick_hz, seed=seed,
                                                                        rig=sim.rig))
@@ -132,6 +137,7 @@ class LoopCore:
         # pairs; the rows of moved objects; the last wire cues (see _state_record, wire_cues).
         self._rounded: list = [None] * 8
         self._object_rows: dict[str, tuple] = {}
+        self._quat: tuple = (None, None)  # the last quat rounded for an object row, and its row form
         self._tool_rounded: dict[str, tuple] = {}
         self._wire: list = [None, []]
         self.build_off_tick = build_off_tick  # True: the driver builds a switch off the tick (module doc)
@@ -301,6 +307,7 @@ class LoopCore:
             if tool is not None:
                 tool.take_driver(previous)
         sim.carry_tracking(old)
+        sim.drawn = self.drawn
         self.sim, self.params, self.seed = sim, dict(params), seed
         self.outbox.extend(self.announce())
 
@@ -399,6 +406,8 @@ class LoopCore:
         self.frames += 1
         out = r.output
         sim = self.sim
+        if not self.drawn:
+            return self._recorded_state(r, now_ns)
         tool = sim.tools[0]
         memo = self._rounded
         if memo[0] is not r.hip:
@@ -452,6 +461,26 @@ class LoopCore:
         sim.finished = []
         return record
 
+    def _recorded_state(self, r: TickResult, now_ns: int) -> dict[str, Any]:
+        """The state record of a run nobody draws (`drawn` False): what the recorder
+        (server/experiment/recorder.py) and a synthetic participant read, none of the picture."""
+        sim = self.sim
+        record = {"frame": self.frames, "tick": r.tick, "t": now_ns / 1e9, "scene": sim.scene.hash,
+                  "cues": self.wire_cues(r.output.cues), "hud": r.output.hud, "events": sim.events,
+                  "samples": self.samples.tobytes(), "trackers": self.tracker_applied,
+                  "trajectory": self.trajectory, "finished": sim.finished}
+        if self.point_rows:
+            record["point_rows"] = self.point_rows
+            self.point_rows = []
+        if self.failures:
+            record["failures"] = self.failures
+        self.samples = array("q")
+        self.tracker_applied = []
+        self.trajectory = []
+        sim.events = []
+        sim.finished = []
+        return record
+
     def _objects(self, moved: Mapping[str, Any]) -> list[list]:
         """`objects` of the state: [id, pos, quat] of each moved object, rounded once per pose."""
         memo = self._object_rows
@@ -459,7 +488,10 @@ class LoopCore:
         for oid, pose in moved.items():
             kept = memo.get(oid)
             if kept is None or kept[0] is not pose:
-                kept = memo[oid] = (pose, [oid, _round(pose.pos), [round(q, 9) for q in pose.quat]])
+                quat = pose.quat  # a moving object keeps its quat tuple (often the shared no-rotation one)
+                if self._quat[0] is not quat:
+                    self._quat = (quat, [round(q, 9) for q in quat])
+                kept = memo[oid] = (pose, [oid, _round(pose.pos), self._quat[1]])
             rows.append(kept[1])
         return rows
 

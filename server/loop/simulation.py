@@ -117,6 +117,9 @@ class Simulation:
         # The touchable ones, in scene order: a tuple, built again only when one changes, which the
         # compiled god-object recognises by identity (no per-body check of the scene each tick).
         self.bodies: tuple[Body, ...] = tuple(self._all_bodies.values())
+        # Untouchable bodies moved since their Body was last built (a carried object moves every
+        # tick): built again from `moved` only when they are needed (_fresh).
+        self._stale: set[str] = set()
         self._nearest_memo: tuple = (None, None, None)  # (hip, bodies, nearest body id): _nearest_body
         self.moved: dict[str, Pose] = {}  # objects whose pose differs from the scene's
         self.visibility: dict[str, bool] = {}  # objects/overlays shown or hidden against the scene
@@ -132,6 +135,7 @@ class Simulation:
         self.events: list[dict] = []  # scenario events not yet published, stamped with their tick
         self.finished: list[dict] = []  # trial ends not yet published: {"tick", "metrics"}
         self.trial: Trial | None = None
+        self.drawn = True  # someone draws the state (TickContext.drawn); set by LoopCore
         scenario.reset(seed)
 
     @property
@@ -275,7 +279,7 @@ class Simulation:
             tools = self._tools_view
         nearest = self._nearest_body(hip) if contact else None
         ctx = TickContext(tick, t_s, hip, proxy_step.proxy, contact, touching, nearest, self.refusals,
-                          tool.god.sticking, tools)
+                          tool.god.sticking, tools, self.drawn)
         output = self.scenario.step(ctx)
         if output.poses or output.haptic or output.stiffness or output.visible or output.scales:
             self._apply_changes(output)
@@ -335,8 +339,11 @@ class Simulation:
                 continue  # where it is already (a carried object between tracker samples): same body, same row
             body = all_bodies.get(object_id)
             if body is not None:
-                all_bodies[object_id] = replace(body, pose=pose)
-                bodies_changed = True
+                if object_id in self.haptic:  # untouchable (a carried object): no god-object sees it
+                    self._stale.add(object_id)  # its Body follows `moved` when it is needed (_fresh)
+                else:
+                    all_bodies[object_id] = replace(body, pose=pose)
+                    bodies_changed = True
             elif not self.scene.has_id(object_id):  # drawn-only objects move too, they just have no body
                 raise KeyError(f"scenario moves {object_id!r}, which is not in scene {self.scene.name!r}")
             moved[object_id] = pose
@@ -372,11 +379,21 @@ class Simulation:
                 raise KeyError(f"scenario shows/hides {element_id!r}, which is not in scene {self.scene.name!r}")
             self.visibility[element_id] = shown
         if bodies_changed:
+            if self._stale:
+                self._fresh()
             self.bodies = tuple(b for b in all_bodies.values() if b.id not in self.haptic)
-        for tool in self.tools:
-            tool.forget_fixed_point()  # the fixed point may have moved with the bodies
+            for tool in self.tools:
+                tool.forget_fixed_point()  # the fixed point may have moved with the bodies
+
+    def _fresh(self) -> None:
+        """Untouchable bodies moved meanwhile take their last pose (before they count again)."""
+        for object_id in self._stale:
+            self._all_bodies[object_id] = replace(self._all_bodies[object_id], pose=self.moved[object_id])
+        self._stale.clear()
 
     def _body(self, object_id: str):
+        if object_id in self._stale:
+            self._fresh()
         try:
             return self._all_bodies[object_id]
         except KeyError:

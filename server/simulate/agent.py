@@ -57,7 +57,7 @@ NON_NEGATIVE = ("endpoint_noise", "duration_jitter")  # noise may be off; durati
 
 def min_jerk(a, b, tau: float):
     s = 10 * tau ** 3 - 15 * tau ** 4 + 6 * tau ** 5
-    return tuple(p + (q - p) * s for p, q in zip(a, b))
+    return (a[0] + (b[0] - a[0]) * s, a[1] + (b[1] - a[1]) * s, a[2] + (b[2] - a[2]) * s)
 
 
 class GaveUp(Exception):

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Callable, Mapping
 
 from devices.profiles import profile_by_model
+from scenarios import registry
 from server import __version__
 from server.experiment.engine import Experiment
 from server.experiment.plan import PlannedTrial, plan_session
@@ -196,6 +197,8 @@ def _in_processes(run: _Run, participants: int, workers: int, data_dir: Path, st
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
+    for task in load_study(run.study_path).tasks:  # a first scene build loads meshes and trimesh (~0.4 s):
+        registry.create(task.scenario, **task.params).build_scene()  # once here, and every worker has it
     context = multiprocessing.get_context("fork")
     queue = context.Queue()
     parts = data_dir / "parts"

@@ -35,7 +35,7 @@ class VirtualHub:
         self.tick_hz = tick_hz
         spec = registry.resolve(scenario)
         sim = Simulation(registry.create(spec.id, **(params or {})), tick_hz=tick_hz, seed=seed)
-        self.core = LoopCore(sim, state_hz=state_hz)
+        self.core = LoopCore(sim, state_hz=state_hz, drawn=False)  # no viewer: the recorder and the participant read
         self.core.params, self.core.seed = registry.check_scenario_params(spec, params or {}), seed
         self.control = ScenarioControl(self._send, lambda: {n: d.profile for n, d in self.devices.items()})
         self.control.scenario_cls = spec.factory
@@ -69,7 +69,7 @@ class VirtualHub:
 
     # -- what the participant does ---------------------------------------------------------------
     def set_hip(self, position) -> None:
-        self.core.sim.set_hip(tuple(float(v) for v in position))
+        self.core.sim.set_hip((float(position[0]), float(position[1]), float(position[2])))
 
     def command(self, key: str, action: str = "press", value=None) -> None:
         """A key or command, as the experimenter's console sends it (operator role)."""

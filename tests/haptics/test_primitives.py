@@ -302,3 +302,13 @@ def test_cast_from_the_surface_inward_tangential_outward():
     assert cone.cast((0, 0, 1), (0, 0, 0.5)) == 0.0  # from the apex into the cone
     assert cone.cast((0, 0, 1), (0.3, 0, 0.4)) is None  # down the outside of the cone
     assert Body("p", Plane((1, 1))).cast((0, 0, 1), (0, 0, -1), 0.1) == pytest.approx(0.45)
+
+
+def test_a_pose_of_plain_floats_without_rotation_is_the_same_as_one_given_the_unit_quat():
+    quick, given = Pose((1.0, -2.0, 3.5)), Pose((1.0, -2.0, 3.5), (1.0, 0.0, 0.0, 0.0))
+    assert quick == given and quick._m is None and given._m is None
+    assert quick.to_world((0.1, 0.2, 0.3)) == given.to_world((0.1, 0.2, 0.3))
+    assert Pose((1, 2, 3)).pos == (1.0, 2.0, 3.0) and type(Pose((1, 2, 3)).pos[0]) is float
+    for bad in ((float("nan"), 0.0, 0.0), (0.0, float("inf"), 0.0), (1.0, 2.0)):
+        with pytest.raises(ValueError):
+            Pose(bad)

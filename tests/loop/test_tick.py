@@ -240,3 +240,56 @@ def test_the_recorder_takes_a_trials_metrics_from_the_loops_finished_entries(rec
             recorder.on_record(["state", out.state])
         out = core.tick((), core.sim.tick * MS)
     assert recorder.end().metrics == {"completion_s": 1.5}
+
+
+class Carrying(ContactAngle):
+    """Makes the hemisphere untouchable, moves it along x for a few ticks (a carried object), then
+    makes it touchable again or changes its stiffness, as `script` says, tick by tick."""
+    script: dict = {}
+
+    def step(self, ctx):
+        out = super().step(ctx)
+        what = self.script.get(ctx.tick)
+        if what is None:
+            return out
+        kind, value = what
+        if kind == "haptic":
+            return replace(out, haptic={"hemisphere": value})
+        if kind == "stiffness":
+            return replace(out, stiffness={"hemisphere": value})
+        return replace(out, poses={"hemisphere": value})
+
+
+def test_a_body_moved_while_untouchable_is_where_it_was_last_moved_when_it_counts_again():
+    from server.core.haptics.primitives import Pose
+    sim = Simulation(Carrying(), tick_hz=1000)
+    sim.scenario.script = {0: ("haptic", False), **{t: ("pose", Pose((0.1 * t, 0.0, 0.0))) for t in range(1, 6)},
+                           6: ("stiffness", 123.0), 7: ("haptic", True)}
+    for _ in range(7):
+        sim.step()
+        assert "hemisphere" not in {b.id for b in sim.bodies}, "untouchable while carried"
+    sim.step()
+    body = {b.id: b for b in sim.bodies}["hemisphere"]
+    assert body.pose.pos == (0.5, 0.0, 0.0), "the last pose it was given, not the one it was made untouchable at"
+    assert body.stiffness_n_per_m == 123.0, "a change made while untouchable is kept"
+    assert sim.moved["hemisphere"].pos == (0.5, 0.0, 0.0)
+
+
+def test_a_run_nobody_draws_records_the_same_and_leaves_the_picture_out():
+    from scenarios.positioning import Positioning
+    drawn, undrawn = (LoopCore(Simulation(Positioning(), tick_hz=1000), drawn=flag) for flag in (True, False))
+    for core in (drawn, undrawn):
+        core.apply(["record", 5], 0)
+        for t in range(40):
+            core.sim.set_hip((0.0, 0.1 * t / 40, 1.0))
+            out = core.tick((), t * MS)
+            if out.state is not None:
+                core.last = out.state
+    full, slim = drawn.last, undrawn.last
+    assert set(slim) == {"frame", "tick", "t", "scene", "cues", "hud", "events", "samples", "trackers",
+                         "trajectory", "finished"}
+    assert {k: full[k] for k in slim} == slim, "what a recorder reads is the same"
+    assert full["values"] and "hip" in full
+    assert undrawn.sim.drawn is False and drawn.sim.drawn is True
+    undrawn.apply(["scenario", "contact-angle", {}, 0], 0)
+    assert undrawn.sim.drawn is False, "a switched-in simulation is not drawn either"

@@ -48,14 +48,22 @@ def _plain(t: Any, n: int) -> bool:
     return 0.0 * sum(t) == 0.0
 
 
+_NO_ROTATION = (1.0, 0.0, 0.0, 0.0)  # the default quat, recognised by identity (Pose.__post_init__)
+
+
 @dataclass(frozen=True)
 class Pose:
     """Rigid transform local -> scene: p_scene = R(quat) p_local + pos; quat = (w, x, y, z)."""
 
     pos: Vec3 = (0.0, 0.0, 0.0)
-    quat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+    quat: tuple[float, float, float, float] = _NO_ROTATION
 
     def __post_init__(self) -> None:
+        if self.quat is _NO_ROTATION and _plain(self.pos, 3):
+            # A position of plain floats and the default quat (a carried object, every tick):
+            # nothing to check, normalise or rotate.
+            object.__setattr__(self, "_m", None)
+            return
         pos = self.pos if _plain(self.pos, 3) else _floats(self.pos, 3, "pose.pos")
         q = self.quat if _plain(self.quat, 4) else _floats(self.quat, 4, "pose.quat")
         n = hypot(*q)
