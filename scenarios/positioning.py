@@ -215,6 +215,7 @@ class Positioning:
         self.pending = Pending()
         self._arrow_at: tuple | None = None  # where the last output put the arrow (_place_arrow)
         self._target_memo: tuple = (None, None, None)  # (item, hole offset, target): target()
+        self._last_cues: tuple = (None, ())  # (t_off, cues) of the last pulse law cue: _cues()
         self._begin(self.index)
 
     def _begin(self, index: int) -> None:
@@ -354,8 +355,12 @@ class Positioning:
             t_off = mode_t_off(cue, depth, in_zone, self.boundary, self.threshold)
         else:
             t_off = self.guide.t_off(depth, in_zone, at)
+        if t_off == self._last_cues[0] and t_off is not None:
+            return self._last_cues[1]  # the law's value unchanged: the same tuple, a no-change the loop sees by identity
         made = pulse_cue(t_off, self.t_on_ms)
-        return (made,) if made is not None else ()
+        cues = (made,) if made is not None else ()
+        self._last_cues = (t_off, cues)
+        return cues
 
     def _move_holes(self, dt: float) -> None:
         self.hole_offset += self.hole_dir * self.hole_speed * dt

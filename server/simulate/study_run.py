@@ -13,6 +13,7 @@ database and the same report.
 
 from __future__ import annotations
 
+import gc
 import sys
 import time
 from dataclasses import dataclass, field
@@ -176,6 +177,11 @@ def _worker_init(run: _Run, queue) -> None:
     """Forked, the worker inherits `run` as it is (never pickled: models hold mapping proxies)."""
     global _worker
     _worker = (run, queue)
+    # The inherited heap is never garbage here: out of the collector's walks. A participant makes
+    # millions of short-lived records; collecting the young ones every 20 000 allocations instead
+    # of 700 saves ~4 % of its CPU time (reference counting frees them anyway).
+    gc.freeze()
+    gc.set_threshold(20_000, 50, 100)
 
 
 def _participant_into(index: int, path: Path) -> tuple[str, int, list, float]:
