@@ -232,7 +232,7 @@ class Experiment:
                             "to drive it")
 
     def _trial(self, session_id: str, seq: int) -> TrialRow:
-        trial = next((t for t in self.store.trials(session_id) if t.seq == seq), None)
+        trial = self.store.trial_at(session_id, seq)
         if trial is None:
             raise NotFound(f"session {session_id} has no trial {seq}")
         return trial

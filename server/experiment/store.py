@@ -314,6 +314,12 @@ class Store:
             return [_trial(r) for r in self.db.execute(
                 "SELECT * FROM trials WHERE session_id = ? ORDER BY seq", (session_id,))]
 
+    def trial_at(self, session_id: str, seq: int) -> TrialRow | None:
+        """The session's trial `seq`, or None."""
+        with self._lock:
+            row = self.db.execute("SELECT * FROM trials WHERE session_id = ? AND seq = ?", (session_id, seq)).fetchone()
+        return None if row is None else _trial(row)
+
     def trial(self, trial_id: int) -> TrialRow:
         with self._lock:
             row = self.db.execute("SELECT * FROM trials WHERE id = ?", (trial_id,)).fetchone()
