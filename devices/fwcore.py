@@ -404,9 +404,14 @@ class FirmwareCore:
     def advance(self, now_us: int) -> list[Edge]:
         """Run the scheduler up to now_us inclusive; every output change since the last call,
         in time order, each stamped with its exact time."""
+        if type(now_us) is int and self._now <= now_us < self._quiet_until and not self._pending:
+            # a device between edges (most 1 kHz ticks): nothing is due. _check_time would accept
+            # this time as it is (an int, not backwards, below _quiet_until <= NEVER)
+            self._now = now_us
+            return []
         now_us = self._check_time(now_us)
         if now_us < self._quiet_until and not self._pending:
-            return []  # a device between edges (most 1 kHz ticks): nothing is due
+            return []
         edges, self._pending = self._pending, []
         edges.extend(self._run(now_us))
         return edges

@@ -119,6 +119,9 @@ class LatestSlots(Generic[K, V]):
         return iter(list(self._slots))
 
 
+_STALE = object()  # CommandBook._oldest_unacked: to be computed again
+
+
 @dataclass
 class _Written:
     message: object       # the SET_* / STOP message
@@ -140,23 +143,25 @@ class CommandBook:
     def __init__(self) -> None:
         self.slots: LatestSlots[tuple[int, str], object] = LatestSlots()
         self.written: dict[tuple[int, str], _Written] = {}  # insertion order = write order
+        self._oldest_unacked: float | None | object = _STALE
 
     def set(self, message, now_s: float) -> None:
         if not isinstance(message, SET_MESSAGES):
             raise TypeError(f"not a SET_* or STOP message: {message!r}")
         key = message.layer_key
-        others = [k for k in self.slots if k != key]
-        if not any(touches(k, key) for k in others) and self._device_has(key) == message:
+        others = [k for k in self.slots._slots if k != key]
+        touching = [k for k in others if touches(k, key)] if others else others
+        if not touching and self._device_has(key) == message:
             self.slots.remove(key)  # the device already shows it: a waiting older value is moot
             return
-        for k in others:
-            if overrides(key, k):
-                self.slots.remove(k)  # e.g. STOP c drops the waiting layers of c
-        rank = self.slots.rank(key)
-        if rank is not None and any(touches(k, key) and self.slots.rank(k) > rank
-                                    for k in self.slots if k != key):
-            # it must now go after a touching command set meanwhile: line up anew
-            self.slots.remove(key)
+        if touching:  # overrides implies touches, so only a touching key can be dropped or reorder it
+            for k in touching:
+                if overrides(key, k):
+                    self.slots.remove(k)  # e.g. STOP c drops the waiting layers of c
+            rank = self.slots.rank(key)
+            if rank is not None and any(k in self.slots and self.slots.rank(k) > rank for k in touching):
+                # it must now go after a touching command set meanwhile: line up anew
+                self.slots.remove(key)
         self.slots.put(key, message, now_s)
 
     def _device_has(self, key: tuple[int, str]):
@@ -171,6 +176,7 @@ class CommandBook:
         return self.slots.pop_oldest()
 
     def mark_written(self, key, message, since_s: float, now_s: float, seq: int | None = None) -> None:
+        self._oldest_unacked = _STALE
         for k, entry in list(self.written.items()):
             if overrides(key, k):
                 del self.written[k]
@@ -182,11 +188,15 @@ class CommandBook:
         for entry in self.written.values():
             if entry.seq == seq and not entry.acked:
                 entry.acked = True
+                self._oldest_unacked = _STALE
                 return
 
     def oldest_unacked_at(self) -> float | None:
-        times = [e.sent_at_s for e in self.written.values() if not e.acked]
-        return min(times) if times else None
+        # asked at every poll; cached until `written` or an entry's `acked` changes (here only)
+        if self._oldest_unacked is _STALE:
+            times = [e.sent_at_s for e in self.written.values() if not e.acked]
+            self._oldest_unacked = min(times) if times else None
+        return self._oldest_unacked
 
     def requeue_all(self) -> int:
         """Everything written becomes pending again (after a reconnect, §4.4)."""
@@ -200,6 +210,7 @@ class CommandBook:
         return 0 if first is None else self._requeue(keys[first:])
 
     def _requeue(self, keys: list) -> int:
+        self._oldest_unacked = _STALE
         newer = list(self.slots)  # every waiting value was set after every written one
         count = 0
         for key in keys:

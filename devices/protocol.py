@@ -257,6 +257,8 @@ class HostProtocol:
         if self.status == DISCONNECTED:
             return b"", None
         self._check_timers(now_s)
+        if now_s < self.budget.ready_at:
+            return b"", self._wake_at(now_s)  # the budget would refuse any write: most polls
         data = self.budget.write(now_s, lambda: self._next_write(now_s))
         self.counters["bytes_out"] += len(data)
         return data, self._wake_at(now_s)
@@ -285,22 +287,6 @@ class HostProtocol:
             oldest = self.book.oldest_unacked_at()
             if oldest is not None and now_s - oldest >= self.ack_timeout_s:
                 self.counters["resent"] += self.book.requeue_unacked()
-
-    def _due_sends(self) -> list[float]:
-        """When each kind of frame wants to go out (s), ignoring the budget."""
-        due = []
-        if self._flush:
-            due.append(-float("inf"))
-        if self._hello_due is not None:
-            due.append(self._hello_due)
-        if self._ping_due is not None:
-            due.append(self._ping_due)
-        for t in (self._watchdog_due, self._keepalive_due()):
-            if t is not None:
-                due.append(t)
-        if self.book.pending:
-            due.append(-float("inf"))
-        return due
 
     def _next_write(self, now_s: float) -> bytes:
         if self._flush:
@@ -341,15 +327,35 @@ class HostProtocol:
         return encode_frame(message.TYPE, seq, message.pack())
 
     def _wake_at(self, now_s: float) -> float | None:
-        times = [max(t, self.budget.ready_at) for t in self._due_sends()]
+        """The earliest time a poll has something to do: when each kind of frame wants to go out,
+        but not before the budget allows, and the timers of _check_timers; never before now_s."""
+        # Straight-line min/max in the order of the list this was written as: the same result
+        # (ties keep the first), without building lists on every poll.
+        ready = self.budget.ready_at
+        best = ready if self._flush else None           # a flush is due at once (-inf): the budget decides
+        for t in (self._hello_due, self._ping_due, self._watchdog_due, self._keepalive_due()):
+            if t is not None:
+                t = ready if ready > t else t
+                if best is None or t < best:
+                    best = t
+        if self.book.pending and (best is None or ready < best):  # a command is due at once, too
+            best = ready
         if self.status == CONNECTED:
-            times.append(self._last_rx + self.silence_timeout_s)
+            t = self._last_rx + self.silence_timeout_s
+            if best is None or t < best:
+                best = t
             oldest = self.book.oldest_unacked_at()
             if oldest is not None:
-                times.append(oldest + self.ack_timeout_s)
+                t = oldest + self.ack_timeout_s
+                if best is None or t < best:
+                    best = t
         if self._watchdog_sent is not None:
-            times.append(self._watchdog_sent[1] + self.ack_timeout_s)
-        return max(min(times), now_s) if times else None
+            t = self._watchdog_sent[1] + self.ack_timeout_s
+            if best is None or t < best:
+                best = t
+        if best is None:
+            return None
+        return now_s if now_s > best else best
 
     def _set_status(self, new: str, reason: str) -> None:
         if new != self.status:
