@@ -377,7 +377,8 @@ class FirmwareCore:
         edges: list[Edge] = []
         while True:
             n = self._lib.vt_device_advance(self._dev, now_us, self._edges, self._BATCH)
-            edges.extend(Edge._from_c(self._edges[i]) for i in range(n))
+            if n:
+                edges.extend(Edge._from_c(self._edges[i]) for i in range(n))
             if n < self._BATCH:
                 # vt_device_advance before the next edge (vt_device_next_edge_us, which includes
                 # the watchdog's expiry) changes nothing: advance() may skip the C call until then
@@ -388,7 +389,8 @@ class FirmwareCore:
         """Feed bytes from the host; complete frames take effect at now_us."""
         now_us = self._check_time(now_us)
         data = bytes(data)
-        self._pending.extend(self._run(now_us))           # edges due before the frames act
+        if now_us >= self._quiet_until:                   # else none is due: advance() skips it too
+            self._pending.extend(self._run(now_us))       # edges due before the frames act
         for i in range(0, len(data), self._CHUNK):
             chunk = data[i:i + self._CHUNK]
             self._lib.vt_device_receive(self._dev, chunk, len(chunk), now_us)
@@ -399,6 +401,8 @@ class FirmwareCore:
         parts = []
         while n := self._lib.vt_device_take_output(self._dev, self._out, len(self._out)):
             parts.append(self._out.raw[:n])
+            if n < len(self._out):
+                break  # it stops short of the buffer only when nothing is left
         return b"".join(parts)
 
     def advance(self, now_us: int) -> list[Edge]:

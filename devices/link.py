@@ -167,6 +167,8 @@ class CommandBook:
     def _device_has(self, key: tuple[int, str]):
         """The value the device has on `key` as far as the host knows, else None."""
         for k in reversed(self.written):
+            if k == key:  # touches and overrides itself
+                return as_seen_by(self.written[k].message, key)
             if touches(k, key):
                 return as_seen_by(self.written[k].message, key) if overrides(k, key) else None
         return None

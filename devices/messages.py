@@ -42,6 +42,9 @@ class PatternMode(IntEnum):
     TEXTURE = 3
 
 
+_PATTERN_MODES = tuple(PatternMode)  # by value: 0, 1, 2, 3
+
+
 class Caps(IntFlag):
     PULSE = 1 << 0
     CONTINUOUS = 1 << 1
@@ -84,9 +87,14 @@ class MessageError(ValueError):
 
 
 def _round_half_up(value: float, field: str) -> int:
+    if type(value) is float and -math.inf < value < math.inf:  # finite (NaN fails the compare)
+        return math.floor(value + 0.5)
     if not is_finite_number(value):
         raise MessageError("bad_value", f"{field} must be a finite number, got {value!r}", field)
     return math.floor(value + 0.5)
+
+
+_FIELD_NAMES: dict[type, tuple[str, ...]] = {}  # message class -> its field names, in order
 
 
 class _Message:
@@ -98,12 +106,17 @@ class _Message:
     def __post_init__(self) -> None:
         for name, (low, high) in self.RANGES.items():
             value = getattr(self, name)
+            if type(value) is int and low <= value <= high:
+                continue  # a plain int in range: the check below would pass it
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
                 raise MessageError("bad_value", f"{type(self).__name__}.{name} must be an integer in "
                                    f"[{low}, {high}], got {value!r}", name)
 
     def _values(self) -> tuple:
-        return tuple(getattr(self, f.name) for f in fields(self))
+        names = _FIELD_NAMES.get(type(self))
+        if names is None:  # a class's fields never change: look them up once
+            names = _FIELD_NAMES[type(self)] = tuple(f.name for f in fields(self))
+        return tuple([getattr(self, name) for name in names])
 
     def pack(self) -> bytes:
         return struct.pack(self.FORMAT, *self._values())
@@ -173,7 +186,7 @@ class SetPattern(_Message):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "mode", PatternMode(self.mode))
+        object.__setattr__(self, "mode", _PATTERN_MODES[self.mode])  # PatternMode(mode); mode is in range
 
     @property
     def layer_key(self) -> tuple[int, str]:
