@@ -145,8 +145,10 @@ class SimulatedLink:
         self._collect()
 
     def set(self, message) -> None:
-        self.host.set(message, self.t)
-        self._dirty = True
+        # a host set() that answers False asks for no poll: we last polled before its wake_at
+        # (run_until stops short of it) and received nothing since, or we are dirty anyway
+        if self.host.set(message, self.t) is not False or not self.connected:
+            self._dirty = True
 
     def run_until(self, t_end: float) -> None:
         if not self._dirty and self._next > t_end:

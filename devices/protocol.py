@@ -249,9 +249,18 @@ class HostProtocol:
 
     # ---- commands and output ---------------------------------------------------------------
 
-    def set(self, message, now_s: float) -> None:
-        """The newest value of one layer (a SET_* or STOP message); latest wins per layer_key."""
+    def set(self, message, now_s: float) -> bool:
+        """The newest value of one layer (a SET_* or STOP message); latest wins per layer_key.
+
+        Returns whether a poll may now do something new. False: commands waited before and still
+        do (or neither), which is all a poll asks of them until it writes, and no timer is due at
+        now_s. So for a driver whose last poll returned a wake_at later than now_s and that has
+        received nothing since, a poll now would change nothing and return that same wake_at
+        (every send it could make is due at or after wake_at): it may skip it. A simulated
+        link does, on most ticks; a driver that always polls loses nothing."""
+        waited = bool(self.book.pending)
         self.book.set(message, now_s)
+        return bool(self.book.pending) != waited or self._timers_due(now_s)
 
     def poll(self, now_s: float) -> tuple[bytes, float | None]:
         if self.status == DISCONNECTED:
@@ -279,14 +288,27 @@ class HostProtocol:
         return None
 
     def _check_timers(self, now_s: float) -> None:
-        if self._watchdog_sent is not None and now_s - self._watchdog_sent[1] >= self.ack_timeout_s:
+        if self._watchdog_unanswered(now_s):
             self._watchdog_sent, self._watchdog_due = None, now_s  # no answer: send it again
-        if self.status == CONNECTED and now_s - self._last_rx >= self.silence_timeout_s:
+        if self.status == CONNECTED and self._silent(now_s):
             self._set_status(UNRESPONSIVE, f"no frame from the device for {self.silence_timeout_s:g} s")
-        if self.status == CONNECTED:
-            oldest = self.book.oldest_unacked_at()
-            if oldest is not None and now_s - oldest >= self.ack_timeout_s:
-                self.counters["resent"] += self.book.requeue_unacked()
+        if self.status == CONNECTED and self._ack_overdue(now_s):
+            self.counters["resent"] += self.book.requeue_unacked()
+
+    def _timers_due(self, now_s: float) -> bool:
+        """Whether _check_timers(now_s) would act (the same tests)."""
+        return self._watchdog_unanswered(now_s) or (
+            self.status == CONNECTED and (self._silent(now_s) or self._ack_overdue(now_s)))
+
+    def _watchdog_unanswered(self, now_s: float) -> bool:
+        return self._watchdog_sent is not None and now_s - self._watchdog_sent[1] >= self.ack_timeout_s
+
+    def _silent(self, now_s: float) -> bool:
+        return now_s - self._last_rx >= self.silence_timeout_s
+
+    def _ack_overdue(self, now_s: float) -> bool:
+        oldest = self.book.oldest_unacked_at()
+        return oldest is not None and now_s - oldest >= self.ack_timeout_s
 
     def _next_write(self, now_s: float) -> bytes:
         if self._flush:
