@@ -394,7 +394,8 @@ class FirmwareCore:
         for i in range(0, len(data), self._CHUNK):
             chunk = data[i:i + self._CHUNK]
             self._lib.vt_device_receive(self._dev, chunk, len(chunk), now_us)
-            self._pending.extend(self._run(now_us))       # the command edges
+            if 0 in chunk:  # a frame ends at a 0x00; without one the core only buffered (or rejected): no edges
+                self._pending.extend(self._run(now_us))   # the command edges
 
     def take_output(self) -> bytes:
         """The bytes the device wants to send to the host (replies), drained."""

@@ -149,8 +149,9 @@ class CommandBook:
         if not isinstance(message, SET_MESSAGES):
             raise TypeError(f"not a SET_* or STOP message: {message!r}")
         key = message.layer_key
-        others = [k for k in self.slots._slots if k != key]
-        touching = [k for k in others if touches(k, key)] if others else others
+        waiting = self.slots._slots
+        # the waiting keys whose order with this one matters (most sets: no other key waits)
+        touching = [k for k in waiting if k != key and touches(k, key)] if len(waiting) > (key in waiting) else ()
         if not touching and self._device_has(key) == message:
             self.slots.remove(key)  # the device already shows it: a waiting older value is moot
             return
@@ -226,4 +227,4 @@ class CommandBook:
 
     @property
     def pending(self) -> int:
-        return len(self.slots)
+        return len(self.slots._slots)  # asked at every set and poll: without LatestSlots.__len__

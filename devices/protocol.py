@@ -49,6 +49,7 @@ DISCONNECTED, HANDSHAKING, CONNECTED, UNRESPONSIVE, BAD_VERSION = (
     "disconnected", "handshaking", "connected", "unresponsive", "bad_version")
 REJECT_KINDS = ("framing", "too_long", "bad_length", "bad_crc", "unknown_type", "bad_value")
 _PING_TOKENS_KEPT = 8
+_UNPACKED_KEPT = 1024
 # The production defaults (devices.manager.make_protocol): the device is off at most 45 ms after
 # the host's last frame, so within 50 ms of the host dying, as the device host's own quiet rule
 # does for a dead loop; a keepalive at least every 11.25 ms leaves 3 of them to be lost or late (a
@@ -126,6 +127,7 @@ class HostProtocol:
         self.budget = LinkBudget(share, byte_time_s)
         self.book = CommandBook()
         self._decoder = FrameDecoder()
+        self._unpacked: dict[tuple[int, bytes], object] = {}  # see _unpack
         self._events: list = []
         self._seq = 0
         self._frames: dict[int, tuple[object, float]] = {}  # seq -> (message, written at): the last 256
@@ -183,7 +185,7 @@ class HostProtocol:
             self._set_status(BAD_VERSION, f"device speaks protocol version {frame.payload[0]}")
             return
         try:
-            message = m.unpack(frame.type, frame.payload)
+            message = self._unpack(frame)
         except m.MessageError as exc:
             self._reject(FrameError(exc.kind, frame.payload, f"type {frame.type:#04x} seq {frame.seq}: {exc}"))
             return
@@ -243,6 +245,18 @@ class HostProtocol:
             self._hello_due = None
             self._set_status(BAD_VERSION, "device refused HELLO version 1")
 
+    def _unpack(self, frame: Frame):
+        """m.unpack, once per distinct payload: it is pure and messages are immutable, and a
+        device's replies repeat (an ACK per seq). A payload it refuses is not kept."""
+        key = (frame.type, frame.payload)
+        message = self._unpacked.get(key)
+        if message is None:
+            message = m.unpack(frame.type, frame.payload)
+            if len(self._unpacked) >= _UNPACKED_KEPT:
+                self._unpacked.clear()
+            self._unpacked[key] = message
+        return message
+
     def _reject(self, error: FrameError) -> None:
         self.counters[error.kind] = self.counters.get(error.kind, 0) + 1
         self._events.append(FrameRejected(error))
@@ -288,25 +302,24 @@ class HostProtocol:
         return None
 
     def _check_timers(self, now_s: float) -> None:
-        if self._watchdog_unanswered(now_s):
+        # _timers_due asks the same three questions: keep them in step
+        if self._watchdog_sent is not None and now_s - self._watchdog_sent[1] >= self.ack_timeout_s:
             self._watchdog_sent, self._watchdog_due = None, now_s  # no answer: send it again
-        if self.status == CONNECTED and self._silent(now_s):
+        if self.status == CONNECTED and now_s - self._last_rx >= self.silence_timeout_s:
             self._set_status(UNRESPONSIVE, f"no frame from the device for {self.silence_timeout_s:g} s")
-        if self.status == CONNECTED and self._ack_overdue(now_s):
-            self.counters["resent"] += self.book.requeue_unacked()
+        if self.status == CONNECTED:
+            oldest = self.book.oldest_unacked_at()
+            if oldest is not None and now_s - oldest >= self.ack_timeout_s:
+                self.counters["resent"] += self.book.requeue_unacked()
 
     def _timers_due(self, now_s: float) -> bool:
-        """Whether _check_timers(now_s) would act (the same tests)."""
-        return self._watchdog_unanswered(now_s) or (
-            self.status == CONNECTED and (self._silent(now_s) or self._ack_overdue(now_s)))
-
-    def _watchdog_unanswered(self, now_s: float) -> bool:
-        return self._watchdog_sent is not None and now_s - self._watchdog_sent[1] >= self.ack_timeout_s
-
-    def _silent(self, now_s: float) -> bool:
-        return now_s - self._last_rx >= self.silence_timeout_s
-
-    def _ack_overdue(self, now_s: float) -> bool:
+        """Whether _check_timers(now_s) would act: its tests, without acting."""
+        if self._watchdog_sent is not None and now_s - self._watchdog_sent[1] >= self.ack_timeout_s:
+            return True
+        if self.status != CONNECTED:
+            return False
+        if now_s - self._last_rx >= self.silence_timeout_s:
+            return True
         oldest = self.book.oldest_unacked_at()
         return oldest is not None and now_s - oldest >= self.ack_timeout_s
 
