@@ -145,25 +145,35 @@ class CommandBook:
         self.written: dict[tuple[int, str], _Written] = {}  # insertion order = write order
         self._oldest_unacked: float | None | object = _STALE
 
-    def set(self, message, now_s: float) -> None:
+    def set(self, message, now_s: float) -> bool:
+        """The newest value of one layer. Returns whether it changed between nothing waiting and
+        something waiting (HostProtocol.set tells its driver from that whether to poll)."""
         if not isinstance(message, SET_MESSAGES):
             raise TypeError(f"not a SET_* or STOP message: {message!r}")
         key = message.layer_key
         waiting = self.slots._slots
-        # the waiting keys whose order with this one matters (most sets: no other key waits)
-        touching = [k for k in waiting if k != key and touches(k, key)] if len(waiting) > (key in waiting) else ()
+        waited = bool(waiting)
+        if len(waiting) <= (key in waiting):  # no other key waits (most sets): none touches this one
+            has = self._device_has(key)
+            if has is message or has == message:
+                waiting.pop(key, None)  # the device already shows it: a waiting older value is moot
+            else:
+                self.slots.put(key, message, now_s)
+            return bool(waiting) != waited
+        touching = [k for k in waiting if k != key and touches(k, key)]  # their order with this one matters
         if not touching and self._device_has(key) == message:
-            self.slots.remove(key)  # the device already shows it: a waiting older value is moot
-            return
-        if touching:  # overrides implies touches, so only a touching key can be dropped or reorder it
-            for k in touching:
-                if overrides(key, k):
-                    self.slots.remove(k)  # e.g. STOP c drops the waiting layers of c
-            rank = self.slots.rank(key)
-            if rank is not None and any(k in self.slots and self.slots.rank(k) > rank for k in touching):
-                # it must now go after a touching command set meanwhile: line up anew
-                self.slots.remove(key)
+            self.slots.remove(key)
+            return bool(waiting) != waited
+        # overrides implies touches, so only a touching key can be dropped or reorder this one
+        for k in touching:
+            if overrides(key, k):
+                self.slots.remove(k)  # e.g. STOP c drops the waiting layers of c
+        rank = self.slots.rank(key)
+        if rank is not None and any(k in self.slots and self.slots.rank(k) > rank for k in touching):
+            # it must now go after a touching command set meanwhile: line up anew
+            self.slots.remove(key)
         self.slots.put(key, message, now_s)
+        return not waited
 
     def _device_has(self, key: tuple[int, str]):
         """The value the device has on `key` as far as the host knows, else None."""

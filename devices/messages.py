@@ -86,9 +86,14 @@ class MessageError(ValueError):
         self.field = field
 
 
+_EXACT_INT = 2**52  # an int below this in size and int + 0.5 are exact as floats
+
+
 def _round_half_up(value: float, field: str) -> int:
     if type(value) is float and -math.inf < value < math.inf:  # finite (NaN fails the compare)
         return math.floor(value + 0.5)
+    if type(value) is int and -_EXACT_INT < value < _EXACT_INT:  # floor(value + 0.5) is value itself
+        return value
     if not is_finite_number(value):
         raise MessageError("bad_value", f"{field} must be a finite number, got {value!r}", field)
     return math.floor(value + 0.5)

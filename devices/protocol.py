@@ -272,9 +272,7 @@ class HostProtocol:
         received nothing since, a poll now would change nothing and return that same wake_at
         (every send it could make is due at or after wake_at): it may skip it. A simulated
         link does, on most ticks; a driver that always polls loses nothing."""
-        waited = bool(self.book.pending)
-        self.book.set(message, now_s)
-        return bool(self.book.pending) != waited or self._timers_due(now_s)
+        return self.book.set(message, now_s) or self._timers_due(now_s)
 
     def poll(self, now_s: float) -> tuple[bytes, float | None]:
         if self.status == DISCONNECTED:
