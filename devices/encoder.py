@@ -45,7 +45,8 @@ def _pulse_pattern(cue: PulseTrain) -> SetPattern:
     global _last_pulse
     last_cue, command = _last_pulse
     if last_cue is not cue:
-        command = SetPattern.pulse(ALL_CHANNELS, cue.t_on_ms, cue.t_off_ms, cue.intensity_pct, cue.carrier_hz or 0)
+        command = SetPattern.pulse(ALL_CHANNELS, cue.t_on_ms, cue.t_off_ms, cue.intensity_pct, cue.carrier_hz or 0,
+                                   in_range=True)  # the cue checked its ranges when it was made
         _last_pulse = (cue, command)
     return command
 

@@ -144,6 +144,7 @@ class CommandBook:
         self.slots: LatestSlots[tuple[int, str], object] = LatestSlots()
         self.written: dict[tuple[int, str], _Written] = {}  # insertion order = write order
         self._oldest_unacked: float | None | object = _STALE
+        self._has: dict[tuple[int, str], object] = {}  # key -> _device_has(key), for the current `written`
 
     def set(self, message, now_s: float) -> bool:
         """The newest value of one layer. Returns whether it changed between nothing waiting and
@@ -177,12 +178,19 @@ class CommandBook:
 
     def _device_has(self, key: tuple[int, str]):
         """The value the device has on `key` as far as the host knows, else None."""
+        # asked at every set, a function of `written` alone: kept until it changes (here only)
+        if key in self._has:
+            return self._has[key]
+        has = None
         for k in reversed(self.written):
             if k == key:  # touches and overrides itself
-                return as_seen_by(self.written[k].message, key)
+                has = as_seen_by(self.written[k].message, key)
+                break
             if touches(k, key):
-                return as_seen_by(self.written[k].message, key) if overrides(k, key) else None
-        return None
+                has = as_seen_by(self.written[k].message, key) if overrides(k, key) else None
+                break
+        self._has[key] = has
+        return has
 
     def pop_next(self):
         """(key, message, since) of the command to write now, or None."""
@@ -190,6 +198,7 @@ class CommandBook:
 
     def mark_written(self, key, message, since_s: float, now_s: float, seq: int | None = None) -> None:
         self._oldest_unacked = _STALE
+        self._has.clear()
         for k, entry in list(self.written.items()):
             if overrides(key, k):
                 del self.written[k]
@@ -224,6 +233,7 @@ class CommandBook:
 
     def _requeue(self, keys: list) -> int:
         self._oldest_unacked = _STALE
+        self._has.clear()
         newer = list(self.slots)  # every waiting value was set after every written one
         count = 0
         for key in keys:

@@ -102,6 +102,13 @@ def _round_half_up(value: float, field: str) -> int:
 _FIELD_NAMES: dict[type, tuple[str, ...]] = {}  # message class -> its field names, in order
 
 
+def _field_names(cls: type) -> tuple[str, ...]:
+    names = _FIELD_NAMES.get(cls)
+    if names is None:  # a class's fields never change: look them up once
+        names = _FIELD_NAMES[cls] = tuple(f.name for f in fields(cls))
+    return names
+
+
 class _Message:
     TYPE: ClassVar[int]
     FORMAT: ClassVar[str]  # struct format of the fixed payload
@@ -117,11 +124,17 @@ class _Message:
                 raise MessageError("bad_value", f"{type(self).__name__}.{name} must be an integer in "
                                    f"[{low}, {high}], got {value!r}", name)
 
+    @classmethod
+    def _unchecked(cls, values: tuple):
+        """The instance cls(*values) builds, for values its __post_init__ passes unchanged (plain
+        ints in range, enum members where it converts): fields set in order, as the dataclass
+        __init__ sets them, without the check."""
+        message = object.__new__(cls)
+        message.__dict__.update(zip(_field_names(cls), values))
+        return message
+
     def _values(self) -> tuple:
-        names = _FIELD_NAMES.get(type(self))
-        if names is None:  # a class's fields never change: look them up once
-            names = _FIELD_NAMES[type(self)] = tuple(f.name for f in fields(self))
-        return tuple([getattr(self, name) for name in names])
+        return tuple([getattr(self, name) for name in _field_names(type(self))])
 
     def pack(self) -> bytes:
         return struct.pack(self.FORMAT, *self._values())
@@ -190,7 +203,7 @@ class SetPattern(_Message):
     off_us: int      # µs of silence; 0 with on_us > 0 = always on
 
     def __post_init__(self) -> None:
-        super().__post_init__()
+        _Message.__post_init__(self)  # super()'s, without building a super object per message
         object.__setattr__(self, "mode", _PATTERN_MODES[self.mode])  # PatternMode(mode); mode is in range
 
     @property
@@ -215,10 +228,14 @@ class SetPattern(_Message):
 
     @classmethod
     def pulse(cls, channel: int, t_on_ms: float, t_off_ms: float, intensity_pct: float,
-              carrier_hz: float = 0) -> SetPattern:
-        return cls(channel, PatternMode.PULSE, _round_half_up(intensity_pct, "intensity"),
-                   _round_half_up(carrier_hz, "carrier_hz"), _round_half_up(t_on_ms * 1000, "on_us"),
-                   _round_half_up(t_off_ms * 1000, "off_us"))
+              carrier_hz: float = 0, *, in_range: bool = False) -> SetPattern:
+        """`in_range`: the caller vouches that every field comes out in range, as from a checked
+        cues.PulseTrain (0..60000 ms, 0..100 %, carrier 0 or 1..2000 Hz) on channel 0..255; the
+        message is then not checked again."""
+        values = (channel, PatternMode.PULSE, _round_half_up(intensity_pct, "intensity"),
+                  _round_half_up(carrier_hz, "carrier_hz"), _round_half_up(t_on_ms * 1000, "on_us"),
+                  _round_half_up(t_off_ms * 1000, "off_us"))
+        return cls._unchecked(values) if in_range else cls(*values)
 
     @classmethod
     def continuous(cls, channel: int, intensity_pct: float, carrier_hz: float = 0) -> SetPattern:
