@@ -391,6 +391,13 @@ class FirmwareCore:
         data = bytes(data)
         if now_us >= self._quiet_until:                   # else none is due: advance() skips it too
             self._pending.extend(self._run(now_us))       # edges due before the frames act
+        if data.count(0) <= 1:
+            # at most one frame can end in it, so no C call can queue more than one frame's edges,
+            # and chunks before its 0x00 would only be buffered: one call leaves the core as the chunks do
+            self._lib.vt_device_receive(self._dev, data, len(data), now_us)
+            if 0 in data:
+                self._pending.extend(self._run(now_us))
+            return
         for i in range(0, len(data), self._CHUNK):
             chunk = data[i:i + self._CHUNK]
             self._lib.vt_device_receive(self._dev, chunk, len(chunk), now_us)

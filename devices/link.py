@@ -98,7 +98,10 @@ class LatestSlots(Generic[K, V]):
     def peek_oldest(self) -> tuple[K, V, float] | None:
         if not self._slots:
             return None
-        key = min(self._slots, key=lambda k: (self._slots[k][0], self._slots[k][1]))
+        if len(self._slots) == 1:
+            key = next(iter(self._slots))  # what min() returns for one key
+        else:
+            key = min(self._slots, key=lambda k: (self._slots[k][0], self._slots[k][1]))
         since, _, value = self._slots[key]
         return key, value, since
 

@@ -278,10 +278,13 @@ class HostProtocol:
         if self.status == DISCONNECTED:
             return b"", None
         self._check_timers(now_s)
-        if now_s < self.budget.ready_at:
-            return b"", self._wake_at(now_s)  # the budget would refuse any write: most polls
-        data = self.budget.write(now_s, lambda: self._next_write(now_s))
-        self.counters["bytes_out"] += len(data)
+        budget = self.budget
+        if not now_s >= budget.ready_at:  # not budget.ready(now_s): it would refuse any write (most polls)
+            return b"", self._wake_at(now_s)
+        data = self._next_write(now_s)  # budget.write(now_s, produce), without a closure per poll
+        if data:
+            budget.spend(len(data), now_s)
+            self.counters["bytes_out"] += len(data)
         return data, self._wake_at(now_s)
 
     def events_received(self) -> list:
