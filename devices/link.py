@@ -182,8 +182,9 @@ class CommandBook:
     def _device_has(self, key: tuple[int, str]):
         """The value the device has on `key` as far as the host knows, else None."""
         # asked at every set, a function of `written` alone: kept until it changes (here only)
-        if key in self._has:
-            return self._has[key]
+        has = self._has.get(key, _STALE)
+        if has is not _STALE:
+            return has
         has = None
         for k in reversed(self.written):
             if k == key:  # touches and overrides itself
