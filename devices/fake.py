@@ -6,7 +6,8 @@ ERROR with the codes of §3, layers per channel, 0xFF = every channel), but keep
 the portable C core (devices/firmware) and its emulators do that.
 SimulatedLink moves whole writes across a line of `byte_time_s` per byte (both directions
 serialised, plus a fixed latency) and polls the host exactly when its poll() asked to be
-called again, or after something new was set or received: it checks that contract too.
+called again, after something was received, or after a set() that answers that a poll may
+have something new to do (HostProtocol.set): it checks that contract too.
 """
 
 from __future__ import annotations

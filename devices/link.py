@@ -122,7 +122,7 @@ class LatestSlots(Generic[K, V]):
         return iter(list(self._slots))
 
 
-_STALE = object()  # CommandBook._oldest_unacked: to be computed again
+_STALE = object()  # a CommandBook cache entry that is to be computed again
 
 
 @dataclass
@@ -251,4 +251,4 @@ class CommandBook:
 
     @property
     def pending(self) -> int:
-        return len(self.slots._slots)  # asked at every set and poll: without LatestSlots.__len__
+        return len(self.slots._slots)  # asked at every poll: without LatestSlots.__len__

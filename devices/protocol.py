@@ -5,7 +5,8 @@ port and the clock and calls, with the current time in seconds:
 
     connection_made(now)          port opened: a lone 0x00 (flush) + HELLO get queued
     receive_data(data, now)       bytes read; never raises
-    set(command, now)             the newest value of one layer (SET_* or STOP)
+    set(command, now) -> bool     the newest value of one layer (SET_* or STOP); False: a poll
+                                  now would do nothing new (see set)
     poll(now) -> (data, wake_at)  at most one frame to write now, and when to poll again
     connection_lost(now, reason)  read/write error or port closed
     events_received()             facts since the last call (StatusChanged, Acked, ...)
@@ -365,8 +366,7 @@ class HostProtocol:
     def _wake_at(self, now_s: float) -> float | None:
         """The earliest time a poll has something to do: when each kind of frame wants to go out,
         but not before the budget allows, and the timers of _check_timers; never before now_s."""
-        # Straight-line min/max in the order of the list this was written as: the same result
-        # (ties keep the first), without building lists on every poll.
+        # min/max written out (ties keep the first, as min() and max() do): no lists on every poll
         ready = self.budget.ready_at
         best = ready if self._flush else None           # a flush is due at once (-inf): the budget decides
         for t in (self._hello_due, self._ping_due, self._watchdog_due, self._keepalive_due()):
