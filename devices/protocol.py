@@ -369,7 +369,8 @@ class HostProtocol:
         # min/max written out (ties keep the first, as min() and max() do): no lists on every poll
         ready = self.budget.ready_at
         best = ready if self._flush else None           # a flush is due at once (-inf): the budget decides
-        for t in (self._hello_due, self._ping_due, self._watchdog_due, self._keepalive_due()):
+        keepalive = None if self.watchdog == "off" else self._keepalive_due()  # none while off
+        for t in (self._hello_due, self._ping_due, self._watchdog_due, keepalive):
             if t is not None:
                 t = ready if ready > t else t
                 if best is None or t < best:
