@@ -35,6 +35,22 @@ _DIMENSION = {Tilt: "macro_roughness", Texture: "fine_roughness", Stiffness: "st
               Friction: "friction"}
 
 
+# The last PulseTrain cue encoded and its command. Every device of a rig encodes the very same
+# cue objects each tick, and a cue and a message are immutable, so the next device reuses the
+# command (one tuple, rebound at once: safe across threads).
+_last_pulse: tuple[PulseTrain | None, SetPattern | None] = (None, None)
+
+
+def _pulse_pattern(cue: PulseTrain) -> SetPattern:
+    global _last_pulse
+    last_cue, command = _last_pulse
+    if last_cue is not cue:
+        command = SetPattern.pulse(ALL_CHANNELS, cue.t_on_ms, cue.t_off_ms, cue.intensity_pct, cue.carrier_hz or 0,
+                                   in_range=True)  # the cue checked its ranges when it was made
+        _last_pulse = (cue, command)
+    return command
+
+
 @dataclass(frozen=True)
 class StiffnessEncoding:
     """Stiffness as vibration (thesis §4.1.3; docs/reference.md "Devices"): bursts of t_on_ms whose
@@ -95,8 +111,9 @@ class CueEncoder:
 
     def encode(self, cues: tuple[Cue, ...] | list[Cue]) -> Encoding:
         commands = dict(self.off)
-        if any(isinstance(c, Stop) for c in cues):
-            return Encoding(commands, ())
+        for c in cues:
+            if isinstance(c, Stop):
+                return Encoding(commands, ())
         claimed: dict[str, str] = {}
         refusals: list[Refusal] = []
         for cue in cues:
@@ -126,8 +143,7 @@ class CueEncoder:
         if isinstance(cue, PulseTrain):
             if "pulse" not in caps:
                 return self._refuse(cue, "no_capability", "its firmware has no pulse-train command")
-            return "pattern", SetPattern.pulse(ALL_CHANNELS, cue.t_on_ms, cue.t_off_ms, cue.intensity_pct,
-                                               cue.carrier_hz or 0)
+            return "pattern", _pulse_pattern(cue)
         if isinstance(cue, Vibration):
             if "continuous" not in caps:
                 return self._refuse(cue, "no_capability", "its firmware has no continuous-vibration command")

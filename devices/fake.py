@@ -6,13 +6,15 @@ ERROR with the codes of §3, layers per channel, 0xFF = every channel), but keep
 the portable C core (devices/firmware) and its emulators do that.
 SimulatedLink moves whole writes across a line of `byte_time_s` per byte (both directions
 serialised, plus a fixed latency) and polls the host exactly when its poll() asked to be
-called again, or after something new was set or received: it checks that contract too.
+called again, after something was received, or after a set() that answers that a poll may
+have something new to do (HostProtocol.set): it checks that contract too.
 """
 
 from __future__ import annotations
 
 import heapq
 import itertools
+import math
 from collections.abc import Callable
 
 from devices import messages as m
@@ -129,6 +131,7 @@ class SimulatedLink:
         self._free = {"device": 0.0, "host": 0.0}     # when each direction's line is idle again
         self._wake: float | None = None
         self._dirty = True
+        self._next = math.inf  # min(first arrival, wake) when run_until last returned: a lower bound of both
 
     def plug(self) -> None:
         self.connected = True
@@ -143,24 +146,32 @@ class SimulatedLink:
         self._collect()
 
     def set(self, message) -> None:
-        self.host.set(message, self.t)
-        self._dirty = True
+        # a host set() that answers False asks for no poll: we last polled before its wake_at
+        # (run_until stops short of it) and received nothing since, or we are dirty anyway
+        if self.host.set(message, self.t) is not False or not self.connected:
+            self._dirty = True
 
     def run_until(self, t_end: float) -> None:
-        if not self._dirty and (self._wake is None or self._wake > t_end) and (
-                not self._arrivals or self._arrivals[0][0] > t_end):
-            self.t = max(self.t, t_end)  # nothing due on the line before t_end: the loop below would only do this
+        if not self._dirty and self._next > t_end:
+            # nothing set or received since, no arrival and no wake before t_end (arrivals and
+            # wakes only change in the loop below): the loop would only move the time
+            if t_end > self.t:
+                self.t = t_end
             return
+        arrivals = self._arrivals
         while True:
             if self._dirty or (self._wake is not None and self._wake <= self.t):
                 self._poll()
-            nxt = [t for t in (self._arrivals[0][0] if self._arrivals else None, self._wake) if t is not None]
-            if not nxt or min(nxt) > t_end:
+            nxt, wake = (arrivals[0][0] if arrivals else None), self._wake
+            if wake is not None and (nxt is None or wake < nxt):  # min(): an arrival first on a tie
+                nxt = wake
+            if nxt is None or nxt > t_end:
                 self.t = max(self.t, t_end)
+                self._next = math.inf if nxt is None else nxt
                 return
-            self.t = max(self.t, min(nxt))
-            while self._arrivals and self._arrivals[0][0] <= self.t:
-                _, _, to, data = heapq.heappop(self._arrivals)
+            self.t = max(self.t, nxt)
+            while arrivals and arrivals[0][0] <= self.t:
+                _, _, to, data = heapq.heappop(arrivals)
                 if to == "device":
                     self.device.receive_data(data, self.t)
                     reply = self.device.data_to_send()
@@ -194,7 +205,10 @@ class SimulatedLink:
         heapq.heappush(self._arrivals, (self._free[to] + self.latency_s, next(self._n), to, data))
 
     def _collect(self) -> None:
-        self.events.extend((self.t, e) for e in self.host.events_received())
+        events = self.host.events_received()
+        if events:
+            t = self.t
+            self.events.extend([(t, e) for e in events])
 
     def written_messages(self) -> list[tuple[float, object]]:
         """(time, message) of every frame the host wrote, decoded again."""

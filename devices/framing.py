@@ -72,6 +72,9 @@ def decode_frame(encoded: bytes) -> Frame | FrameError:
     return Frame(body[0], body[1], bytes(body[2:]))
 
 
+_DECODED_KEPT = 1024
+
+
 class FrameDecoder:
     """Streaming receiver: feed(bytes) -> frames and errors, in arrival order."""
 
@@ -79,6 +82,9 @@ class FrameDecoder:
         self.max_wire = max_wire
         self._buf = bytearray()
         self._discarding = False  # after too_long: skip up to the next 0x00 (§1 Sizes)
+        # decode_frame is pure and its results immutable, and a device's replies repeat (an ACK
+        # per seq): equal bytes are decoded once (bounded: emptied when full)
+        self._decoded: dict[bytes, Frame | FrameError] = {}
 
     def reset(self) -> None:
         """Forget a partial frame (a new port starts clean)."""
@@ -105,7 +111,13 @@ class FrameDecoder:
             if self._discarding:
                 self._discarding = False  # resynchronised
             elif self._buf:
-                out.append(decode_frame(bytes(self._buf)))
+                encoded = bytes(self._buf)
+                item = self._decoded.get(encoded)
+                if item is None:
+                    if len(self._decoded) >= _DECODED_KEPT:
+                        self._decoded.clear()
+                    item = self._decoded[encoded] = decode_frame(encoded)
+                out.append(item)
             # an empty frame (0x00 0x00) is a flush, not an error (§1)
             self._buf.clear()
             start = end + 1

@@ -377,7 +377,8 @@ class FirmwareCore:
         edges: list[Edge] = []
         while True:
             n = self._lib.vt_device_advance(self._dev, now_us, self._edges, self._BATCH)
-            edges.extend(Edge._from_c(self._edges[i]) for i in range(n))
+            if n:
+                edges.extend(Edge._from_c(self._edges[i]) for i in range(n))
             if n < self._BATCH:
                 # vt_device_advance before the next edge (vt_device_next_edge_us, which includes
                 # the watchdog's expiry) changes nothing: advance() may skip the C call until then
@@ -388,25 +389,41 @@ class FirmwareCore:
         """Feed bytes from the host; complete frames take effect at now_us."""
         now_us = self._check_time(now_us)
         data = bytes(data)
-        self._pending.extend(self._run(now_us))           # edges due before the frames act
+        if now_us >= self._quiet_until:                   # else none is due: advance() skips it too
+            self._pending.extend(self._run(now_us))       # edges due before the frames act
+        if data.count(0) <= 1:
+            # at most one frame can end in it, so no C call can queue more than one frame's edges,
+            # and chunks before its 0x00 would only be buffered: one call leaves the core as the chunks do
+            self._lib.vt_device_receive(self._dev, data, len(data), now_us)
+            if 0 in data:
+                self._pending.extend(self._run(now_us))
+            return
         for i in range(0, len(data), self._CHUNK):
             chunk = data[i:i + self._CHUNK]
             self._lib.vt_device_receive(self._dev, chunk, len(chunk), now_us)
-            self._pending.extend(self._run(now_us))       # the command edges
+            if 0 in chunk:  # a frame ends at a 0x00; without one the core only buffered (or rejected): no edges
+                self._pending.extend(self._run(now_us))   # the command edges
 
     def take_output(self) -> bytes:
         """The bytes the device wants to send to the host (replies), drained."""
         parts = []
         while n := self._lib.vt_device_take_output(self._dev, self._out, len(self._out)):
             parts.append(self._out.raw[:n])
+            if n < len(self._out):
+                break  # it stops short of the buffer only when nothing is left
         return b"".join(parts)
 
     def advance(self, now_us: int) -> list[Edge]:
         """Run the scheduler up to now_us inclusive; every output change since the last call,
         in time order, each stamped with its exact time."""
+        if type(now_us) is int and self._now <= now_us < self._quiet_until and not self._pending:
+            # a device between edges (most 1 kHz ticks): nothing is due. _check_time would accept
+            # this time as it is (an int, not backwards, below _quiet_until <= NEVER)
+            self._now = now_us
+            return []
         now_us = self._check_time(now_us)
         if now_us < self._quiet_until and not self._pending:
-            return []  # a device between edges (most 1 kHz ticks): nothing is due
+            return []
         edges, self._pending = self._pending, []
         edges.extend(self._run(now_us))
         return edges

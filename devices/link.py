@@ -98,7 +98,10 @@ class LatestSlots(Generic[K, V]):
     def peek_oldest(self) -> tuple[K, V, float] | None:
         if not self._slots:
             return None
-        key = min(self._slots, key=lambda k: (self._slots[k][0], self._slots[k][1]))
+        if len(self._slots) == 1:
+            key = next(iter(self._slots))  # what min() returns for one key
+        else:
+            key = min(self._slots, key=lambda k: (self._slots[k][0], self._slots[k][1]))
         since, _, value = self._slots[key]
         return key, value, since
 
@@ -117,6 +120,9 @@ class LatestSlots(Generic[K, V]):
 
     def __iter__(self) -> Iterator[K]:
         return iter(list(self._slots))
+
+
+_STALE = object()  # a CommandBook cache entry that is to be computed again
 
 
 @dataclass
@@ -140,37 +146,63 @@ class CommandBook:
     def __init__(self) -> None:
         self.slots: LatestSlots[tuple[int, str], object] = LatestSlots()
         self.written: dict[tuple[int, str], _Written] = {}  # insertion order = write order
+        self._oldest_unacked: float | None | object = _STALE
+        self._has: dict[tuple[int, str], object] = {}  # key -> _device_has(key), for the current `written`
 
-    def set(self, message, now_s: float) -> None:
+    def set(self, message, now_s: float) -> bool:
+        """The newest value of one layer. Returns whether it changed between nothing waiting and
+        something waiting (HostProtocol.set tells its driver from that whether to poll)."""
         if not isinstance(message, SET_MESSAGES):
             raise TypeError(f"not a SET_* or STOP message: {message!r}")
         key = message.layer_key
-        others = [k for k in self.slots if k != key]
-        if not any(touches(k, key) for k in others) and self._device_has(key) == message:
-            self.slots.remove(key)  # the device already shows it: a waiting older value is moot
-            return
-        for k in others:
+        waiting = self.slots._slots
+        waited = bool(waiting)
+        if len(waiting) <= (key in waiting):  # no other key waits (most sets): none touches this one
+            has = self._device_has(key)
+            if has is message or has == message:
+                waiting.pop(key, None)  # the device already shows it: a waiting older value is moot
+            else:
+                self.slots.put(key, message, now_s)
+            return bool(waiting) != waited
+        touching = [k for k in waiting if k != key and touches(k, key)]  # their order with this one matters
+        if not touching and self._device_has(key) == message:
+            self.slots.remove(key)
+            return bool(waiting) != waited
+        # overrides implies touches, so only a touching key can be dropped or reorder this one
+        for k in touching:
             if overrides(key, k):
                 self.slots.remove(k)  # e.g. STOP c drops the waiting layers of c
         rank = self.slots.rank(key)
-        if rank is not None and any(touches(k, key) and self.slots.rank(k) > rank
-                                    for k in self.slots if k != key):
+        if rank is not None and any(k in self.slots and self.slots.rank(k) > rank for k in touching):
             # it must now go after a touching command set meanwhile: line up anew
             self.slots.remove(key)
         self.slots.put(key, message, now_s)
+        return not waited
 
     def _device_has(self, key: tuple[int, str]):
         """The value the device has on `key` as far as the host knows, else None."""
+        # asked at every set, a function of `written` alone: kept until it changes (here only)
+        has = self._has.get(key, _STALE)
+        if has is not _STALE:
+            return has
+        has = None
         for k in reversed(self.written):
+            if k == key:  # touches and overrides itself
+                has = as_seen_by(self.written[k].message, key)
+                break
             if touches(k, key):
-                return as_seen_by(self.written[k].message, key) if overrides(k, key) else None
-        return None
+                has = as_seen_by(self.written[k].message, key) if overrides(k, key) else None
+                break
+        self._has[key] = has
+        return has
 
     def pop_next(self):
         """(key, message, since) of the command to write now, or None."""
         return self.slots.pop_oldest()
 
     def mark_written(self, key, message, since_s: float, now_s: float, seq: int | None = None) -> None:
+        self._oldest_unacked = _STALE
+        self._has.clear()
         for k, entry in list(self.written.items()):
             if overrides(key, k):
                 del self.written[k]
@@ -182,11 +214,15 @@ class CommandBook:
         for entry in self.written.values():
             if entry.seq == seq and not entry.acked:
                 entry.acked = True
+                self._oldest_unacked = _STALE
                 return
 
     def oldest_unacked_at(self) -> float | None:
-        times = [e.sent_at_s for e in self.written.values() if not e.acked]
-        return min(times) if times else None
+        # asked at every poll; cached until `written` or an entry's `acked` changes (here only)
+        if self._oldest_unacked is _STALE:
+            times = [e.sent_at_s for e in self.written.values() if not e.acked]
+            self._oldest_unacked = min(times) if times else None
+        return self._oldest_unacked
 
     def requeue_all(self) -> int:
         """Everything written becomes pending again (after a reconnect, §4.4)."""
@@ -200,6 +236,8 @@ class CommandBook:
         return 0 if first is None else self._requeue(keys[first:])
 
     def _requeue(self, keys: list) -> int:
+        self._oldest_unacked = _STALE
+        self._has.clear()
         newer = list(self.slots)  # every waiting value was set after every written one
         count = 0
         for key in keys:
@@ -213,4 +251,4 @@ class CommandBook:
 
     @property
     def pending(self) -> int:
-        return len(self.slots)
+        return len(self.slots._slots)  # asked at every poll: without LatestSlots.__len__

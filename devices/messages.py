@@ -42,6 +42,9 @@ class PatternMode(IntEnum):
     TEXTURE = 3
 
 
+_PATTERN_MODES = tuple(PatternMode)  # by value: 0, 1, 2, 3
+
+
 class Caps(IntFlag):
     PULSE = 1 << 0
     CONTINUOUS = 1 << 1
@@ -83,10 +86,27 @@ class MessageError(ValueError):
         self.field = field
 
 
+_EXACT_INT = 2**52  # an int below this in size and int + 0.5 are exact as floats
+
+
 def _round_half_up(value: float, field: str) -> int:
+    if type(value) is float and -math.inf < value < math.inf:  # finite (NaN fails the compare)
+        return math.floor(value + 0.5)
+    if type(value) is int and -_EXACT_INT < value < _EXACT_INT:  # floor(value + 0.5) is value itself
+        return value
     if not is_finite_number(value):
         raise MessageError("bad_value", f"{field} must be a finite number, got {value!r}", field)
     return math.floor(value + 0.5)
+
+
+_FIELD_NAMES: dict[type, tuple[str, ...]] = {}  # message class -> its field names, in order
+
+
+def _field_names(cls: type) -> tuple[str, ...]:
+    names = _FIELD_NAMES.get(cls)
+    if names is None:  # a class's fields never change: look them up once
+        names = _FIELD_NAMES[cls] = tuple(f.name for f in fields(cls))
+    return names
 
 
 class _Message:
@@ -98,12 +118,23 @@ class _Message:
     def __post_init__(self) -> None:
         for name, (low, high) in self.RANGES.items():
             value = getattr(self, name)
+            if type(value) is int and low <= value <= high:
+                continue  # a plain int in range: the check below would pass it
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
                 raise MessageError("bad_value", f"{type(self).__name__}.{name} must be an integer in "
                                    f"[{low}, {high}], got {value!r}", name)
 
+    @classmethod
+    def _unchecked(cls, values: tuple):
+        """The instance cls(*values) builds, for values its __post_init__ passes unchanged (plain
+        ints in range, enum members where it converts): fields set in order, as the dataclass
+        __init__ sets them, without the check."""
+        message = object.__new__(cls)
+        message.__dict__.update(zip(_field_names(cls), values))
+        return message
+
     def _values(self) -> tuple:
-        return tuple(getattr(self, f.name) for f in fields(self))
+        return tuple([getattr(self, name) for name in _field_names(type(self))])
 
     def pack(self) -> bytes:
         return struct.pack(self.FORMAT, *self._values())
@@ -172,8 +203,8 @@ class SetPattern(_Message):
     off_us: int      # µs of silence; 0 with on_us > 0 = always on
 
     def __post_init__(self) -> None:
-        super().__post_init__()
-        object.__setattr__(self, "mode", PatternMode(self.mode))
+        _Message.__post_init__(self)  # super()'s, without building a super object per message
+        object.__setattr__(self, "mode", _PATTERN_MODES[self.mode])  # PatternMode(mode); mode is in range
 
     @property
     def layer_key(self) -> tuple[int, str]:
@@ -197,10 +228,14 @@ class SetPattern(_Message):
 
     @classmethod
     def pulse(cls, channel: int, t_on_ms: float, t_off_ms: float, intensity_pct: float,
-              carrier_hz: float = 0) -> SetPattern:
-        return cls(channel, PatternMode.PULSE, _round_half_up(intensity_pct, "intensity"),
-                   _round_half_up(carrier_hz, "carrier_hz"), _round_half_up(t_on_ms * 1000, "on_us"),
-                   _round_half_up(t_off_ms * 1000, "off_us"))
+              carrier_hz: float = 0, *, in_range: bool = False) -> SetPattern:
+        """`in_range`: the caller vouches that every field comes out in range, as from a checked
+        cues.PulseTrain (0..60000 ms, 0..100 %, carrier 0 or 1..2000 Hz) on channel 0..255; the
+        message is then not checked again."""
+        values = (channel, PatternMode.PULSE, _round_half_up(intensity_pct, "intensity"),
+                  _round_half_up(carrier_hz, "carrier_hz"), _round_half_up(t_on_ms * 1000, "on_us"),
+                  _round_half_up(t_off_ms * 1000, "off_us"))
+        return cls._unchecked(values) if in_range else cls(*values)
 
     @classmethod
     def continuous(cls, channel: int, intensity_pct: float, carrier_hz: float = 0) -> SetPattern:

@@ -5,7 +5,8 @@ port and the clock and calls, with the current time in seconds:
 
     connection_made(now)          port opened: a lone 0x00 (flush) + HELLO get queued
     receive_data(data, now)       bytes read; never raises
-    set(command, now)             the newest value of one layer (SET_* or STOP)
+    set(command, now) -> bool     the newest value of one layer (SET_* or STOP); False: a poll
+                                  now would do nothing new (see set)
     poll(now) -> (data, wake_at)  at most one frame to write now, and when to poll again
     connection_lost(now, reason)  read/write error or port closed
     events_received()             facts since the last call (StatusChanged, Acked, ...)
@@ -49,6 +50,7 @@ DISCONNECTED, HANDSHAKING, CONNECTED, UNRESPONSIVE, BAD_VERSION = (
     "disconnected", "handshaking", "connected", "unresponsive", "bad_version")
 REJECT_KINDS = ("framing", "too_long", "bad_length", "bad_crc", "unknown_type", "bad_value")
 _PING_TOKENS_KEPT = 8
+_UNPACKED_KEPT = 1024
 # The production defaults (devices.manager.make_protocol): the device is off at most 45 ms after
 # the host's last frame, so within 50 ms of the host dying, as the device host's own quiet rule
 # does for a dead loop; a keepalive at least every 11.25 ms leaves 3 of them to be lost or late (a
@@ -126,6 +128,7 @@ class HostProtocol:
         self.budget = LinkBudget(share, byte_time_s)
         self.book = CommandBook()
         self._decoder = FrameDecoder()
+        self._unpacked: dict[tuple[int, bytes], object] = {}  # see _unpack
         self._events: list = []
         self._seq = 0
         self._frames: dict[int, tuple[object, float]] = {}  # seq -> (message, written at): the last 256
@@ -183,7 +186,7 @@ class HostProtocol:
             self._set_status(BAD_VERSION, f"device speaks protocol version {frame.payload[0]}")
             return
         try:
-            message = m.unpack(frame.type, frame.payload)
+            message = self._unpack(frame)
         except m.MessageError as exc:
             self._reject(FrameError(exc.kind, frame.payload, f"type {frame.type:#04x} seq {frame.seq}: {exc}"))
             return
@@ -243,22 +246,46 @@ class HostProtocol:
             self._hello_due = None
             self._set_status(BAD_VERSION, "device refused HELLO version 1")
 
+    def _unpack(self, frame: Frame):
+        """m.unpack, once per distinct payload: it is pure and messages are immutable, and a
+        device's replies repeat (an ACK per seq). A payload it refuses is not kept."""
+        key = (frame.type, frame.payload)
+        message = self._unpacked.get(key)
+        if message is None:
+            message = m.unpack(frame.type, frame.payload)
+            if len(self._unpacked) >= _UNPACKED_KEPT:
+                self._unpacked.clear()
+            self._unpacked[key] = message
+        return message
+
     def _reject(self, error: FrameError) -> None:
         self.counters[error.kind] = self.counters.get(error.kind, 0) + 1
         self._events.append(FrameRejected(error))
 
     # ---- commands and output ---------------------------------------------------------------
 
-    def set(self, message, now_s: float) -> None:
-        """The newest value of one layer (a SET_* or STOP message); latest wins per layer_key."""
-        self.book.set(message, now_s)
+    def set(self, message, now_s: float) -> bool:
+        """The newest value of one layer (a SET_* or STOP message); latest wins per layer_key.
+
+        Returns whether a poll may now do something new. False: commands waited before and still
+        do (or neither), which is all a poll asks of them until it writes, and no timer is due at
+        now_s. So for a driver whose last poll returned a wake_at later than now_s and that has
+        received nothing since, a poll now would change nothing and return that same wake_at
+        (every send it could make is due at or after wake_at): it may skip it. A simulated
+        link does, on most ticks; a driver that always polls loses nothing."""
+        return self.book.set(message, now_s) or self._timers_due(now_s)
 
     def poll(self, now_s: float) -> tuple[bytes, float | None]:
         if self.status == DISCONNECTED:
             return b"", None
         self._check_timers(now_s)
-        data = self.budget.write(now_s, lambda: self._next_write(now_s))
-        self.counters["bytes_out"] += len(data)
+        budget = self.budget
+        if not now_s >= budget.ready_at:  # not budget.ready(now_s): it would refuse any write (most polls)
+            return b"", self._wake_at(now_s)
+        data = self._next_write(now_s)  # budget.write(now_s, produce), without a closure per poll
+        if data:
+            budget.spend(len(data), now_s)
+            self.counters["bytes_out"] += len(data)
         return data, self._wake_at(now_s)
 
     def events_received(self) -> list:
@@ -277,6 +304,7 @@ class HostProtocol:
         return None
 
     def _check_timers(self, now_s: float) -> None:
+        # _timers_due asks the same three questions: keep them in step
         if self._watchdog_sent is not None and now_s - self._watchdog_sent[1] >= self.ack_timeout_s:
             self._watchdog_sent, self._watchdog_due = None, now_s  # no answer: send it again
         if self.status == CONNECTED and now_s - self._last_rx >= self.silence_timeout_s:
@@ -286,21 +314,16 @@ class HostProtocol:
             if oldest is not None and now_s - oldest >= self.ack_timeout_s:
                 self.counters["resent"] += self.book.requeue_unacked()
 
-    def _due_sends(self) -> list[float]:
-        """When each kind of frame wants to go out (s), ignoring the budget."""
-        due = []
-        if self._flush:
-            due.append(-float("inf"))
-        if self._hello_due is not None:
-            due.append(self._hello_due)
-        if self._ping_due is not None:
-            due.append(self._ping_due)
-        for t in (self._watchdog_due, self._keepalive_due()):
-            if t is not None:
-                due.append(t)
-        if self.book.pending:
-            due.append(-float("inf"))
-        return due
+    def _timers_due(self, now_s: float) -> bool:
+        """Whether _check_timers(now_s) would act: its tests, without acting."""
+        if self._watchdog_sent is not None and now_s - self._watchdog_sent[1] >= self.ack_timeout_s:
+            return True
+        if self.status != CONNECTED:
+            return False
+        if now_s - self._last_rx >= self.silence_timeout_s:
+            return True
+        oldest = self.book.oldest_unacked_at()
+        return oldest is not None and now_s - oldest >= self.ack_timeout_s
 
     def _next_write(self, now_s: float) -> bytes:
         if self._flush:
@@ -341,15 +364,35 @@ class HostProtocol:
         return encode_frame(message.TYPE, seq, message.pack())
 
     def _wake_at(self, now_s: float) -> float | None:
-        times = [max(t, self.budget.ready_at) for t in self._due_sends()]
+        """The earliest time a poll has something to do: when each kind of frame wants to go out,
+        but not before the budget allows, and the timers of _check_timers; never before now_s."""
+        # min/max written out (ties keep the first, as min() and max() do): no lists on every poll
+        ready = self.budget.ready_at
+        best = ready if self._flush else None           # a flush is due at once (-inf): the budget decides
+        keepalive = None if self.watchdog == "off" else self._keepalive_due()  # none while off
+        for t in (self._hello_due, self._ping_due, self._watchdog_due, keepalive):
+            if t is not None:
+                t = ready if ready > t else t
+                if best is None or t < best:
+                    best = t
+        if self.book.pending and (best is None or ready < best):  # a command is due at once, too
+            best = ready
         if self.status == CONNECTED:
-            times.append(self._last_rx + self.silence_timeout_s)
+            t = self._last_rx + self.silence_timeout_s
+            if best is None or t < best:
+                best = t
             oldest = self.book.oldest_unacked_at()
             if oldest is not None:
-                times.append(oldest + self.ack_timeout_s)
+                t = oldest + self.ack_timeout_s
+                if best is None or t < best:
+                    best = t
         if self._watchdog_sent is not None:
-            times.append(self._watchdog_sent[1] + self.ack_timeout_s)
-        return max(min(times), now_s) if times else None
+            t = self._watchdog_sent[1] + self.ack_timeout_s
+            if best is None or t < best:
+                best = t
+        if best is None:
+            return None
+        return now_s if now_s > best else best
 
     def _set_status(self, new: str, reason: str) -> None:
         if new != self.status:

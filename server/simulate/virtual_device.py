@@ -37,7 +37,7 @@ class FirmwareDevice:
 
 
 def _us(t_s: float) -> int:
-    return int(round(t_s * 1e6))
+    return round(t_s * 1e6)  # round() of a float or int is an int already
 
 
 @dataclass
@@ -101,6 +101,7 @@ class VirtualDevice:
         self.device = FirmwareDevice(profile.model)
         self.link = SimulatedLink(self.host, self.device)
         self.link.plug()
+        self._core = self.device.core
         self.feel = Feel(len(profile.channels))
         self.edges: list[Edge] = []      # every actuator edge so far (the device's timeline)
         self.refusals: tuple[str, ...] = ()
@@ -120,7 +121,7 @@ class VirtualDevice:
     def run_until(self, t_s: float) -> list[Edge]:
         """Move the line and the firmware to t_s; the actuator edges since the last call."""
         self.link.run_until(t_s)
-        edges = self.device.core.advance(_us(t_s))
+        edges = self._core.advance(round(t_s * 1e6))  # _us, inlined: called twice per tick
         if edges:  # most ticks fall between edges
             self.feel.apply(edges)
             self.edges.extend(edges)
