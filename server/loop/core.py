@@ -449,17 +449,7 @@ class LoopCore:
             "trajectory": self.trajectory,
             "finished": sim.finished,
         }
-        if self.point_rows:  # several tracked points recorded (records.py POINT_ROW); absent: none
-            record["point_rows"] = self.point_rows
-            self.point_rows = []
-        if self.failures:  # ticks failed since the loop started; absent means 0
-            record["failures"] = self.failures
-        self.samples = array("q")
-        self.tracker_applied = []
-        self.trajectory = []
-        sim.events = []
-        sim.finished = []
-        return record
+        return self._hand_over(record)
 
     def _recorded_state(self, r: TickResult, now_ns: int) -> dict[str, Any]:
         """The state record of a run nobody draws (`drawn` False): what the recorder
@@ -469,14 +459,20 @@ class LoopCore:
                   "cues": self.wire_cues(r.output.cues), "hud": r.output.hud, "events": sim.events,
                   "samples": self.samples.tobytes(), "trackers": self.tracker_applied,
                   "trajectory": self.trajectory, "finished": sim.finished}
-        if self.point_rows:
+        return self._hand_over(record)
+
+    def _hand_over(self, record: dict[str, Any]) -> dict[str, Any]:
+        """The end of a state record: what it alone carries (rows, events, trial ends, applied
+        tracker samples, timing) goes out with it once; those buffers start anew."""
+        if self.point_rows:  # several tracked points recorded (records.py POINT_ROW); absent: none
             record["point_rows"] = self.point_rows
             self.point_rows = []
-        if self.failures:
+        if self.failures:  # ticks failed since the loop started; absent means 0
             record["failures"] = self.failures
         self.samples = array("q")
         self.tracker_applied = []
         self.trajectory = []
+        sim = self.sim
         sim.events = []
         sim.finished = []
         return record
