@@ -335,7 +335,7 @@ class Simulation:
         bodies_changed = False
         for object_id, pose in output.poses.items():
             last = moved.get(object_id)
-            if last is not None and (last is pose or _bits(last) == _bits(pose)):
+            if last is not None and (last is pose or (last.pos == pose.pos and _bits(last) == _bits(pose))):
                 continue  # where it is already (a carried object between tracker samples): same body, same row
             body = all_bodies.get(object_id)
             if body is not None:

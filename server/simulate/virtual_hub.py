@@ -19,7 +19,6 @@ from __future__ import annotations
 from typing import Callable
 
 from scenarios import registry
-from server.core.cues import cue_from_wire
 from server.hub.control import ScenarioControl
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
@@ -92,8 +91,10 @@ class VirtualHub:
                 self._emit_all(out.records)
             if out.error is not None:
                 self.last_error = out.error
-            if out.cues is not None:  # what the feed hands the devices: the decoded cue record
-                cues = tuple([cue_from_wire(c) for c in out.cues])
+            if out.cues is not None:  # what the feed hands the devices: the decoded cue record, which
+                # is the tick's own cue tuple (cue_from_wire inverts cue_to_wire exactly,
+                # tests/devices/test_cues.py), or nothing on a failed tick
+                cues = () if out.result is None else out.result.output.cues
                 for device in devices:
                     device.submit(cues)
             t_end = (out.tick + 1) / tick_hz
