@@ -147,16 +147,8 @@ namespace Viestac.Client
             if (key == null || CodePoints(key) < 1 || CodePoints(key) > MaxKey) throw Protocol.Bad("input.key is a string of 1..32 characters");
             if (action != InputActions.Down && action != InputActions.Up && action != InputActions.Press)
                 throw Protocol.Bad("input.action is down, up or press");
-            if (value == null || value is bool || value is long || value is int) return;
-            if (value is double || value is float)
-            {
-                double d = Convert.ToDouble(value);
-                if (double.IsNaN(d) || double.IsInfinity(d)) throw new ProtocolException("non_finite", "NaN or Infinity in a number");
-                return;
-            }
-            var s = value as string;
-            if (s == null) throw Protocol.Bad("input.value is a number, a bool or a string");
-            if (CodePoints(s) > MaxValueText) throw Protocol.Bad("input.value is at most 200 characters");
+            if (value == null || value is bool) return;
+            CheckNumberOrText(value, "input.value", "a number, a bool or a string");
         }
 
         /// <summary>v1.5 `answer`: a trial, a question id of 1..64 characters, a number or a string ≤ 200.</summary>
@@ -165,6 +157,12 @@ namespace Viestac.Client
             if (seq < 0) throw Protocol.Bad("answer.seq is an int >= 0");
             if (question == null || CodePoints(question) < 1 || CodePoints(question) > 64)
                 throw Protocol.Bad("answer.question is a string of 1..64 characters");
+            CheckNumberOrText(value, "answer.value", "a number or a string");
+        }
+
+        /// <summary>A finite number, or a string of at most 200 characters (`input` and `answer` values).</summary>
+        static void CheckNumberOrText(object value, string field, string kinds)
+        {
             if (value is long || value is int) return;
             if (value is double || value is float)
             {
@@ -173,8 +171,8 @@ namespace Viestac.Client
                 return;
             }
             var s = value as string;
-            if (s == null) throw Protocol.Bad("answer.value is a number or a string");
-            if (CodePoints(s) > MaxValueText) throw Protocol.Bad("answer.value is at most 200 characters");
+            if (s == null) throw Protocol.Bad(field + " is " + kinds);
+            if (CodePoints(s) > MaxValueText) throw Protocol.Bad(field + " is at most 200 characters");
         }
 
         /// <summary>Unicode code points (the protocol counts them; C# strings count UTF-16 units).</summary>
