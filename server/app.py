@@ -24,6 +24,7 @@ from server.api.tracker_routes import router as tracker_router
 from server.auth import AccessControl
 from server.api.web_client import WebClient
 from server.config import Settings
+from server.cpu_plan import CpuPlan, plan_cpus
 from server.experiment.engine import Experiment
 from server.experiment.store import Store, utc_now
 from server.hub.device_host import DeviceHost
@@ -67,12 +68,16 @@ async def _flush_recorder(experiment: Experiment, every_s: float = 0.25) -> None
         await asyncio.to_thread(experiment.flush)
 
 
-def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
+def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None = None) -> FastAPI:
     """`tracker_sock`: the tracker UDP port bound already (viestac serve binds it first, to fail
-    early and print it); otherwise it is bound at start-up from settings.tracker_address()."""
+    early and print it); otherwise it is bound at start-up from settings.tracker_address().
+    `cpu_plan`: where the loop and the other processes run (viestac serve plans it and keeps this
+    process off the loop's CPU first); otherwise planned here from this process's CPUs."""
+    if cpu_plan is None:
+        cpu_plan = plan_cpus(os.sched_getaffinity(0), settings.loop_cpu)
     hub = Hub(server_name=f"viestac/{__version__}", tick_hz=settings.tick_hz, state_hz=settings.state_hz,
               overrun_threshold=settings.overrun_threshold)
-    supervisor = LoopSupervisor(settings.loop_config(), hub.on_loop_record)
+    supervisor = LoopSupervisor(settings.loop_config(cpu=cpu_plan.loop), hub.on_loop_record)
     supervisor.owner = hub.owner  # one thread owns both: the event loop's (server/hub/owner.py)
     hub.send_to_loop = supervisor.send
     # A restarted loop comes back with what ran, not with the start-up scenario; a recorded trial
@@ -158,6 +163,7 @@ def create_app(settings: Settings, tracker_sock=None) -> FastAPI:
     app.add_middleware(BrowserSafety, **options_for(settings))  # Host, Origin, CORS, security headers
     app.state.hub = hub
     app.state.supervisor = supervisor
+    app.state.cpu_plan = cpu_plan
     app.state.rig = rig
     app.state.experiment = experiment
     app.state.access = access

@@ -14,6 +14,7 @@ from pathlib import Path
 from server.core.scenario import ParamError
 from scenarios.registry import UnknownScenario
 from server.config import STUDIES_DIR
+from server.cpu_plan import MODES, OWN_FROM_CPUS, keep_off_loop_cpu, plan_cpus
 from server.loop.tracker_udp import is_loopback
 from server.core.scene import SceneError
 
@@ -49,7 +50,8 @@ def _serve(args: argparse.Namespace) -> int:
     try:
         settings = Settings(host=args.host, port=args.port, scenario=args.scenario,
                             scenario_params=_scenario_params(args.param), scene_file=args.scene,
-                            state_hz=args.state_hz, realtime=not args.no_realtime, gate_band=args.gate_band,
+                            state_hz=args.state_hz, realtime=not args.no_realtime, loop_cpu=args.loop_cpu,
+                            gate_band=args.gate_band,
                             gate_dwell_s=args.gate_dwell_ms / 1000.0, devices=tuple(devices),
                             simulated_rig=not args.no_rig, rig_models=tuple(m for m in args.rig.split(",") if m),
                             data_dir=Path(args.data_dir), studies_dir=Path(args.studies),
@@ -63,6 +65,8 @@ def _serve(args: argparse.Namespace) -> int:
     except (ParamError, ProfileError, ValueError) as exc:
         print(f"viestac serve: {exc}", file=sys.stderr)
         return 2
+    plan = plan_cpus(os.sched_getaffinity(0), settings.loop_cpu)
+    keep_off_loop_cpu(plan)  # before any thread or child starts: they inherit it
     report = settings.capability()
     if not report.ok and not args.force:
         print(f"viestac serve: {report.message} (--force runs it anyway)", file=sys.stderr)
@@ -81,11 +85,14 @@ def _serve(args: argparse.Namespace) -> int:
         except (ssl.SSLError, OSError) as exc:
             print(f"viestac serve: TLS certificate {settings.tls_cert} / key {settings.tls_key}: {exc}", file=sys.stderr)
             return 2
-    app = create_app(settings, tracker_sock=tracker_sock)
+    app = create_app(settings, tracker_sock=tracker_sock, cpu_plan=plan)
     sock = listen_socket(settings.host, settings.port)  # bound first so --port 0 can print the real port
     port = sock.getsockname()[1]
     # Test and bench harnesses read the base URL from the first line: "on http(s)://HOST:PORT/ ".
     print(serve_banner(settings, port), flush=True)
+    if plan.own:
+        print(f"the loop has CPU {plan.loop} to itself; the other server processes run on CPU "
+              f"{','.join(map(str, sorted(plan.others)))} (--loop-cpu {settings.loop_cpu})", flush=True)
     if tracker_sock is not None:
         print("tracker samples by UDP to %s:%d (docs/protocol.md)" % tracker_sock.getsockname()[:2], flush=True)
     if not is_loopback(settings.host) and settings.tls_cert is None:
@@ -415,7 +422,8 @@ def _bench_loop(args: argparse.Namespace) -> int:
 
     try:
         result = run_loop_bench(seconds=args.seconds, viewers=args.clients, trackers=args.trackers,
-                                warmup_s=args.warmup, scenario=args.scenario, kernel_trace=args.kernel_trace)
+                                warmup_s=args.warmup, scenario=args.scenario, kernel_trace=args.kernel_trace,
+                                loop_cpu=args.loop_cpu)
     except KernelTraceUnavailable as exc:
         print(f"viestac: {exc}", file=sys.stderr)
         return 2
@@ -596,6 +604,9 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--gate-dwell-ms", type=float, default=30.0,
                        help="minimum on/off time of the debounced contact (default 30 ms)")
     serve.add_argument("--no-realtime", action="store_true", help="do not ask for SCHED_FIFO for the loop")
+    serve.add_argument("--loop-cpu", choices=MODES, default="auto",
+                       help="own: the other server processes keep off the loop's CPU; shared: they may run there; "
+                            f"auto (default): own with {OWN_FROM_CPUS} or more CPUs, shared below (docs/performance.md)")
     serve.add_argument("--device", action="append", default=[], metavar="[NAME=]MODEL@PORT",
                        help="a tactile device, e.g. ferrovibe@/dev/ttyUSB0 or left=fingertac@usb:303a:1001 "
                             "(repeatable; replaces the simulated rig)")
@@ -748,6 +759,8 @@ def build_parser() -> argparse.ArgumentParser:
     loop.add_argument("--kernel-trace", action="store_true",
                       help="also trace the loop's wake-ups with the kernel's tracer (root, tracefs) and say what "
                            "made late ones late: the timer interrupt or the scheduling")
+    loop.add_argument("--loop-cpu", choices=MODES, default="auto",
+                      help="the server's --loop-cpu; with own the load generator also keeps off the loop's CPU")
     loop.add_argument("--json", action="store_true", help="print one JSON object")
     loop.set_defaults(func=_bench_loop)
     link = bench_sub.add_parser("link", help="a cue changing every tick through pyserial to an emulated FerroVibe: "

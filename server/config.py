@@ -9,6 +9,7 @@ from devices.capability import CapabilityReport, check
 from devices.manager import DeviceConfig, DeviceConfigError, check_unique, rig_points, with_fingers
 from devices.profiles import profile_by_model
 from scenarios import registry
+from server.cpu_plan import check_mode
 from server.loop.process import LoopConfig
 from server.loop.tracker_udp import is_loopback
 from server.core.points import PRIMARY_POINT, check_point_name
@@ -29,6 +30,7 @@ class Settings:
     tick_hz: int = 1000
     state_hz: float = 60.0
     realtime: bool = True
+    loop_cpu: str = "auto"         # the loop's CPU: "auto", "shared" or "own" (server/cpu_plan.py)
     gate_band: float = 0.002       # contact hysteresis band, scene units (docs/haptics.md)
     gate_dwell_s: float = 0.030    # minimum on and off time of the debounced contact
     web_root: Path = field(default=WEB_ROOT)
@@ -58,6 +60,7 @@ class Settings:
             raise ValueError("tick_hz must be in 100..10000")
         if not 1 <= self.state_hz <= min(self.tick_hz, 1000):
             raise ValueError("state_hz must be in 1..tick_hz")
+        check_mode(self.loop_cpu)
         if not 1 <= self.record_every <= 1000:
             raise ValueError("record_every must be in 1..1000 ticks")
         if not 0 <= self.overrun_threshold <= 10_000:
@@ -138,9 +141,10 @@ class Settings:
                 raise DeviceConfigError(f"--finger {name}={point}: {exc}") from None
         return {**base, **dict(self.fingers)}
 
-    def loop_config(self) -> LoopConfig:
+    def loop_config(self, cpu: int | None = None) -> LoopConfig:
+        """`cpu`: the loop's CPU from the server's CpuPlan (None: not pinned)."""
         return LoopConfig(scenario=self.scenario, scenario_params=self.scenario_params, scene_file=self.scene_file,
-                          tick_hz=self.tick_hz,
+                          tick_hz=self.tick_hz, cpu=cpu,
                           state_hz=self.state_hz, realtime=self.realtime, gate_band=self.gate_band,
                           gate_min_on_s=self.gate_dwell_s, gate_min_off_s=self.gate_dwell_s,
                           rig=rig_points(self.device_fingers().values()))

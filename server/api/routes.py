@@ -55,6 +55,11 @@ SupervisorDep = Annotated[LoopSupervisor, Depends(get_supervisor)]
 RigFree = Depends(rig_free)
 
 
+def _cpu_plan(request: Request) -> dict | None:
+    plan = getattr(request.app.state, "cpu_plan", None)
+    return plan.to_dict() if plan is not None else None
+
+
 @router.get("/health", summary="Server and 1 kHz loop status (ok | degraded | starting, with the reasons a "
                                 "person can act on), with loop timing over the last 10 s")
 async def health(request: Request, hub: HubDep, supervisor: SupervisorDep) -> dict:
@@ -63,6 +68,7 @@ async def health(request: Request, hub: HubDep, supervisor: SupervisorDep) -> di
     return {"status": report.status, "reasons": list(report.reasons), "notes": list(report.notes),
             "version": __version__, "uptime_s": round(time.monotonic() - _STARTED, 3),
             "loop": {"alive": alive, "pid": hub.loop_info.get("pid"), "rt": hub.telemetry.rt,
+                     "cpu": hub.loop_info.get("cpu"), "cpus": _cpu_plan(request),
                      "restarts": supervisor.restarts, "scenario": hub.loop_info.get("scenario"),
                      "tick_hz": hub.tick_hz, "state_hz": hub.state_hz,
                      "dropped_to_loop": supervisor.dropped_to_loop},

@@ -23,6 +23,7 @@ import asyncio
 import contextlib
 import json
 import math
+import os
 import random
 import socket
 import time
@@ -178,7 +179,11 @@ def main() -> None:
                         help="the latency tracker sends to this tracker UDP port instead of /ws")
     parser.add_argument("--format", choices=codec.FORMATS, default="msgpack", help="the viewers' encoding")
     parser.add_argument("--token", default=None, help="the server's access token (sent in every hello)")
+    parser.add_argument("--cpus", default=None, metavar="N,N",
+                        help="run on these CPUs only (off the loop's CPU when the server keeps it to itself)")
     args = parser.parse_args()
+    if args.cpus:
+        os.sched_setaffinity(0, {int(cpu) for cpu in args.cpus.split(",")})
     udp = None
     if args.latency_udp:
         host, _, port = args.latency_udp.rpartition(":")

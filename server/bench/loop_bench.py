@@ -132,6 +132,13 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
         time.sleep(0.1)
 
 
+def off_loop_cpu(base: str) -> list[str]:
+    """The load generator's `--cpus` when the server keeps its loop's CPU to itself
+    (`--loop-cpu own`): the viewers stand in for remote clients, which do not run there either."""
+    plan = get_json(base + "/api/health")["loop"].get("cpus") or {}
+    return ["--cpus", ",".join(map(str, plan["others"]))] if plan.get("own") else []
+
+
 def take_the_lease(base: str, token=_REGISTERED) -> dict:
     """Hold the control lease with `token` (the registered admin's by default), taking it from
     another holder (a restarted server's earlier token) if need be: test rigs have one user."""
@@ -185,7 +192,7 @@ def _rss_summary(samples: list[tuple[float, float]], seconds: float) -> dict:
 
 
 def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, warmup_s: float = 3.0,
-                   scenario: str = "contact-angle", kernel_trace: bool = False) -> dict:
+                   scenario: str = "contact-angle", kernel_trace: bool = False, loop_cpu: str = "auto") -> dict:
     """Loop timing and memory of the real server under load. `kernel_trace` also records the
     loop's timed wake-ups with the kernel's tracer (root, tracefs) and says what made late ones
     late (server/bench/kernel_trace.py)."""
@@ -197,14 +204,15 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         raise ValueError(f"warmup_s must be >= 0, got {warmup_s}")
     if kernel_trace:
         LoopWakeTrace.check()  # before anything starts: a clear error, nothing to clean up
-    proc, base = start_server(scenario)
+    proc, base = start_server(scenario, ["--loop-cpu", loop_cpu])
     wake_trace = None
     try:
         ws_url = base.replace("http://", "ws://") + "/ws"
         load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers", str(viewers),
                                  "--trackers", str(trackers), "--warmup", str(warmup_s), "--seconds", str(seconds),
-                                 "--token", admin_token(base)],
+                                 "--token", admin_token(base), *off_loop_cpu(base)],
                                 stdout=subprocess.PIPE, text=True)
+        cpus = get_json(base + "/api/health")["loop"]["cpus"]
         time.sleep(warmup_s)
         if kernel_trace:
             buffer_kb = int(min(256 * 1024, 8192 + 400 * seconds))  # the whole window up to ~10 min
@@ -246,7 +254,7 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         "tracker_messages": load_result["tracker_messages"],
         **tail(send_to_tick, "tracker_to_tick_", "_ms", (("p50", 0.5), ("p99", 0.99))),
         **tail(hub_to_tick, "hub_to_tick_", "_ms", (("p99", 0.99),)), "tracker_samples": len(send_to_tick),
-        **rss, "rt": telemetry["rt"], "seconds": seconds, "resyncs": telemetry["resyncs"],
+        **rss, "rt": telemetry["rt"], "loop_cpu": cpus, "seconds": seconds, "resyncs": telemetry["resyncs"],
         **({"kernel_trace": {**summarize(wakeups), "lost_events": wake_trace.lost_events}}
            if wakeups is not None else {}),
     }

@@ -32,6 +32,7 @@ from devices.feed import CUE_HEARTBEAT_MS
 from scenarios import registry
 from server.core.haptics.contact_gate import ContactGate
 from server import ipc
+from server.cpu_plan import pin_process
 from server.loop.builder import SwitchBuilder
 from server.loop.clock import Clock, MonotonicClock
 from server.loop.core import LoopCore
@@ -55,7 +56,7 @@ class LoopConfig:
     state_hz: float = 60.0
     realtime: bool = True
     rt_priority: int = 50
-    pin_cpu: bool = True  # keep the loop on the last CPU so its caches stay warm between ticks
+    cpu: int | None = None  # the CPU the loop pins itself to, so its caches stay warm between ticks (server/cpu_plan.py)
     gate_band: float = 0.002
     gate_min_on_s: float = 0.030
     gate_min_off_s: float = 0.030
@@ -100,6 +101,18 @@ def try_realtime(priority: int) -> str | None:
                 "`setcap cap_sys_nice+ep` on the python binary, or an rtprio limit) for 1 kHz.")
 
 
+def pin_to(cpu: int | None) -> str | None:
+    """Pin this process (its thread, and the builder thread started after) to `cpu`; a warning
+    when that is not allowed (a cpuset without that CPU), and the loop runs unpinned."""
+    if cpu is None:
+        return None
+    try:
+        pin_process({cpu})
+        return None
+    except OSError as exc:
+        return f"loop not pinned to CPU {cpu} ({exc}); its caches are colder after other processes ran"
+
+
 def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
         doorbell: ipc.Doorbell | None = None, cue_sock: socket.socket | None = None,
         tracker_port: TrackerPort | None = None) -> None:
@@ -107,16 +120,16 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
     core = build_core(config)
     rt_warning = try_realtime(config.rt_priority) if config.realtime else "real-time priority disabled by configuration"
     rt = rt_warning is None
-    cpus = sorted(os.sched_getaffinity(0))
-    if config.pin_cpu and len(cpus) > 1:
-        os.sched_setaffinity(0, {cpus[-1]})
+    cpu_warning = pin_to(config.cpu)
     builder = SwitchBuilder(core)
     builder.warm_up()
     parent = os.getppid()
     ipc.send_record(sock, ["hello", {"pid": os.getpid(), "rt": rt, "tick_hz": config.tick_hz,
-                                     "state_hz": config.state_hz, "scenario": core.sim.scenario.id}])
-    if rt_warning:
-        ipc.send_record(sock, ["log", "warning", rt_warning])
+                                     "state_hz": config.state_hz, "scenario": core.sim.scenario.id,
+                                     "cpu": config.cpu if cpu_warning is None else None}])
+    for warning in (rt_warning, cpu_warning):
+        if warning:
+            ipc.send_record(sock, ["log", "warning", warning])
     for record in core.announce():
         ipc.send_record(sock, record)
     # Everything built so far lives for the whole run: keep it out of the collector's sight so

@@ -4,6 +4,7 @@ tick and frame count it is given."""
 
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import sys
@@ -45,7 +46,7 @@ def stop(proc: subprocess.Popen, sock: socket.socket) -> None:
 
 
 def test_a_switch_is_installed_in_a_later_tick_than_the_one_that_received_it():
-    proc, sock = start_loop(LoopConfig(realtime=False, pin_cpu=False))
+    proc, sock = start_loop(LoopConfig(realtime=False))
     try:
         records_until(sock, lambda seen: any(r[0] == "state" for r in seen))
         # The key rides in the same mailbox drain: its event names the tick that applied the switch record.
@@ -65,7 +66,7 @@ def test_a_switch_is_installed_in_a_later_tick_than_the_one_that_received_it():
 
 
 def test_a_loop_given_a_start_tick_and_frame_continues_from_them():
-    proc, sock = start_loop(LoopConfig(realtime=False, pin_cpu=False, start_tick=123_456, start_frame=789))
+    proc, sock = start_loop(LoopConfig(realtime=False, start_tick=123_456, start_frame=789))
     try:
         seen = records_until(sock, lambda seen: sum(r[0] == "state" for r in seen) >= 3)
         announced = next(r[1] for r in seen if r[0] == "scenario")
@@ -73,5 +74,19 @@ def test_a_loop_given_a_start_tick_and_frame_continues_from_them():
         assert announced["tick"] == 123_456
         assert states[0]["tick"] >= 123_456 and states[0]["frame"] == 790
         assert [s["tick"] for s in states] == sorted(s["tick"] for s in states)
+    finally:
+        stop(proc, sock)
+
+
+def test_a_loop_that_cannot_pin_itself_runs_unpinned_and_says_so():
+    unusable = max(os.sched_getaffinity(0)) + 4096  # no such CPU: sched_setaffinity refuses it
+    proc, sock = start_loop(LoopConfig(realtime=False, cpu=unusable))
+    try:
+        seen = records_until(sock, lambda seen: any(r[0] == "state" for r in seen))
+        hello = next(r[1] for r in seen if r[0] == "hello")
+        warnings = [r[2] for r in seen if r[0] == "log" and r[1] == "warning"]
+        assert hello["cpu"] is None
+        assert any(f"not pinned to CPU {unusable}" in text for text in warnings), warnings
+        assert os.sched_getaffinity(proc.pid) == os.sched_getaffinity(0)
     finally:
         stop(proc, sock)
