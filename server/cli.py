@@ -357,7 +357,8 @@ def _study(args: argparse.Namespace) -> int:
         result = simulate_study(args.study, participants=participants[0], seed=args.seed, out_dir=args.out,
                                 make_participant=people.participant, agent_params=people.agent,
                                 settings=people.settings, progress=None if args.quiet else progress_bar,
-                                workers=args.workers or len(os.sched_getaffinity(0)))
+                                workers=args.workers or len(os.sched_getaffinity(0)),
+                                on_cpu_free=None if args.no_analysis else _preload_analysis)
     except FileExistsError as exc:
         print(f"viestac study: {exc}", file=sys.stderr)
         return 2
@@ -403,6 +404,21 @@ def _study_power(args: argparse.Namespace, participants: list[int]) -> int:
     print(text_table(result.table, sorted(set(participants))))
     print(f"table and chart: {result.out / 'power.json'}, {result.out / 'power.csv'}, {result.out / 'power.png'}")
     return 0
+
+
+def _preload_analysis() -> None:
+    """The analysis's libraries loaded in a thread while the last participants run."""
+    import threading
+
+    def load() -> None:
+        try:
+            from server.analysis.run import preload
+
+            preload()
+        except ImportError:
+            pass  # said after the simulation, by _analyze_after_simulation
+
+    threading.Thread(target=load, name="analysis-preload", daemon=True).start()
 
 
 def _analyze_after_simulation(data_dir: Path, out: Path) -> int:

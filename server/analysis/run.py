@@ -7,6 +7,7 @@ database twice gives the same files.
 
 from __future__ import annotations
 
+import importlib
 import json
 import platform
 from importlib import metadata
@@ -45,6 +46,18 @@ METHODS = {
                   "IDe = log2(Ae/We + 1), TP = IDe/MT, per condition pooled over participants "
                   "(server/analysis/fitts.py)",
 }
+
+
+# What an analysis imports on first use (~1.2 s, statistics and the report): `preload` loads it ahead.
+ON_FIRST_USE = ("server.analysis.report", "statsmodels.api", "statsmodels.stats.weightstats", "pingouin",
+                "scipy.stats", "scipy.optimize")
+
+
+def preload() -> None:
+    """Import ON_FIRST_USE now. `viestac study --simulate` does it in a thread on the CPU its
+    last participants leave free, so the analysis after them does not wait for it."""
+    for name in ON_FIRST_USE:
+        importlib.import_module(name)
 
 
 def analyze(data: str | Path, out: str | Path, study: str | None = None) -> dict:

@@ -73,7 +73,8 @@ def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_
                    make_participant: Callable[[int, int], object],
                    progress: Callable[[int, int, str], None] | None = None,
                    agent_params: AgentParams | Mapping[str, AgentParams] = AgentParams(),  # noqa: B008 (frozen)
-                   settings: tuple[tuple[str, str], ...] = (), workers: int = 1) -> SimulationResult:
+                   settings: tuple[tuple[str, str], ...] = (), workers: int = 1,
+                   on_cpu_free: Callable[[], None] | None = None) -> SimulationResult:
     """Run `participants` synthetic sessions of the study into OUT/data/viestac.sqlite.
 
     make_participant(seed, index) → an object with answer(trial, question) and
@@ -84,7 +85,9 @@ def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_
 
     workers > 1: the participants run in that many processes, each into a database of its own,
     appended to the study's in participant order (Store.append_database): the same rows as one
-    process writes (a participant's run depends on the seed and its index alone)."""
+    process writes (a participant's run depends on the seed and its index alone). `on_cpu_free`
+    is called once, in this thread, when fewer participants are left than workers (a worker has
+    nothing more to do), so the caller can use that CPU (`viestac study` loads the analysis)."""
     study_path = Path(study_path)
     study = load_study(study_path)
     out = Path(out_dir)
@@ -114,7 +117,7 @@ def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_
         if workers == 1 or participants == 1:
             parts = (_participant(run, study, store, clock, index, trial_done) for index in range(participants))
         else:
-            parts = _in_processes(run, participants, workers, result.data_dir, store, trial_done)
+            parts = _in_processes(run, participants, workers, result.data_dir, store, trial_done, on_cpu_free)
         for sid, trials, aborted, virtual_s in parts:  # in participant order
             result.sessions.append(sid)
             result.trials += trials
@@ -197,7 +200,7 @@ def _participant_into(index: int, path: Path) -> tuple[str, int, list, float]:
 
 
 def _in_processes(run: _Run, participants: int, workers: int, data_dir: Path, store: Store,
-                  trial_done: Callable[[str], None]):
+                  trial_done: Callable[[str], None], on_cpu_free: Callable[[], None] | None = None):
     """Participants in `workers` processes; yields their results in participant order, each
     appended to `store` first. Forked workers: the parent's modules are loaded already."""
     import multiprocessing
@@ -218,6 +221,9 @@ def _in_processes(run: _Run, participants: int, workers: int, data_dir: Path, st
                     _drain(queue, trial_done, timeout=0.1)
                 summary = future.result()
                 _drain(queue, trial_done)
+                if on_cpu_free is not None and participants - index - 1 < workers:  # a worker is idle now
+                    on_cpu_free()
+                    on_cpu_free = None
                 path = parts / f"{index:04d}.sqlite"
                 store.append_database(path)
                 for leftover in parts.glob(f"{path.name}*"):

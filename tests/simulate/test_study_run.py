@@ -131,9 +131,10 @@ def test_participants_in_two_processes_write_the_rows_one_process_writes(study_f
     run = dict(participants=3, seed=11, make_participant=people.participant, agent_params=people.agent,
                settings=people.settings)
     one = simulate_study(study_file, out_dir=tmp_path / "one", **run)
-    seen = []
+    seen, freed = [], []
     two = simulate_study(study_file, out_dir=tmp_path / "two", workers=2,
-                         progress=lambda done, total, label: seen.append((done, total, label[:5])), **run)
+                         progress=lambda done, total, label: seen.append((done, total, label[:5])),
+                         on_cpu_free=lambda: freed.append(len(seen)), **run)
     a, b = logical_dump(one.data_dir / "viestac.sqlite"), logical_dump(two.data_dir / "viestac.sqlite")
     assert len(a["sessions"]) == 3 and len(a["samples"]) > 1000 and len(a["events"]) > 100
     assert a == b, "every table, row for row, in the same order and with the same ids"
@@ -142,3 +143,5 @@ def test_participants_in_two_processes_write_the_rows_one_process_writes(study_f
                                                           "SELECT id FROM sessions ORDER BY participant")]
     assert [d for d, _, _ in seen] == list(range(1, one.trials + 1)) and {t for _, t, _ in seen} == {one.trials}
     assert sorted(p.name for p in two.data_dir.iterdir()) == ["viestac.sqlite"], "no scratch databases left"
+    # once, when one participant is left for two workers: after the first two have finished
+    assert len(freed) == 1 and 2 * one.trials // 3 <= freed[0] < one.trials, (freed, one.trials)
