@@ -23,7 +23,6 @@ import asyncio
 import contextlib
 import json
 import math
-import os
 import random
 import socket
 import time
@@ -31,6 +30,7 @@ import time
 import msgpack
 import websockets
 
+from server.cpu_plan import pin_process
 from server.wire import codec
 
 TOKEN: str | None = None  # --token: this process's clients all use it
@@ -183,7 +183,7 @@ def main() -> None:
                         help="run on these CPUs only (off the loop's CPU when the server keeps it to itself)")
     args = parser.parse_args()
     if args.cpus:
-        os.sched_setaffinity(0, {int(cpu) for cpu in args.cpus.split(",")})
+        pin_process(int(cpu) for cpu in args.cpus.split(","))
     udp = None
     if args.latency_udp:
         host, _, port = args.latency_udp.rpartition(":")

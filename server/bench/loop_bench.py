@@ -126,10 +126,19 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
         except OSError as exc:
             health = f"no answer: {exc}"
         if time.monotonic() > deadline:
-            proc.kill()
             reasons = health.get("reasons") if isinstance(health, dict) else health
-            raise RuntimeError(f"server did not become healthy in time; health says {reasons!r:.600}")
+            devices = _devices_now(base)  # a device that never connected: what its link and emulator did
+            proc.kill()
+            raise RuntimeError(f"server did not become healthy in time; health says {reasons!r:.600}; "
+                               f"devices: {devices:.1500}")
         time.sleep(0.1)
+
+
+def _devices_now(base: str) -> str:
+    try:
+        return json.dumps(get_json(base + "/api/devices", timeout=2.0))
+    except (OSError, ValueError) as exc:
+        return f"no answer: {exc}"
 
 
 def off_loop_cpu(base: str) -> list[str]:
