@@ -130,15 +130,37 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
             devices = _devices_now(base)  # a device that never connected: what its link and emulator did
             proc.kill()
             raise RuntimeError(f"server did not become healthy in time; health says {reasons!r:.600}; "
-                               f"devices: {devices:.1500}")
+                               f"devices: {devices:.3000}")
         time.sleep(0.1)
 
 
 def _devices_now(base: str) -> str:
+    """Each device's status, link counters, last error and last events, and the rig's emulators."""
     try:
-        return json.dumps(get_json(base + "/api/devices", timeout=2.0))
+        answer = get_json(base + "/api/devices", timeout=2.0)
     except (OSError, ValueError) as exc:
         return f"no answer: {exc}"
+    devices = [{k: d.get(k) for k in ("name", "path", "status", "connects", "disconnects", "last_error")}
+               | {"counters": {k: v for k, v in (d.get("counters") or {}).items() if v},
+                  "events": [{k: e.get(k) for k in ("event", "old", "new", "reason")} for e in d.get("events", [])[-3:]]}
+               for d in answer.get("devices", [])]
+    return json.dumps({"devices": devices, "simulated_rig": answer.get("simulated_rig"),
+                       "device_processes_elsewhere": _device_processes_elsewhere(base)})
+
+
+def _device_processes_elsewhere(base: str) -> list[str]:
+    """Device hosts and emulators on this machine whose parent is not this server's hub (an
+    earlier server's leftovers could hold or reopen a pty the kernel handed to this one)."""
+    try:
+        hub = psutil.Process(get_json(base + "/api/health", timeout=2.0)["loop"]["pid"]).ppid()
+    except (OSError, ValueError, KeyError, psutil.Error):
+        hub = None
+    found = []
+    for p in psutil.process_iter(["pid", "ppid", "cmdline"]):
+        line = " ".join(p.info["cmdline"] or [])
+        if ("devices.host_process" in line or "devices.emulator" in line) and p.info["ppid"] != hub:
+            found.append(f"{p.info['pid']} (parent {p.info['ppid']}): {line[:120]}")
+    return found
 
 
 def off_loop_cpu(base: str) -> list[str]:
