@@ -14,7 +14,8 @@ run there is the choice made here:
   more), `shared` below that.
 
 Pure: `plan_cpus` takes the usable CPUs (`os.sched_getaffinity(0)` in the shell) and returns the
-plan; `keep_off_loop_cpu` is the one call that changes this process.
+plan. Two calls change the calling process: `keep_off_loop_cpu` (the server, by the plan) and
+`pin_process` (the loop on its CPU; the bench's load generator off it).
 """
 
 from __future__ import annotations
