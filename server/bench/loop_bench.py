@@ -127,14 +127,14 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
             health = f"no answer: {exc}"
         if time.monotonic() > deadline:
             reasons = health.get("reasons") if isinstance(health, dict) else health
-            devices = _devices_now(base)  # a device that never connected: what its link and emulator did
+            devices = _devices_now(base, proc.pid)  # a device that never connected: what its link and emulator did
             proc.kill()
             raise RuntimeError(f"server did not become healthy in time; health says {reasons!r:.600}; "
                                f"devices: {devices:.3000}")
         time.sleep(0.1)
 
 
-def _devices_now(base: str) -> str:
+def _devices_now(base: str, hub: int) -> str:
     """Each device's status, link counters, last error and last events, and the rig's emulators."""
     try:
         answer = get_json(base + "/api/devices", timeout=2.0)
@@ -145,16 +145,12 @@ def _devices_now(base: str) -> str:
                   "events": [{k: e.get(k) for k in ("event", "old", "new", "reason")} for e in d.get("events", [])[-3:]]}
                for d in answer.get("devices", [])]
     return json.dumps({"devices": devices, "simulated_rig": answer.get("simulated_rig"),
-                       "device_processes_elsewhere": _device_processes_elsewhere(base)})
+                       "device_processes_elsewhere": _device_processes_elsewhere(hub)})
 
 
-def _device_processes_elsewhere(base: str) -> list[str]:
-    """Device hosts and emulators on this machine whose parent is not this server's hub (an
-    earlier server's leftovers could hold or reopen a pty the kernel handed to this one)."""
-    try:
-        hub = psutil.Process(get_json(base + "/api/health", timeout=2.0)["loop"]["pid"]).ppid()
-    except (OSError, ValueError, KeyError, psutil.Error):
-        hub = None
+def _device_processes_elsewhere(hub: int) -> list[str]:
+    """Device hosts and emulators on this machine whose parent is not the hub `hub` (an earlier
+    server's leftovers could hold or reopen a pty the kernel handed to this one)."""
     found = []
     for p in psutil.process_iter(["pid", "ppid", "cmdline"]):
         line = " ".join(p.info["cmdline"] or [])
@@ -163,10 +159,11 @@ def _device_processes_elsewhere(base: str) -> list[str]:
     return found
 
 
-def off_loop_cpu(base: str) -> list[str]:
+def off_loop_cpu(base: str, plan: dict | None = None) -> list[str]:
     """The load generator's `--cpus` when the server keeps its loop's CPU to itself
-    (`--loop-cpu own`): the viewers stand in for remote clients, which do not run there either."""
-    plan = get_json(base + "/api/health")["loop"].get("cpus") or {}
+    (`--loop-cpu own`): the viewers stand in for remote clients, which do not run there either.
+    `plan`: the server's `loop.cpus` from /api/health, if the caller has it already."""
+    plan = (plan if plan is not None else get_json(base + "/api/health")["loop"].get("cpus")) or {}
     return ["--cpus", ",".join(map(str, plan["others"]))] if plan.get("own") else []
 
 
@@ -239,11 +236,11 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
     wake_trace = None
     try:
         ws_url = base.replace("http://", "ws://") + "/ws"
+        cpus = get_json(base + "/api/health")["loop"]["cpus"]
         load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers", str(viewers),
                                  "--trackers", str(trackers), "--warmup", str(warmup_s), "--seconds", str(seconds),
-                                 "--token", admin_token(base), *off_loop_cpu(base)],
+                                 "--token", admin_token(base), *off_loop_cpu(base, cpus)],
                                 stdout=subprocess.PIPE, text=True)
-        cpus = get_json(base + "/api/health")["loop"]["cpus"]
         time.sleep(warmup_s)
         if kernel_trace:
             buffer_kb = int(min(256 * 1024, 8192 + 400 * seconds))  # the whole window up to ~10 min

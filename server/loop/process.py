@@ -102,8 +102,8 @@ def try_realtime(priority: int) -> str | None:
 
 
 def pin_to(cpu: int | None) -> str | None:
-    """Pin this process (its thread, and the builder thread started after) to `cpu`; a warning
-    when that is not allowed (a cpuset without that CPU), and the loop runs unpinned."""
+    """Pin every thread of this process (and the builder thread started after) to `cpu`; a
+    warning when that is not allowed (a cpuset without that CPU), and the loop runs unpinned."""
     if cpu is None:
         return None
     try:
