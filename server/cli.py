@@ -439,11 +439,18 @@ def _bench_loop(args: argparse.Namespace) -> int:
     try:
         result = run_loop_bench(seconds=args.seconds, viewers=args.clients, trackers=args.trackers,
                                 warmup_s=args.warmup, scenario=args.scenario, kernel_trace=args.kernel_trace,
-                                loop_cpu=args.loop_cpu)
+                                loop_cpu=args.loop_cpu, floor_s=args.floor_seconds)
     except KernelTraceUnavailable as exc:
         print(f"viestac: {exc}", file=sys.stderr)
         return 2
     return _print_bench(result, args.json)
+
+
+def _bench_floor(args: argparse.Namespace) -> int:
+    from server.bench.floor import run_floor
+
+    every = {} if args.publish_every is None else {"publish_every": args.publish_every}
+    return _print_bench(run_floor(seconds=args.seconds, loop_cpu=args.loop_cpu, **every), args.json)
 
 
 def _print_bench(result: dict, as_json: bool) -> int:
@@ -777,8 +784,20 @@ def build_parser() -> argparse.ArgumentParser:
                            "made late ones late: the timer interrupt or the scheduling")
     loop.add_argument("--loop-cpu", choices=MODES, default="auto",
                       help="the server's --loop-cpu; with own the load generator also keeps off the loop's CPU")
+    loop.add_argument("--floor-seconds", type=float, default=3.0,
+                      help="first measure the machine's floor under a tick for this long per pattern (the "
+                           "baseline of the same run, as `viestac bench floor`); 0: skip it")
     loop.add_argument("--json", action="store_true", help="print one JSON object")
     loop.set_defaults(func=_bench_loop)
+    floor = bench_sub.add_parser("floor", help="what a tick costs on this machine before any work of its own: an "
+                                               "idle tick, and one that wakes two processes on other CPUs "
+                                               "(the loop's CPU, priority and sleep)")
+    floor.add_argument("--seconds", type=float, default=3.0, help="per pattern (1000 ticks a second)")
+    floor.add_argument("--loop-cpu", choices=MODES, default="auto", help="the CPU plan, as `viestac serve --loop-cpu`")
+    floor.add_argument("--publish-every", type=int, default=None,
+                       help="the sending pattern sends on every Nth tick (default 6: the loop bench's share)")
+    floor.add_argument("--json", action="store_true", help="print one JSON object")
+    floor.set_defaults(func=_bench_floor)
     link = bench_sub.add_parser("link", help="a cue changing every tick through pyserial to an emulated FerroVibe: "
                                              "link share and latency of the newest value")
     link.add_argument("--seconds", type=float, default=10.0)

@@ -29,6 +29,7 @@ import urllib.request
 
 import psutil
 
+from server.bench.floor import run_floor
 from server.bench.kernel_trace import LoopWakeTrace, summarize
 from server.bench.quantiles import tail
 
@@ -220,18 +221,24 @@ def _rss_summary(samples: list[tuple[float, float]], seconds: float) -> dict:
 
 
 def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, warmup_s: float = 3.0,
-                   scenario: str = "contact-angle", kernel_trace: bool = False, loop_cpu: str = "auto") -> dict:
+                   scenario: str = "contact-angle", kernel_trace: bool = False, loop_cpu: str = "auto",
+                   floor_s: float = 3.0) -> dict:
     """Loop timing and memory of the real server under load. `kernel_trace` also records the
     loop's timed wake-ups with the kernel's tracer (root, tracefs) and says what made late ones
-    late (server/bench/kernel_trace.py)."""
+    late (server/bench/kernel_trace.py). First, for `floor_s` seconds a pattern (0: not at all),
+    the machine's floor under a tick in the same CPU plan (server/bench/floor.py): the baseline of
+    the same run that the tick cost is read against."""
     if seconds <= 0:
         raise ValueError(f"seconds must be > 0, got {seconds}")
     if viewers < 0 or trackers < 0:
         raise ValueError(f"viewers and trackers must be >= 0, got {viewers} and {trackers}")
     if warmup_s < 0:
         raise ValueError(f"warmup_s must be >= 0, got {warmup_s}")
+    if floor_s < 0:
+        raise ValueError(f"floor_s must be >= 0, got {floor_s}")
     if kernel_trace:
         LoopWakeTrace.check()  # before anything starts: a clear error, nothing to clean up
+    floor = run_floor(floor_s, loop_cpu) if floor_s else {}  # before the server: the machine alone
     proc, base = start_server(scenario, ["--loop-cpu", loop_cpu])
     wake_trace = None
     try:
@@ -285,4 +292,5 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         **rss, "rt": telemetry["rt"], "loop_cpu": cpus, "seconds": seconds, "resyncs": telemetry["resyncs"],
         **({"kernel_trace": {**summarize(wakeups), "lost_events": wake_trace.lost_events}}
            if wakeups is not None else {}),
+        **floor,
     }

@@ -27,7 +27,8 @@ def test_a_short_run_uses_a_quarter_of_it_at_each_end():
     assert _rss_summary([], 2.0)["rss_growth_mb"] is None
 
 
-@pytest.mark.parametrize("kwargs", [{"seconds": 0}, {"viewers": -1}, {"trackers": -2}, {"warmup_s": -1}])
+@pytest.mark.parametrize("kwargs", [{"seconds": 0}, {"viewers": -1}, {"trackers": -2}, {"warmup_s": -1},
+                                    {"floor_s": -1}])
 def test_bad_arguments_are_refused_before_anything_starts(kwargs):
     with pytest.raises(ValueError):
         run_loop_bench(**kwargs)
@@ -36,7 +37,7 @@ def test_bad_arguments_are_refused_before_anything_starts(kwargs):
 @pytest.mark.slow
 def test_a_short_live_run_reports_loop_timing_and_memory():
     traced = LoopWakeTrace.usable()  # where the kernel's tracer can be used, check its account too
-    result = run_loop_bench(seconds=2, viewers=2, warmup_s=1, kernel_trace=traced)
+    result = run_loop_bench(seconds=2, viewers=2, warmup_s=1, kernel_trace=traced, floor_s=1)
     print(f"\n{result}")
     for key in ("period_p50_us", "period_p99_us", "tick_cost_p50_us", "frames_received_per_client_hz",
                 "tracker_to_tick_p50_ms", "rss_mb", "rss_start_mb", "rss_end_mb"):
@@ -45,6 +46,9 @@ def test_a_short_live_run_reports_loop_timing_and_memory():
     assert result["ticks"] > 1000 and result["overruns"] >= 0 and result["clients"] == 2
     assert result["rss_start_mb"] <= result["rss_mb"] and result["rss_end_mb"] <= result["rss_mb"]
     assert math.isfinite(result["rss_growth_mb"])
+    # the machine's floor, measured first with the same CPU plan (server/bench/floor.py)
+    assert result["floor_ticks"] == 1000 and result["floor_cpus"] == result["loop_cpu"]
+    assert result["floor_records_received"] == [result["floor_sending_ticks"]] * 2
     if traced:  # one traced wake-up per tick of the window, give or take the moments around it
         kernel = result["kernel_trace"]
         assert abs(kernel["traced_wakeups"] - result["ticks"]) < 0.1 * result["ticks"]
