@@ -37,7 +37,7 @@ import msgpack
 
 from server import ipc
 from server.bench.quantiles import tail
-from server.cpu_plan import MODES, CpuPlan, pin_process, plan_cpus
+from server.cpu_plan import MODES, CpuPlan, check_mode, pin_process, plan_cpus
 from server.loop.clock import MonotonicClock
 from server.loop.process import LoopConfig, try_realtime
 from server.loop.scheduler import DeadlineScheduler
@@ -58,6 +58,7 @@ def check(seconds: float, publish_every: int) -> None:
 def run_floor(seconds: float = 3.0, loop_cpu: str = "auto", publish_every: int = PUBLISH_EVERY) -> dict:
     """Measure the floor in a child process (module doc); its result, keys prefixed `floor_`."""
     check(seconds, publish_every)
+    check_mode(loop_cpu)
     proc = subprocess.run([sys.executable, "-m", "server.bench.floor", "--seconds", str(seconds),
                            "--loop-cpu", loop_cpu, "--publish-every", str(publish_every)],
                           capture_output=True, text=True, timeout=60 + 4 * seconds)
@@ -71,9 +72,9 @@ def _receiver(sock: socket.socket, cpus: frozenset[int]) -> None:
     stream, answer with the number of records received."""
     try:
         pin_process(cpus)
+        sock.setblocking(True)
         count = 0
         while True:
-            sock.setblocking(True)
             if not sock.recv(ipc.MAX_RECORD_BYTES):
                 break
             count += 1

@@ -16,7 +16,7 @@ from server.bench.floor import run_floor
 from server.cpu_plan import plan_cpus
 
 
-@pytest.mark.parametrize("kwargs", [{"seconds": 0}, {"seconds": -1}, {"publish_every": 0}])
+@pytest.mark.parametrize("kwargs", [{"seconds": 0}, {"seconds": -1}, {"publish_every": 0}, {"loop_cpu": "fast"}])
 def test_bad_arguments_are_refused_before_anything_starts(kwargs):
     with pytest.raises(ValueError):
         run_floor(**kwargs)
