@@ -103,23 +103,35 @@ def test_reusing_settled_steps_changes_nothing():
     assert reused > 1500  # most ticks hold the previous sample
 
 
-def test_mailbox_doorbell_rings_once_per_change_across_processes():
+def test_mailbox_doorbell_counts_its_rings_across_processes():
     import subprocess
     import sys
 
     from server import ipc
 
     bell = ipc.Doorbell()
-    assert not bell.rung()
+    assert bell.rings() == 0
     bell.ring()
-    assert bell.rung() and not bell.rung()
-    # Another process sees the same memory through the inherited fd.
+    assert bell.rings() == 1 and bell.rings() == 0
+    # Another process sees the same memory through the inherited fd (from its own start: 1 ring).
     code = ("import sys; from server import ipc; b = ipc.Doorbell(int(sys.argv[1])); "
-            "print(b.rung()); b.ring(); b.ring()")
+            "print(b.rings()); b.ring(); b.ring()")
     out = subprocess.run([sys.executable, "-c", code, str(bell.fd)], pass_fds=(bell.fd,),
                          capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "True"
-    assert bell.rung() and not bell.rung()
+    assert out.strip() == "1"
+    assert bell.rings() == 2 and bell.rings() == 0
+    bell.close()
+
+
+def test_the_doorbell_count_survives_the_counter_wrapping():
+    from server import ipc
+
+    bell = ipc.Doorbell()
+    bell._FMT.pack_into(bell._map, 0, 2**64 - 2)
+    bell.rings()
+    for _ in range(3):
+        bell.ring()
+    assert bell._FMT.unpack_from(bell._map, 0)[0] == 1 and bell.rings() == 3
     bell.close()
 
 

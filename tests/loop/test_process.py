@@ -14,10 +14,12 @@ from server import ipc
 from server.loop.process import LoopConfig
 
 
-def start_loop(config: LoopConfig) -> tuple[subprocess.Popen, socket.socket]:
+def start_loop(config: LoopConfig, doorbell: ipc.Doorbell | None = None) -> tuple[subprocess.Popen, socket.socket]:
     ours, theirs = ipc.channel_pair()
-    proc = subprocess.Popen([sys.executable, "-m", "server.loop.process", "--fd", str(theirs.fileno()),
-                             "--config", config.to_json()], pass_fds=(theirs.fileno(),))
+    bell = ["--doorbell", str(doorbell.fd)] if doorbell is not None else []
+    proc = subprocess.Popen([sys.executable, "-m", "server.loop.process", "--fd", str(theirs.fileno()), *bell,
+                             "--config", config.to_json()],
+                            pass_fds=(theirs.fileno(), *([doorbell.fd] if doorbell is not None else [])))
     theirs.close()
     return proc, ours
 
@@ -90,3 +92,42 @@ def test_a_loop_that_cannot_pin_itself_runs_unpinned_and_says_so():
         assert os.sched_getaffinity(proc.pid) == os.sched_getaffinity(0)
     finally:
         stop(proc, sock)
+
+
+def input_ticks(seen: list[list], key: str) -> list[int]:
+    """The ticks of the `input` events of `key` in the state records seen."""
+    return [e["tick"] for r in seen if r[0] == "state" for e in r[1]["events"] if e["name"] == "input" and e["key"] == key]
+
+
+def test_a_loop_with_a_doorbell_reads_what_it_was_rung_for_and_loses_nothing():
+    bell = ipc.Doorbell()
+    proc, sock = start_loop(LoopConfig(realtime=False), bell)
+    try:
+        seen = records_until(sock, lambda seen: any(r[0] == "state" for r in seen))
+        assert ipc.send_record(sock, ["input", 1, "unrung", "press"])  # in the socket, not rung for: waits
+        seen = records_until(sock, lambda seen: sum(r[0] == "state" for r in seen) >= 6)
+        assert input_ticks(seen, "unrung") == []
+        bell.ring()
+        assert ipc.send_record(sock, ["input", 1, "rung", "press"])
+        bell.ring()
+        seen = records_until(sock, lambda seen: input_ticks(seen, "rung"))
+        assert input_ticks(seen, "unrung") == input_ticks(seen, "rung")  # both in the tick after the rings
+        bell.ring()  # a count ahead of the socket (as a new loop reading an old count): one empty drain
+        seen = records_until(sock, lambda seen: sum(r[0] == "state" for r in seen) >= 3)
+        assert ipc.send_record(sock, ["input", 1, "after", "press"])
+        bell.ring()
+        records_until(sock, lambda seen: input_ticks(seen, "after"))
+        # more than one drain takes: the rest waits for the next tick, none is lost, in order
+        sent, before = 0, []
+        while sent < ipc.DRAIN_LIMIT + 200:
+            if ipc.send_record(sock, ["input", 1, "flood", "press", sent]):
+                bell.ring()
+                sent += 1
+            else:
+                before.extend(ipc.drain(sock))  # the loop's records fill our end meanwhile: read them
+        seen = before + records_until(sock, lambda s: len(input_ticks(before + s, "flood")) >= sent)
+        values = [e["value"] for r in seen if r[0] == "state" for e in r[1]["events"] if e.get("key") == "flood"]
+        assert values == list(range(sent)) and len(set(input_ticks(seen, "flood"))) >= 2
+    finally:
+        stop(proc, sock)
+        bell.close()
