@@ -146,7 +146,7 @@ class ChildProcess:
     def _readable(self) -> None:
         try:
             records = ipc.drain(self._sock)
-        except ipc.PeerClosed:
+        except (ipc.PeerClosed, ConnectionResetError):  # reset: it died with records of ours unread
             asyncio.get_running_loop().remove_reader(self._sock.fileno())
             self._died()
             return

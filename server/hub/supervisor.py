@@ -84,11 +84,17 @@ class LoopSupervisor(ChildProcess):
             self._doorbell.close()
             self._doorbell = None
 
+    def _send(self, record: list) -> bool:
+        """Every record to the loop, the stop included, rings the doorbell once: the loop reads
+        as many records as it was rung for (server/ipc.py), so an unrung one is never read."""
+        ok = super()._send(record)
+        if ok and self._doorbell is not None:
+            self._doorbell.ring()  # after the send: when the loop sees the bell, the record is there
+        return ok
+
     def send(self, record: list) -> bool:
         ok = self._send(record)
-        if ok:
-            self._doorbell.ring()  # after the send: when the loop sees the bell, the record is there
-        else:
+        if not ok:
             self.dropped_to_loop += 1
         return ok
 
