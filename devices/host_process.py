@@ -46,6 +46,10 @@ class DeviceHost:
         self.feed = DeviceFeed(manager, quiet_ms=cue_quiet_ms)
         self.feed.on_closed = self.all_off
         self._send_lock = threading.Lock()  # reports come from device threads, replies from the control thread
+        # Each device's threads announce its changes: reading the manager and sending what changed
+        # is one step, or a thread that read before another's change could send its older report
+        # last, and the hub would keep it (a device shown handshaking that had connected long ago).
+        self._report_lock = threading.Lock()
         self._report: dict | None = None
         self._profiles: dict | None = None
         manager.listeners.append(self._changed)
@@ -59,14 +63,15 @@ class DeviceHost:
 
     def _changed(self) -> None:
         """A device's status, identity or refusals changed: tell the hub what it needs."""
-        report = self.manager.report()
-        if report != self._report:
-            self._report = report
-            self.send(["report", report])
-        profiles = {name: d.profile.to_table() for name, d in self.manager.devices.items()}
-        if profiles != self._profiles:
-            self._profiles = profiles
-            self.send(["profiles", profiles])
+        with self._report_lock:
+            report = self.manager.report()
+            if report != self._report:
+                self._report = report
+                self.send(["report", report])
+            profiles = {name: d.profile.to_table() for name, d in self.manager.devices.items()}
+            if profiles != self._profiles:
+                self._profiles = profiles
+                self.send(["profiles", profiles])
 
     def all_off(self) -> None:
         """Every actuator off for good: later cue records are dropped."""

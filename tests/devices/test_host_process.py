@@ -5,6 +5,8 @@ import socket
 import threading
 import time
 
+import msgpack
+
 from devices.host_process import DeviceHost
 from server import ipc
 
@@ -54,3 +56,49 @@ def test_a_broken_cue_channel_turns_everything_off_and_keeps_it_off():
     runner.join(2)
     assert not runner.is_alive()
     assert manager.calls[-2:] == [("submit", ()), "stop"]
+
+
+class RacingManager(RecordingManager):
+    """Two device threads announce changes at once: the first reads the statuses, then stalls
+    (`hold`) while the second device connects and announces it."""
+
+    def __init__(self):
+        super().__init__()
+        self.status = {"fingertac": "connected", "ferrovibe": "handshaking"}
+        self.hold = threading.Event()
+        self.read = threading.Event()
+        self.stall_next = True
+
+    def report(self):
+        report = {"refusals": [], "status": dict(self.status)}
+        if self.stall_next:
+            self.stall_next = False
+            self.read.set()
+            self.hold.wait(2)
+        return report
+
+
+def test_the_hub_is_left_with_the_newest_report_when_two_devices_announce_at_once():
+    manager = RacingManager()
+    control, hub_end = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+    host = DeviceHost(manager, control, cue_quiet_ms=60_000)
+    first = threading.Thread(target=host._changed)  # read "handshaking", then stalls
+    first.start()
+    assert manager.read.wait(2)
+    manager.status["ferrovibe"] = "connected"  # meanwhile the FerroVibe connects ...
+    second = threading.Thread(target=host._changed)  # ... and its thread announces it
+    second.start()
+    second.join(0.2)
+    manager.hold.set()
+    first.join(2)
+    second.join(2)
+    hub_end.setblocking(False)
+    reports = []
+    while True:
+        try:
+            record = msgpack.unpackb(hub_end.recv(65536), raw=False)
+        except BlockingIOError:
+            break
+        if record[0] == "report":
+            reports.append(record[1]["status"])
+    assert reports[-1] == {"fingertac": "connected", "ferrovibe": "connected"}, reports
