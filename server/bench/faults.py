@@ -34,7 +34,7 @@ from pathlib import Path
 from server.bench import faults_measure as fm
 from server.bench.faults_clients import (CONTACT_POS, Participant, Poller, WsClient, health_status, reason_codes,
                                          slow_readers, udp_tracker)
-from server.bench.loop_bench import admin_token, auth_headers, get_json, start_server, stop_server
+from server.bench.loop_bench import auth_headers, get_json, start_server, stop_server, token_option
 from server.hub.child import HEALTHY_S
 
 FAULTS = ("loop_kill", "device_host_kill", "emulator_restart", "device_unplug", "tracker_loss", "key_flood",
@@ -333,7 +333,7 @@ class FaultBench:
         FLOOD_S; the viewer's frames before and during."""
         proc = await asyncio.create_subprocess_exec(
             sys.executable, "-m", "server.bench.faults_clients", "--url", self.ws_url, "--what", what,
-            "--rate", str(FLOOD_RATE), "--seconds", str(FLOOD_S), "--token", admin_token(self.ws_url), stdout=asyncio.subprocess.PIPE, cwd=REPO)
+            "--rate", str(FLOOD_RATE), "--seconds", str(FLOOD_S), *token_option(self.ws_url), stdout=asyncio.subprocess.PIPE, cwd=REPO)
         out, _ = await proc.communicate()
         flood = json.loads(out.decode().strip().splitlines()[-1])
         t0, t1 = flood["t0_ns"], flood["t1_ns"]

@@ -40,7 +40,7 @@ from pathlib import Path
 
 from devices.emulator import Emulator
 from server.bench.load import LATENCY_SWITCH_HZ
-from server.bench.loop_bench import _rss_summary, _tree_rss_mb, admin_token, get_json, off_loop_cpu, start_server, stop_server
+from server.bench.loop_bench import _rss_summary, _tree_rss_mb, get_json, off_loop_cpu, start_server, stop_server, token_option
 from server.bench.quantiles import tail
 
 SAMPLES = 1000    # by default the run lasts long enough for this many switches: a p99 from ~100 is the maximum
@@ -138,7 +138,7 @@ def run_latency_bench(seconds: float | None = None, clients: int = 0, warmup_s: 
         udp = ["--latency-udp", get_json(base + "/api/health")["tracker_udp"]] if tracker == "udp" else []
         load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers", str(clients),
                                  "--trackers", "0", "--latency-tracker", *udp, "--warmup", str(warmup_s),
-                                 "--seconds", str(seconds), "--token", admin_token(base), *off_loop_cpu(base)],
+                                 "--seconds", str(seconds), *token_option(base), *off_loop_cpu(base)],
                                 stdout=subprocess.PIPE, text=True)
         time.sleep(warmup_s)
         get_json(base + "/api/telemetry/reset", "POST")

@@ -50,6 +50,14 @@ def admin_token(url: str) -> str | None:
     return ADMIN_TOKENS.get(_base(url))
 
 
+def token_option(url: str) -> list[str]:
+    """The bench client processes' `--token=SECRET` for the server at `url`, as one argument: a
+    secret starting with "-" (token_urlsafe: 1 in 64) given as a separate argument is read as an
+    option, and the client exits with a usage error."""
+    token = admin_token(url)
+    return [f"--token={token}"] if token else []
+
+
 def auth_headers(url: str, token=_REGISTERED) -> dict[str, str]:
     """The Authorization header for a request to `url`: `token`, or the registered one by default
     (`token=None`: none)."""
@@ -246,7 +254,7 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         cpus = get_json(base + "/api/health")["loop"]["cpus"]
         load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers", str(viewers),
                                  "--trackers", str(trackers), "--warmup", str(warmup_s), "--seconds", str(seconds),
-                                 "--token", admin_token(base), *off_loop_cpu(base, cpus)],
+                                 *token_option(base), *off_loop_cpu(base, cpus)],
                                 stdout=subprocess.PIPE, text=True)
         time.sleep(warmup_s)
         if kernel_trace:

@@ -26,7 +26,7 @@ import time
 import websockets
 
 from server.bench.load import hello
-from server.bench.loop_bench import admin_token, get_json, off_loop_cpu, start_server, stop_server
+from server.bench.loop_bench import admin_token, get_json, off_loop_cpu, start_server, stop_server, token_option
 from server.bench.roundtrip import WHERES, match_samples, sample_position, summarize
 from server.bench.roundtrip_sockets import peer_socket_nodelay
 from server.wire import codec
@@ -127,7 +127,7 @@ def run_roundtrip_bench(seconds: float = 20.0, clients: int = 0, fmt: str = "msg
             nonlocal load, reset
             load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url", ws_url, "--viewers",
                                      str(clients), "--trackers", "0", "--format", fmt, "--warmup", "0",
-                                     "--seconds", str(total_s + 60), "--token", admin_token(base),
+                                     "--seconds", str(total_s + 60), *token_option(base),
                                      *off_loop_cpu(base)],
                                     stdout=subprocess.DEVNULL)
             _wait_viewers(base, clients)

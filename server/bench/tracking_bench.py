@@ -216,7 +216,7 @@ def switch_path(rate_hz: float = RATE_HZ):
 
 def latency_study(seconds: float, viewers: int) -> dict:
     from server.bench.leap_rig import LeapRig
-    from server.bench.loop_bench import admin_token, get_json, off_loop_cpu
+    from server.bench.loop_bench import get_json, off_loop_cpu, token_option
     from server.bench.quantiles import tail
 
     times, rows, switches = switch_path()
@@ -226,7 +226,7 @@ def latency_study(seconds: float, viewers: int) -> dict:
         load = subprocess.Popen([sys.executable, "-m", "server.bench.load", "--url",
                                  rig.base.replace("http://", "ws://") + "/ws", "--viewers", str(viewers),
                                  "--trackers", "0", "--warmup", "2", "--seconds", str(seconds),
-                                 "--token", admin_token(rig.base), *off_loop_cpu(rig.base)],
+                                 *token_option(rig.base), *off_loop_cpu(rig.base)],
                                 stdout=subprocess.PIPE, text=True)
         time.sleep(3.0)
         start_ns = time.monotonic_ns()

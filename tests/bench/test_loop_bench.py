@@ -3,11 +3,15 @@ goals are reported by the bench (docs/performance.md), never asserted here."""
 
 from __future__ import annotations
 
+import json
 import math
+import subprocess
+import sys
 
 import pytest
 
 from server.bench.kernel_trace import LoopWakeTrace
+from server.bench import loop_bench
 from server.bench.loop_bench import _rss_summary, run_loop_bench
 
 
@@ -56,3 +60,14 @@ def test_a_short_live_run_reports_loop_timing_and_memory():
         assert kernel["late_wakeups"] == kernel["late_by_timer_interrupt"] + kernel["late_by_scheduling"]
     else:
         assert "kernel_trace" not in result
+
+
+def test_a_secret_that_starts_with_a_dash_reaches_the_load_generator_as_its_token(monkeypatch):
+    monkeypatch.setitem(loop_bench.ADMIN_TOKENS, "http://127.0.0.1:9", "-Ab_c")  # token_urlsafe does this 1 in 64
+    option = loop_bench.token_option("ws://127.0.0.1:9/ws")
+    assert option == ["--token=-Ab_c"] and loop_bench.token_option("http://127.0.0.1:10") == []
+    proc = subprocess.run([sys.executable, "-m", "server.bench.load", "--url", "ws://127.0.0.1:9/ws", "--viewers", "0",
+                           "--trackers", "0", "--seconds", "0.1", "--warmup", "0", *option],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr  # a separate "-Ab_c" argument was a usage error (exit 2)
+    assert json.loads(proc.stdout)["viewers"] == 0
