@@ -314,8 +314,11 @@ def _analyze(args: argparse.Namespace) -> int:
     from server.analysis.load import AnalysisError
     from server.analysis.run import analyze
 
+    if args.workers is not None and args.workers < 1:
+        print("viestac analyze: --workers must be at least 1", file=sys.stderr)
+        return 2
     try:
-        stats = analyze(args.data, args.out, study=args.study)
+        stats = analyze(args.data, args.out, study=args.study, workers=args.workers)
     except AnalysisError as exc:
         print(f"viestac analyze: {exc}", file=sys.stderr)
         return 2
@@ -418,7 +421,12 @@ def _preload_analysis() -> None:
         except ImportError:
             pass  # said after the simulation, by _analyze_after_simulation
 
-    threading.Thread(target=load, name="analysis-preload", daemon=True).start()
+    global _preloading
+    _preloading = threading.Thread(target=load, name="analysis-preload", daemon=True)
+    _preloading.start()
+
+
+_preloading = None  # the preload thread, joined before the analysis (which draws in forked processes)
 
 
 def _analyze_after_simulation(data_dir: Path, out: Path) -> int:
@@ -427,6 +435,8 @@ def _analyze_after_simulation(data_dir: Path, out: Path) -> int:
     except ImportError:
         print("viestac study: the analysis is not available; run `viestac analyze` on the data", file=sys.stderr)
         return 0
+    if _preloading is not None:
+        _preloading.join()  # done by now (it ran beside the last participants); a fork needs no other thread
     analyze(data_dir, out)
     print(f"report: {out / 'report.html'}")
     return 0
@@ -723,6 +733,8 @@ def build_parser() -> argparse.ArgumentParser:
     ana.add_argument("data", metavar="DATA", help="a data directory (serve --data-dir) or its viestac.sqlite file")
     ana.add_argument("--out", required=True, metavar="DIR", help="where report.html, stats.json and figures/ go")
     ana.add_argument("--study", metavar="ID", help="the study to analyse (needed when DATA holds several)")
+    ana.add_argument("--workers", type=int, metavar="N", help="processes drawing the figures (default: the usable "
+                                                              "CPUs); the files are the same whatever N")
     ana.set_defaults(func=_analyze)
 
     study = sub.add_parser("study", help="run a study file with synthetic participants on the virtual clock "

@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import importlib
 import json
+import multiprocessing
+import os
 import platform
+import threading
 from importlib import metadata
 from pathlib import Path
 
@@ -60,14 +63,16 @@ def preload() -> None:
         importlib.import_module(name)
 
 
-def analyze(data: str | Path, out: str | Path, study: str | None = None) -> dict:
+def analyze(data: str | Path, out: str | Path, study: str | None = None, workers: int | None = None) -> dict:
     """Analyse the sessions in DATA (a data dir or .sqlite file) and write the outputs into OUT.
-    Returns stats.json's content. Raises load.AnalysisError for data that cannot be analysed."""
+    Returns stats.json's content. Raises load.AnalysisError for data that cannot be analysed.
+    workers: processes that draw the figures (default: the CPUs this process may use); the files
+    are the same whatever the number."""
     dataset = load(data, study)
     stats, frames = compute(dataset)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    written = write_figures(stats, frames, out / "figures")
+    written = write_figures(stats, frames, out / "figures", workers or len(os.sched_getaffinity(0)))
     (out / "stats.json").write_text(json.dumps(stats, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
                                     encoding="utf-8")
     from server.analysis.report import render
@@ -133,14 +138,26 @@ def provenance(dataset: Dataset) -> dict:
     }
 
 
-def write_figures(stats: dict, frames: dict, directory: Path) -> list[dict]:
+def write_figures(stats: dict, frames: dict, directory: Path, workers: int = 1) -> list[dict]:
     """Draw every figure the results allow; remove figure files of an earlier run that this one
     did not draw. Returns [{name, section, title, png, svg}] in report order."""
-    made: list[dict] = []
+    jobs = _figure_jobs(stats, frames)
+    made = [{"name": name, "section": section, "title": title, **paths}
+            for (name, section, title, _, _), paths in zip(jobs, _draw(jobs, directory, workers))]
+    names = {f"{m['name']}.{ext}" for m in made for ext in ("png", "svg")}
+    if directory.is_dir():
+        for old in directory.glob("task*_*.*"):
+            if old.suffix in (".png", ".svg") and old.name not in names:
+                old.unlink()
+    return made
+
+
+def _figure_jobs(stats: dict, frames: dict) -> list[tuple]:
+    """(name, section, title, make, args) of every figure the results allow, in report order."""
+    jobs: list[tuple] = []
 
     def draw(name: str, section: str, title: str, make, *args) -> None:
-        fig = make(*args)
-        made.append({"name": name, "section": section, "title": title, **figures.save(fig, directory, name)})
+        jobs.append((name, section, title, make, args))
 
     t1, t2, t3, t4 = (stats[k] for k in ("task1", "task2", "task3", "task4"))
     if t1["per_angle"]:
@@ -168,10 +185,42 @@ def write_figures(stats: dict, frames: dict, directory: Path) -> list[dict]:
     if not kept.empty and kept["completion_time"].notna().any():
         draw("task4_speed_accuracy", "task4", "Speed-accuracy: completion time against trajectory length and "
              "end-point error", figures.speed_accuracy, kept)
-    names = {f"{m['name']}.{ext}" for m in made for ext in ("png", "svg")}
-    if directory.is_dir():
-        for old in directory.glob("task*_*.*"):
-            if old.suffix in (".png", ".svg") and old.name not in names:
-                old.unlink()
-    return made
+    return jobs
+
+
+# The figures of one write_figures call, for the forked drawing processes (inherited, never pickled).
+_shared: tuple[list[tuple], Path] | None = None
+
+
+def _draw(jobs: list[tuple], directory: Path, workers: int) -> list[dict[str, Path]]:
+    """The figures' files, drawn in `workers` forked processes when more than one is asked for
+    and this process runs no other thread (a fork copies a lock another thread holds, locked);
+    else here. Rendering (PNG and text-as-paths SVG) is most of an analysis's time."""
+    global _shared
+    workers = min(workers, len(jobs))
+    if workers < 2 or threading.active_count() > 1 or "fork" not in multiprocessing.get_all_start_methods():
+        return [_draw_one(job, directory) for job in jobs]
+    _shared = (jobs, directory)
+    try:
+        with multiprocessing.get_context("fork").Pool(workers) as pool:
+            shares = pool.map(_draw_share, [(k, workers) for k in range(workers)])
+    finally:
+        _shared = None
+    paths: list[dict[str, Path]] = [{} for _ in jobs]
+    for share in shares:
+        for index, drawn in share:
+            paths[index] = drawn
+    return paths
+
+
+def _draw_share(share: tuple[int, int]) -> list[tuple[int, dict[str, Path]]]:
+    """A drawing process: every `n`-th figure from the `k`-th (the figures cost about the same)."""
+    k, n = share
+    jobs, directory = _shared
+    return [(index, _draw_one(jobs[index], directory)) for index in range(k, len(jobs), n)]
+
+
+def _draw_one(job: tuple, directory: Path) -> dict[str, Path]:
+    name, _, _, make, args = job
+    return figures.save(make(*args), directory, name)
 

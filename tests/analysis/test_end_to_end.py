@@ -145,8 +145,10 @@ def test_report_is_valid_self_contained_html_with_every_figure(run):
         assert word in html, word
 
 
-def test_output_is_deterministic(run, tmp_path):
-    result = analyze(str(run["base"] / "data"), "--out", str(tmp_path))
+@pytest.mark.parametrize("workers", ["1", "3"])
+def test_output_is_deterministic(run, tmp_path, workers):
+    """Again, with the figures drawn here (1) or in three forked processes: the same bytes."""
+    result = analyze(str(run["base"] / "data"), "--out", str(tmp_path), "--workers", workers)
     assert result.returncode == 0, result.stderr
     for path in sorted(run["out"].rglob("*")):
         if path.is_file():
@@ -158,6 +160,8 @@ def test_output_is_deterministic(run, tmp_path):
 def test_cli_errors_exit_2(tmp_path):
     missing = analyze(str(tmp_path / "nowhere"), "--out", str(tmp_path / "o"))
     assert missing.returncode == 2 and "no database" in missing.stderr
+    no_workers = analyze(str(tmp_path), "--out", str(tmp_path / "o"), "--workers", "0")
+    assert no_workers.returncode == 2 and "--workers must be at least 1" in no_workers.stderr
     store = Store(tmp_path / "viestac.sqlite", clock())
     for sid, study in (("a1", "demo"), ("b1", "other")):
         store.create_session(session_id=sid, study_id=study, study_title=study.title(), study_hash="h",
