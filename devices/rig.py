@@ -10,12 +10,16 @@ bench, a test, a person) starts it again with `restart(model)` or `emulator_comm
 host's reader reopens the same link path within its reopen interval (0.5 s) and handshakes
 (docs/device-protocol.md §4.5). The timeline file is appended to, not truncated, so one CSV
 covers the emulator before and after the restart.
+
+The links and timelines live in the directory given, kept; without one, in a temporary directory
+that `stop()` removes.
 """
 
 from __future__ import annotations
 
 import logging
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -36,6 +40,7 @@ class SimulatedRig:
             profile_by_model(model)  # fail early on a typo
         self.models = models
         self.directory = Path(directory) if directory else None
+        self._temporary = False  # start() made the directory: stop() removes it (a given one is kept)
         self.procs: dict[str, subprocess.Popen] = {}
 
     def link(self, model: str) -> Path:
@@ -47,6 +52,7 @@ class SimulatedRig:
     def start(self, timeout_s: float = 10.0) -> list[DeviceConfig]:
         if self.directory is None:
             self.directory = Path(tempfile.mkdtemp(prefix="viestac-rig-"))
+            self._temporary = True
         self.directory.mkdir(parents=True, exist_ok=True)
         ensure_library()  # build the firmware core once, before several emulators race to do it
         for model in self.models:
@@ -98,6 +104,9 @@ class SimulatedRig:
             except subprocess.TimeoutExpired:
                 proc.kill()
         self.procs.clear()
+        if self._temporary:  # a server per run must not leave a directory per run behind
+            shutil.rmtree(self.directory, ignore_errors=True)
+            self.directory, self._temporary = None, False
 
     def info(self) -> dict:
         return {"directory": str(self.directory), "emulators": {

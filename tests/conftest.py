@@ -2,11 +2,31 @@
 
 from __future__ import annotations
 
+import os
+import tempfile
 from dataclasses import dataclass
 
 import pytest
 
 from server.bench.loop_bench import get_json, start_server, stop_server
+
+
+@pytest.fixture(scope="session", autouse=True)
+def temporary_files_under_pytest(tmp_path_factory):
+    """Every temporary file and directory the suite and the processes it starts make (a server's
+    simulated rig, a bench's scratch, a browser profile) goes under pytest's own temporary
+    directory, which pytest prunes to its last runs: a test that dies before its cleanup leaves
+    nothing in /tmp for ever."""
+    path = tmp_path_factory.mktemp("tmp")
+    before = os.environ.get("TMPDIR")
+    os.environ["TMPDIR"] = str(path)
+    tempfile.tempdir = None  # gettempdir() reads TMPDIR again
+    yield path
+    if before is None:
+        os.environ.pop("TMPDIR", None)
+    else:
+        os.environ["TMPDIR"] = before
+    tempfile.tempdir = None
 
 
 @dataclass

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import os
 import signal
+import tempfile
 import time
 
 from devices.manager import DeviceManager
@@ -85,3 +86,17 @@ def test_a_link_that_now_leads_to_another_pty_is_followed(tmp_path):
         stranger.stop()
         if device is not None:
             device.stop()
+
+
+def test_a_rig_removes_the_directory_it_made_and_keeps_one_it_was_given(tmp_path, monkeypatch):
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # where its own directory goes
+    made = SimulatedRig(("fingertac",))
+    made.start()
+    own = made.directory
+    assert own.parent == tmp_path and made.link("fingertac").exists()
+    made.stop()
+    assert not own.exists() and made.directory is None
+    given = SimulatedRig(("fingertac",), directory=tmp_path / "kept")
+    given.start()
+    given.stop()
+    assert given.timeline("fingertac").exists(), "a directory the caller chose keeps the timeline"
