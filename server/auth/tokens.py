@@ -1,9 +1,10 @@
 """Tokens and single-use codes: random secrets, stored only as HMAC-SHA256(server key, secret).
 
-A token is `secrets.token_urlsafe(32)` (256 bits): far beyond guessing, so a keyed hash from the
-standard library is enough and a slow KDF would only slow every request (a KDF protects low-entropy
-passwords). The key lives outside the database (store.load_key), so a copied access.sqlite alone
-does not let anyone test guesses offline. Codes (login, join) are the same, single use, short-lived.
+A token is `secrets.token_urlsafe(32)` (256 bits; never starting with "-", see new_secret): far
+beyond guessing, so a keyed hash from the standard library is enough and a slow KDF would only
+slow every request (a KDF protects low-entropy passwords). The key lives outside the database
+(store.load_key), so a copied access.sqlite alone does not let anyone test guesses offline. Codes
+(login, join) are the same, single use, short-lived.
 """
 
 from __future__ import annotations
@@ -20,6 +21,16 @@ from server.auth.store import AccessStore
 MAX_SECRET = 200  # longer input is refused before hashing (hello.token is at most 200 characters)
 MIN_EPHEMERAL = 16  # an env token shorter than this is refused: it must not be guessable
 CODE_KINDS = {"login": "admin", "join": "participant"}  # kind -> the role of the token it is exchanged for
+
+
+def new_secret(nbytes: int) -> str:
+    """`secrets.token_urlsafe(nbytes)` that does not start with "-": pasted after `--token`, such
+    a secret reads as an option and the command stops with a usage error (1 secret in 64).
+    Drawing again leaves out 1/64 of the values: 0.02 bits of 256."""
+    while True:
+        secret = secrets.token_urlsafe(nbytes)
+        if secret[0] != "-":
+            return secret
 
 
 class TokenBook:
@@ -46,7 +57,7 @@ class TokenBook:
             raise ValueError("ttl_s must be positive (or None: no expiry)")
         now = self.clock()
         expires_at = None if ttl_s is None else now + float(ttl_s)
-        secret = secrets.token_urlsafe(32)
+        secret = new_secret(32)
         digest = self._digest(secret)
         while True:  # a token id collision (8 hex digits) is rare: draw again
             token_id = secrets.token_hex(4)
@@ -134,7 +145,7 @@ class TokenBook:
         if not ttl_s > 0:
             raise ValueError("ttl_s must be positive")
         now = self.clock()
-        code = secrets.token_urlsafe(24)
+        code = new_secret(24)
         self.store.insert_code({"digest": self._digest(code), "kind": kind, "role": role, "site": site,
                                 "session": session, "created_at": now, "expires_at": now + float(ttl_s),
                                 "used_at": None, "created_by": created_by})

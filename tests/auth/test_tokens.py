@@ -154,3 +154,13 @@ def test_a_code_is_spent_once_by_racing_redeemers_in_two_processes_views(tmp_pat
     assert sum(r is not None for r in results) == 1
     for store, _ in stores_books:
         store.close()
+
+
+def test_no_secret_starts_with_a_dash_so_it_never_reads_as_a_command_line_option(book, monkeypatch):
+    import secrets
+
+    draws = iter(["-starts-like-an-option", "_fine", "-again", "fine-too"])
+    monkeypatch.setattr(secrets, "token_urlsafe", lambda nbytes: next(draws))
+    secret, ident = book.create("admin")
+    assert secret == "_fine" and book.verify(secret) == ident
+    assert book.create_code("login", role="admin", ttl_s=60) == "fine-too"
