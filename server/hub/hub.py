@@ -39,6 +39,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 from devices.capability import CapabilityReport, showing
 from server.core.scenario import ParamError
 from server.hub.control import BusyError, ScenarioControl
+from server.hub.event_log import EventLog
 from server.hub.health import HOST_DOWN, Health, HealthReport
 from server.hub.owner import Owner
 from server.hub.session import CLOSED, Close, Command, Gate, ParticipantAnswer, ServerInfo, Session, ToLoop
@@ -96,6 +97,8 @@ class Hub:
         self.log_records: deque[dict] = deque(maxlen=200)
         self._frames: dict[str, bytes | str] = {}
         self._frames_scene = ""  # the scene the current state frames name
+        self.event_log = EventLog()  # the state frames' events, numbered (server/hub/event_log.py)
+        self._frames_events = 0  # the number of the current state frames' last event
         self._frame_seq = 0
         self._broadcaster: asyncio.Task | None = None
         self.send_to_loop = lambda record: False  # wired by the app to the loop supervisor
@@ -244,6 +247,7 @@ class Hub:
         self.states_received += 1
         message = messages.state_message(rec, self.telemetry_summary())  # names the scene the loop simulated
         self.last_state = message
+        self._frames_events = self.event_log.add(message["events"])  # a client that misses it still gets these
         formats = {c.session.fmt for c in self.connections.values() if c.session.welcomed}
         self._frames = {fmt: codec.encode(message, fmt) for fmt in formats}
         self._frames_scene = message["scene"]  # the scene the frame names, known without decoding it
@@ -261,7 +265,7 @@ class Hub:
                 frame = self._frames.get(c.session.fmt)
                 if not c.session.welcomed or frame is None:
                     continue
-                c.session.offer_state(frame, self._frames_scene)
+                c.session.offer_state(frame, self._frames_scene, self.last_state, self._frames_events)
                 c.wake.set()
                 if (i + 1) % SLICE == 0:
                     await asyncio.sleep(0)  # let tracker reads in between slices
@@ -274,7 +278,7 @@ class Hub:
         await ws.accept(subprotocol=chosen)
         server = ServerInfo(self.server_name, self.tick_hz, self.state_hz)
         session = Session(next(self._ids), codec.SUBPROTOCOLS.get(chosen, "msgpack"), server, time.monotonic_ns(),
-                          gate=self._gate(ws))
+                          gate=self._gate(ws), events=self.event_log)
         if self._scene_frames:
             session.set_scene(self.scene_hash, self._scene_frames)
         if self._health_frames:

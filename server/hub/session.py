@@ -13,6 +13,8 @@ protocol decision about one client:
 - decoding and validation (server/wire), with exactly one `error` per bad frame;
 - what the client is sent: an ordered control queue (welcome, scene, health, lease, errors,
   close) and a latest-wins slot for state frames, taken by the shell's sender with `next_frame()`;
+  a frame that was replaced in the slot (or never offered: the hub offers the newest) loses its
+  picture, not its events: the next frame sent carries them first (server/hub/event_log.py);
 - the ordering rule: every state after `scene` H names H until the next `scene`. A state frame
   whose scene is not the last scene handed out is dropped when it is taken (the slot may hold a
   frame of the previous scene when the new scene goes first: control is sent before the slot);
@@ -40,6 +42,7 @@ from typing import Any, Callable, Mapping
 from server.auth import Unauthorized
 from server.auth.identity import Identity
 from server.auth.policy import POLICY, decide
+from server.hub.event_log import EventLog
 from server.wire import codec, messages
 from server.wire.codec import WireError
 
@@ -132,7 +135,7 @@ class Close:
 
 class Session:
     def __init__(self, client_id: int, fmt: str, server: ServerInfo, opened_ns: int, *, gate: Gate = CLOSED,
-                 hello_timeout_ns: int = HELLO_TIMEOUT_NS):
+                 hello_timeout_ns: int = HELLO_TIMEOUT_NS, events: EventLog | None = None):
         self.id = client_id
         self.fmt = fmt
         self.server = server
@@ -144,9 +147,11 @@ class Session:
         self.close_code: int | None = None
         self.hello_deadline_ns = opened_ns + hello_timeout_ns
         # control items: (kind, frame, scene hash or None) with kind welcome | scene | health | error, or a
-        # Close; the slot: (frame, scene hash)
+        # Close; the slot: (frame, scene hash, its message, the number of its last event)
         self._control: deque = deque()
-        self._slot: tuple[bytes | str, str] | None = None
+        self._slot: tuple | None = None
+        self.events = events  # the hub's numbered events (None: a frame's events are its own only)
+        self._events_through: int | None = None  # the last event number in a frame sent to this client
         self._pending_errors = 0
         self._scene: tuple[str, bytes | str] | None = None  # the current scene in this client's format
         self._health: bytes | str | None = None  # the current `health` message in this client's format
@@ -159,6 +164,7 @@ class Session:
         # counters (GET /api/clients)
         self.frames_sent = 0
         self.frames_dropped = 0
+        self.events_carried = 0  # events of frames this client missed, sent with a later frame
         self.tracker_count = 0
         self.last_tracker: dict | None = None
         self.errors = 0
@@ -405,14 +411,17 @@ class Session:
         self._control = deque(item for item in self._control if not _is_kind(item, "health"))
         self._control.append(("health", self._health, None))
 
-    def offer_state(self, frame: bytes | str, scene_hash: str) -> None:
+    def offer_state(self, frame: bytes | str, scene_hash: str, message: Mapping[str, Any] | None = None,
+                    events_upto: int | None = None) -> None:
         """The latest state frame (in this client's format) and the scene it names; it replaces a
-        frame not yet sent (counted as dropped). Clients not yet welcomed get none."""
+        frame not yet sent (counted as dropped). Clients not yet welcomed get none. With the
+        frame's `message` and the number its events end at in the hub's EventLog, a frame sent
+        after missed ones is encoded again with their events first (`next_frame`)."""
         if not self.welcomed or self.closing:
             return
         if self._slot is not None:
             self.frames_dropped += 1
-        self._slot = (frame, scene_hash)
+        self._slot = (frame, scene_hash, message, events_upto)
 
     @property
     def pending(self) -> bool:
@@ -437,12 +446,27 @@ class Session:
             return frame
         if self._slot is None:
             return None
-        (frame, scene_hash), self._slot = self._slot, None
+        (frame, scene_hash, message, upto), self._slot = self._slot, None
         if scene_hash != self._sent_scene:  # of a scene this client was not (or no longer) sent
-            self.frames_dropped += 1
+            self.frames_dropped += 1  # (its events go with the next frame sent)
             return None
+        if upto is not None and self.events is not None:
+            frame = self._with_missed_events(frame, message, upto)
         self.frames_sent += 1
         return frame
+
+    def _with_missed_events(self, frame: bytes | str, message: Mapping[str, Any], upto: int) -> bytes | str:
+        """`frame`, or, when this client was not sent the frames just before it, the frame encoded
+        again with their events in front of its own (each event once, in order)."""
+        own = message["events"]
+        through, self._events_through = self._events_through, upto
+        if through is None:  # the first frame: events from here on
+            return frame
+        missed = self.events.between(through, upto - len(own))
+        if not missed:
+            return frame
+        self.events_carried += len(missed)
+        return codec.encode({**message, "events": messages.wire_events([*missed, *own])}, self.fmt)
 
 
 def _is_scene(item) -> bool:

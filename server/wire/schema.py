@@ -295,8 +295,8 @@ STATE = Message("state", "server_to_client", "per published frame; 60 Hz by defa
     Field("visible", mapping(boolean(), "map id → bool"), "visibility overrides of objects and overlays against "
           "the scene (the complete current set; an id not in it has its scene `visible`), e.g. "
           '`{"angle_scale": false}` in a main trial', required=False),
-    Field("events", array(mapping(doc="event"), "array of maps"), 'scenario events since the previous frame, each '
-          'once: `{"tick", "t", "name", …}`, e.g. `{"tick": 20010, "t": 20.01, "name": "key", "key": "ArrowUp", '
+    Field("events", array(mapping(doc="event"), "array of maps"), 'scenario events since the previous frame this '
+          'client was sent (a frame it missed gives its events to the next one), each once: `{"tick", "t", "name", …}`, e.g. `{"tick": 20010, "t": 20.01, "name": "key", "key": "ArrowUp", '
           '"right_level": 7}`', required=False),
     Field("scales", mapping(vec(3, "`[sx, sy, sz]`"), "map id → `[sx, sy, sz]`"), "objects drawn scaled along the "
           "scene axes (the complete current set; an id not in it has its scene size), e.g. the positioning "

@@ -11,6 +11,7 @@ from pathlib import Path
 import msgpack
 import pytest
 
+from server.hub.event_log import EventLog
 from server.hub.session import MAX_PENDING_ERRORS, Close, Command, ServerInfo, Session, ToLoop
 from server.wire import codec
 from tests.hub.access_fakes import ADMIN, ADMIN_SECRET, gate
@@ -175,6 +176,41 @@ def test_state_frames_are_latest_wins_and_only_for_welcomed_clients():
     messages = sent(s)
     assert kinds(messages) == ["welcome", "scene", "state"] and messages[2]["tick"] == 3
     assert (s.frames_sent, s.frames_dropped) == (1, 1)
+
+
+def test_the_events_of_a_frame_a_client_missed_come_first_in_its_next_frame():
+    """The picture of a replaced (or never offered) frame may go; its events may not: the next
+    frame sent carries them in front of its own, each once, in order (server/hub/event_log.py)."""
+    log = EventLog()
+    fast, slow = new(events=log), new(events=log)
+    for s in (fast, slow):
+        s.receive(hello(), T0)
+        sent(s)
+
+    def offer(tick: int, events: list, to) -> None:
+        message = {"type": "state", "tick": tick, "scene": "aaaa", "events": events}
+        upto = log.add(events)
+        for s in to:
+            s.offer_state(codec.encode(message, s.fmt), "aaaa", message, upto)
+
+    tap, release = {"tick": 2, "name": "tap"}, {"tick": 3, "name": "release"}
+    offer(1, [], (fast, slow))
+    assert [m["events"] for m in sent(fast)] == [[]] and [m["events"] for m in sent(slow)] == [[]]
+    offer(2, [tap], (fast, slow))
+    assert [m["events"] for m in sent(fast)] == [[tap]]
+    go = {"tick": 5, "name": "go"}
+    got_fast = []
+    offer(3, [release], (fast, slow))  # replaces the tap's frame in the slow client's slot
+    got_fast += sent(fast)
+    offer(4, [], (fast,))  # the hub offered only the newest frame: the slow client never saw 4 ...
+    got_fast += sent(fast)
+    offer(5, [go], (fast, slow))  # ... and 3 is replaced by 5 before it was sent
+    got_fast += sent(fast)
+    assert [(m["tick"], m["events"]) for m in got_fast] == [(3, [release]), (4, []), (5, [go])]
+    assert [(m["tick"], m["events"]) for m in sent(slow)] == [(5, [tap, release, go])]
+    assert (slow.events_carried, fast.events_carried) == (2, 0)
+    offer(6, [], (slow,))
+    assert [m["events"] for m in sent(slow)] == [[]], "each event once"
 
 
 def test_a_state_of_the_previous_scene_is_never_sent_after_the_new_scene():

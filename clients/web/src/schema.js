@@ -828,7 +828,7 @@ export const SCHEMA = {
      },
      "required": false,
      "since": 0,
-     "meaning": "scenario events since the previous frame, each once: `{\"tick\", \"t\", \"name\", …}`, e.g. `{\"tick\": 20010, \"t\": 20.01, \"name\": \"key\", \"key\": \"ArrowUp\", \"right_level\": 7}`"
+     "meaning": "scenario events since the previous frame this client was sent (a frame it missed gives its events to the next one), each once: `{\"tick\", \"t\", \"name\", …}`, e.g. `{\"tick\": 20010, \"t\": 20.01, \"name\": \"key\", \"key\": \"ArrowUp\", \"right_level\": 7}`"
     },
     {
      "name": "scales",
