@@ -291,6 +291,12 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         "overruns": telemetry["overruns"], "ticks": telemetry["ticks"],
         "tick_cost_p50_us": telemetry["tick_cost_p50_us"], "tick_cost_p99_us": telemetry["tick_cost_p99_us"],
         "tick_cost_max_us": telemetry["tick_cost_max_us"],
+        # the ticks that published a state record (every cue change and the 60 Hz frames) and the others
+        "published_ticks": telemetry["published_ticks"],
+        "tick_cost_published_p50_us": telemetry["tick_cost_published_p50_us"],
+        "tick_cost_published_p99_us": telemetry["tick_cost_published_p99_us"],
+        "tick_cost_quiet_p50_us": telemetry["tick_cost_quiet_p50_us"],
+        "tick_cost_quiet_p99_us": telemetry["tick_cost_quiet_p99_us"],
         "clients": viewers, "trackers": trackers,
         "frames_received_per_client_hz": load_result["frames_received_per_client_hz"]["mean"],
         "frames_received_per_client_hz_min": load_result["frames_received_per_client_hz"]["min"],

@@ -79,7 +79,7 @@ def time_tools(n: int, every: int, ticks: int) -> dict:
             if out.state is not None:
                 msgpack.packb(["state", out.state], use_bin_type=True)
             t1 = clock()
-            core.record_sample(1_000_000, t1 - t0)
+            core.record_sample(1_000_000, t1 - t0, out.state is not None)
             if i >= WARM_UP:
                 tick_ns.append(t1 - t0)
                 states += out.state is not None

@@ -18,6 +18,14 @@ EXPORT_TRAJECTORY_AS_SAMPLES = {"t": "t_s", "x": "hip_x", "y": "hip_y", "z": "hi
 POINT_ROW = ("tick", "points")
 
 
+# The loop's timing, one row of three int64 per tick in a state record's `samples` bytes: the
+# period since the previous tick began, the tick's cost (from its start to its last send), and 1
+# when the tick published a state record, else 0. The hub's telemetry reads them
+# (server/hub/telemetry.py): a tick that publishes does several times the work of one that does
+# not, so their costs are told apart.
+TIMING_SAMPLE = ("period_ns", "cost_ns", "published")
+
+
 def multipoint_columns(names) -> tuple[str, ...]:
     """The multi-point CSV header for `names`: `t` (seconds), then NAME.x, NAME.y, NAME.z each."""
     return ("t",) + tuple(f"{name}.{axis}" for name in names for axis in "xyz")

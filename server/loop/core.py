@@ -49,6 +49,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
 from server.core.cues import cue_to_wire
+from server.core.records import TIMING_SAMPLE
 from scenarios import registry
 from server.core.scenario import NO_TOOL_CUES, Trial
 from server.loop.simulation import Simulation, TickResult
@@ -56,7 +57,7 @@ from server.loop.simulation import Simulation, TickResult
 MAX_REPORTED_FAILURES = 10  # a failing scenario fails every tick: report the first ones, then every 1000th
 FAULT_REPORT_EVERY = 100  # ticks: a `fault` record at a streak's first failure, then at most this often
 MAX_FAULT_TEXT = 300  # characters of the exception in a `fault` record
-MAX_CARRIED_TIMING = 4000  # (period, cost) pairs an unsent state record passes on; rows and events all go
+MAX_CARRIED_TIMING = 4000  # timing samples an unsent state record passes on; rows and events all go
 IGNORED_NOTICE_EVERY = 1000  # a source that is not the driver: one log line at its first ignored sample, then every Nth
 
 
@@ -119,7 +120,7 @@ class LoopCore:
         self.outbox: list[list] = []  # records for the hub besides state (scene and scenario changes, logs)
         self.state_hz = state_hz
         self._publish_slot = -1      # index of the last cadence slot published
-        self.samples = array("q")    # (period_ns, cost_ns) pairs since the last state record
+        self.samples = array("q")    # TIMING_SAMPLE rows since the last state record (records.py)
         self.tracker_applied: list[list] = []  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.states_unsent = 0       # state records the driver could not send; their contents went out later
         self.frames = 0
@@ -389,11 +390,14 @@ class LoopCore:
         samples = array("q")
         samples.frombytes(state["samples"])
         samples.extend(self.samples)
-        self.samples = samples[-2 * MAX_CARRIED_TIMING:]  # timing is telemetry: the newest suffice
+        self.samples = samples[-len(TIMING_SAMPLE) * MAX_CARRIED_TIMING:]  # timing is telemetry: the newest suffice
 
-    def record_sample(self, period_ns: int, cost_ns: int) -> None:
-        self.samples.append(period_ns)
-        self.samples.append(cost_ns)
+    def record_sample(self, period_ns: int, cost_ns: int, published: bool = False) -> None:
+        """One tick's timing (records.py TIMING_SAMPLE); `published`: it built a state record."""
+        samples = self.samples
+        samples.append(period_ns)
+        samples.append(cost_ns)
+        samples.append(1 if published else 0)
 
     def _state_record(self, r: TickResult, now_ns: int) -> dict[str, Any]:
         """The state record: the wire's state fields (docs/protocol.md) in their order, without

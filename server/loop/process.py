@@ -192,7 +192,7 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
             out.state["resyncs"] = scheduler.resyncs
             if backlog or not ipc.send_record(sock, ["state", out.state]):
                 core.unsent(out.state)  # the hub is behind: its rows and events ride with the next one
-        core.record_sample(period, clock.now_ns() - start)
+        core.record_sample(period, clock.now_ns() - start, out.state is not None)
         if core.pending_switch is not None or builder.busy:
             builder.between_ticks()  # off the tick: install a built switch, build the next
         if core.sim.tick % 1000 == 0 and os.getppid() != parent:

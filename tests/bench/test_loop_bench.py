@@ -48,6 +48,10 @@ def test_a_short_live_run_reports_loop_timing_and_memory():
         assert isinstance(result[key], (int, float)) and math.isfinite(result[key]) and result[key] > 0, key
     assert result["period_p50_us"] <= result["period_p99_us"] <= result["period_max_us"]
     assert result["ticks"] > 1000 and result["overruns"] >= 0 and result["clients"] == 2
+    # the ticks that published a state record (60 Hz frames and every cue change) and the others
+    assert 100 <= result["published_ticks"] < result["ticks"] / 2
+    assert result["tick_cost_quiet_p50_us"] <= result["tick_cost_published_p50_us"], "publishing is more work"
+    assert result["tick_cost_published_p50_us"] <= result["tick_cost_published_p99_us"]
     assert result["rss_start_mb"] <= result["rss_mb"] and result["rss_end_mb"] <= result["rss_mb"]
     assert math.isfinite(result["rss_growth_mb"])
     # the machine's floor, measured first with the same CPU plan (server/bench/floor.py)

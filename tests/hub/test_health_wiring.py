@@ -109,7 +109,7 @@ def test_a_session_gets_health_after_its_welcome_and_scene_and_only_the_latest(f
 # ---- the hub feeds health and tells clients -------------------------------------------------------
 
 def samples(*periods_us):
-    return b"".join(struct.pack("<qq", int(p * 1000), 30_000) for p in periods_us)
+    return b"".join(struct.pack("<qqq", int(p * 1000), 30_000, 0) for p in periods_us)
 
 
 def state_record(failures=0, periods=(1000,)):

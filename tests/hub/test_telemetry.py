@@ -7,10 +7,10 @@ import numpy as np
 from server.hub.telemetry import LoopTelemetry
 
 
-def _pack(periods_us, costs_us) -> bytes:
+def _pack(periods_us, costs_us, published=None) -> bytes:
     samples = array("q")
-    for p, c in zip(periods_us, costs_us):
-        samples.extend((int(p * 1000), int(c * 1000)))
+    for i, (p, c) in enumerate(zip(periods_us, costs_us)):
+        samples.extend((int(p * 1000), int(c * 1000), int(published[i]) if published is not None else 0))
     return samples.tobytes()
 
 
@@ -37,6 +37,23 @@ def test_window_and_cumulative_statistics():
     telemetry.add(_pack([1000, 3000], [10, 20]))
     after = telemetry.cumulative()
     assert after["ticks"] == 2 and after["overruns"] == 1 and after["period_max_us"] == 3000.0
+
+
+def test_the_costs_of_publishing_ticks_and_of_the_others_are_told_apart():
+    rng = np.random.default_rng(5)
+    n = 12_000
+    published = rng.random(n) < 0.17  # about one tick in six publishes, as at 64 viewers
+    costs = np.where(published, rng.gamma(4.0, 25.0, n), rng.gamma(2.0, 4.0, n)).round()
+    telemetry = LoopTelemetry()
+    for start in range(0, n, 23):
+        telemetry.add(_pack(np.full(23, 1000.0)[:n - start], costs[start:start + 23], published[start:start + 23]))
+    got = telemetry.cumulative()
+    assert got["ticks"] == n and got["published_ticks"] == int(published.sum())
+    for kind, mask in (("published", published), ("quiet", ~published)):
+        for q in (50, 99):
+            # whole-µs costs in 1 µs bins: the smallest cost with at least q % of the ticks at or below it
+            assert got[f"tick_cost_{kind}_p{q}_us"] == np.percentile(costs[mask], q, method="inverted_cdf"), (kind, q)
+    assert got["tick_cost_quiet_p99_us"] < got["tick_cost_p99_us"] < got["tick_cost_published_p99_us"]
 
 
 def test_empty_telemetry_is_all_zero():

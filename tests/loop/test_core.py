@@ -54,7 +54,7 @@ def test_samples_ride_with_state_records_and_are_msgpack_safe():
         state = rec or state
     assert state is not None
     packed = msgpack.unpackb(msgpack.packb(["state", state], use_bin_type=True), raw=False)
-    assert isinstance(packed[1]["samples"], bytes) and len(packed[1]["samples"]) % 16 == 0
+    assert isinstance(packed[1]["samples"], bytes) and len(packed[1]["samples"]) % 24 == 0
 
 
 def test_leaving_contact_stops_the_tilt_after_the_minimum_on_time():

@@ -34,8 +34,8 @@ def test_an_unsent_state_records_rows_events_and_trackers_go_out_with_the_next_o
     events = [e for state in states[1:] for e in state["events"] if e["name"] == "input"]
     assert [e["tick"] for e in events] == [3]
     assert [t[1] for state in states[1:] for t in state["trackers"]] == [1]
-    assert len(states[0]["samples"]) == 16
-    assert sum(len(state["samples"]) for state in states[1:]) == 16 * (1 + states[-1]["tick"]), \
+    assert len(states[0]["samples"]) == 24
+    assert sum(len(state["samples"]) for state in states[1:]) == 24 * (1 + states[-1]["tick"]), \
         "the unsent record's timing samples too"
     assert core.states_unsent == 1
 
