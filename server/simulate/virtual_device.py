@@ -106,8 +106,8 @@ class VirtualDevice:
     status read). That gives the same bytes, edges and feel as running every tick: the link and
     the firmware core are event-driven (every arrival, host wake and actuator edge is handled at
     its own time, and the core plays the edges due before a frame acts), and a command is handed
-    over only after the catch-up to its tick, as before. What goes is the ~1 µs of two calls per
-    device per tick between events: a tenth of a simulated study's time."""
+    over only after the catch-up to its tick, as before. What goes are four of five catch-ups, the
+    calls per device per tick between events (2.5 % of a simulated participant's time)."""
 
     def __init__(self, name: str, profile: DeviceProfile, fault=None):
         self.name, self.profile, self.fault = name, profile, fault
