@@ -16,7 +16,6 @@ from __future__ import annotations
 import json
 import os
 import re
-import secrets
 import shutil
 import statistics
 import subprocess
@@ -29,6 +28,7 @@ import urllib.request
 
 import psutil
 
+from server.auth.tokens import new_secret
 from server.bench.floor import run_floor
 from server.bench.kernel_trace import LoopWakeTrace, summarize
 from server.bench.quantiles import tail
@@ -51,9 +51,9 @@ def admin_token(url: str) -> str | None:
 
 
 def token_option(url: str) -> list[str]:
-    """The bench client processes' `--token=SECRET` for the server at `url`, as one argument: a
-    secret starting with "-" (token_urlsafe: 1 in 64) given as a separate argument is read as an
-    option, and the client exits with a usage error."""
+    """The bench client processes' `--token=SECRET` for the server at `url`, as one argument: any
+    secret passes so, even one starting with "-" (new_secret never draws one, other tokens may),
+    which as a separate argument is read as an option and the client exits with a usage error."""
     token = admin_token(url)
     return [f"--token={token}"] if token else []
 
@@ -101,7 +101,7 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
     own_data = "--data-dir" not in extra
     if own_data:  # a server of its own gets a database of its own, removed when it stops
         extra += ["--data-dir", tempfile.mkdtemp(prefix="viestac-data-")]
-    secret = secrets.token_urlsafe(32)
+    secret = new_secret(32)
     proc = subprocess.Popen([sys.executable, "-m", "server.cli", "serve", "--port", "0", "--scenario", scenario,
                              "--log-level", "warning", *extra],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
@@ -292,11 +292,8 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
         "tick_cost_p50_us": telemetry["tick_cost_p50_us"], "tick_cost_p99_us": telemetry["tick_cost_p99_us"],
         "tick_cost_max_us": telemetry["tick_cost_max_us"],
         # the ticks that published a state record (every cue change and the 60 Hz frames) and the others
-        "published_ticks": telemetry["published_ticks"],
-        "tick_cost_published_p50_us": telemetry["tick_cost_published_p50_us"],
-        "tick_cost_published_p99_us": telemetry["tick_cost_published_p99_us"],
-        "tick_cost_quiet_p50_us": telemetry["tick_cost_quiet_p50_us"],
-        "tick_cost_quiet_p99_us": telemetry["tick_cost_quiet_p99_us"],
+        **{k: telemetry[k] for k in ("published_ticks", "tick_cost_published_p50_us", "tick_cost_published_p99_us",
+                                     "tick_cost_quiet_p50_us", "tick_cost_quiet_p99_us")},
         "clients": viewers, "trackers": trackers,
         "frames_received_per_client_hz": load_result["frames_received_per_client_hz"]["mean"],
         "frames_received_per_client_hz_min": load_result["frames_received_per_client_hz"]["min"],

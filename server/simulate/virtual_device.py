@@ -147,15 +147,14 @@ class VirtualDevice:
         """The device is due at t_s (the end of a tick); it runs there when it is next needed."""
         self._due_s = t_s
 
-    def catch_up(self) -> list[Edge]:
-        """Move the line and the firmware to where they are due; the actuator edges on the way."""
+    def catch_up(self) -> None:
+        """Move the line and the firmware to where they are due (the edges go to feel and edges)."""
         t_s = self._due_s
         if t_s == self._done_s:
-            return []
+            return
         self._done_s = t_s
         self.link.run_until(t_s)
         edges = self._core.advance(_us(t_s))
         if edges:
             self.feel.apply(edges)
             self._edges.extend(edges)
-        return edges
