@@ -13,9 +13,10 @@ import os
 import secrets
 import sqlite3
 import threading
-from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import ContextManager
+
+from server.db import transaction
 
 KEY_BYTES = 32
 MAX_AUDIT_ROWS = 10_000  # one read of the audit log at most
@@ -113,17 +114,9 @@ class AccessStore:
         with self._lock:
             self.db.close()
 
-    @contextmanager
-    def _tx(self) -> Iterator[sqlite3.Connection]:
-        """One committed transaction (BEGIN IMMEDIATE: the write lock up front, no upgrade deadlock)."""
-        with self._lock:
-            self.db.execute("BEGIN IMMEDIATE")
-            try:
-                yield self.db
-            except BaseException:
-                self.db.execute("ROLLBACK")
-                raise
-            self.db.execute("COMMIT")
+    def _tx(self) -> ContextManager[sqlite3.Connection]:
+        """One committed transaction (server/db.py)."""
+        return transaction(self.db, self._lock)
 
     def data_version(self) -> int:
         """Changes when another connection (the CLI, another process) commits to the file."""

@@ -82,11 +82,6 @@ def all_off_after(timelines: dict[str, list[TimelineRow]], since_us: int,
     return True, None
 
 
-def first_at_or_after(times_ns: list[int], t_ns: int) -> int | None:
-    """The first of the sorted `times_ns` at or after `t_ns`."""
-    return next((t for t in times_ns if t >= t_ns), None)
-
-
 def frames_lost(recv_ns: list[int], start_ns: int, end_ns: int, rate_hz: float) -> int:
     """State frames missing from a stream that should arrive at `rate_hz` at least, between
     start and end: every gap longer than one period counts the periods it skipped. Frames of

@@ -22,13 +22,13 @@ from __future__ import annotations
 import json
 import sqlite3
 import threading
-from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Iterable, Iterator
+from typing import Any, ContextManager, Iterable
 
 from server.core.records import TRAJECTORY_COLUMNS
+from server.db import transaction
 
 SCHEMA_VERSION = 1
 TRIAL_STATUSES = ("pending", "running", "answered", "aborted", "excluded")
@@ -180,17 +180,9 @@ class Store:
         with self._lock:
             self.db.close()
 
-    @contextmanager
-    def _tx(self) -> Iterator[sqlite3.Connection]:
-        """One committed transaction (BEGIN IMMEDIATE: the write lock up front, no upgrade deadlock)."""
-        with self._lock:
-            self.db.execute("BEGIN IMMEDIATE")
-            try:
-                yield self.db
-            except BaseException:
-                self.db.execute("ROLLBACK")
-                raise
-            self.db.execute("COMMIT")
+    def _tx(self) -> ContextManager[sqlite3.Connection]:
+        """One committed transaction (server/db.py)."""
+        return transaction(self.db, self._lock)
 
     def _migrate(self) -> None:
         """Columns added since a database was made: sessions.site (per-lab data)."""
@@ -378,11 +370,6 @@ class Store:
                        (now, tick, _dumps({"from": current, "to": status, "reason": reason or ""}), trial_id))
         return self.trial(trial_id)
 
-    def set_metrics(self, trial_id: int, metrics: dict) -> None:
-        """Metrics a scenario reported for the running trial (its `trial_done` event)."""
-        with self._tx() as db:
-            db.execute("UPDATE trials SET metrics_json = ? WHERE id = ?", (_dumps(metrics), trial_id))
-
     # -- responses --------------------------------------------------------------------------
     def put_response(self, trial_id: int, question: str, value: Any, entered_by: str) -> None:
         """Record (or correct) one answer; the last value entered counts."""
@@ -449,11 +436,3 @@ class Store:
             sql, args = sql + " AND attempt = ?", args + [attempt]
         with self._lock:
             return [dict(r) for r in self.db.execute(sql + " ORDER BY attempt, tick", args)]
-
-    def cue_rows(self, trial_id: int, attempt: int | None = None) -> list[dict]:
-        sql, args = "SELECT * FROM cues WHERE trial_id = ?", [trial_id]
-        if attempt is not None:
-            sql, args = sql + " AND attempt = ?", args + [attempt]
-        with self._lock:
-            return [{"attempt": r["attempt"], "tick": r["tick"], "cues": json.loads(r["cues_json"])}
-                    for r in self.db.execute(sql + " ORDER BY attempt, tick", args)]

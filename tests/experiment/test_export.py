@@ -74,7 +74,6 @@ def build(store):
     store.add_cues(ids[1], 2, [(5000, [{"kind": "tilt", "angle_deg": 10.0}]), (5010, [])])
     store.add_events([("s1", ids[1], 2, 5005, "scenario", {"name": "tap", "tick": 5005})])
     store.put_response(ids[1], "answer_deg", 12.5, "participant")
-    store.set_metrics(ids[1], {"rt_s": 2.5, "contacts": 3, "path": [1, 2]})
     store.transition(ids[1], "answered", tick=7500, metrics={"rt_s": 2.5, "contacts": 3, "path": [1, 2]})
 
     store.transition(ids[2], "running")

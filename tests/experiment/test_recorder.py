@@ -6,6 +6,7 @@ import pytest
 
 from server.experiment.recorder import TRACKER_LOSS_TICKS, Recorder
 from server.experiment.store import Store
+from tests.experiment.cue_rows import cue_rows
 from tests.experiment.test_store import clock, open_session
 
 
@@ -42,11 +43,11 @@ def test_rows_count_from_the_tick_the_trial_took_effect(recording):
     done = recorder.end()
     assert done.first_tick == 10 and done.metrics == {"completion_s": 1.5}
     assert [s["tick"] for s in store.samples(trial.id)] == [10, 15]
-    assert [(c["tick"], c["cues"]) for c in store.cue_rows(trial.id)] == [(17, [vib]), (51, [])]
+    assert [(c["tick"], c["cues"]) for c in cue_rows(store, trial.id)] == [(17, [vib]), (51, [])]
     names = [e["body"].get("name") for e in store.events("s1", trial.id) if e["kind"] == "scenario"]
     assert names == ["tap", "trial_done"]
     recorder.on_record(state(60, [vib]))  # after the end: nothing recorded
-    assert len(store.cue_rows(trial.id)) == 2
+    assert len(cue_rows(store, trial.id)) == 2
 
 
 def test_tracker_loss_and_return_are_events(recording):

@@ -11,6 +11,7 @@ import textwrap
 import pytest
 
 from server.experiment.store import Conflict, Store, StoreError
+from tests.experiment.cue_rows import cue_rows
 
 
 def clock():
@@ -85,7 +86,7 @@ def test_recorded_streams_keep_their_attempt(store):
     store.add_cues(t.id, 1, [(5, [{"kind": "vibration", "intensity_pct": 100.0}])])
     store.add_events([("s1", t.id, 1, 5, "scenario", {"name": "tap"})])
     assert [s["tick"] for s in store.samples(t.id)] == [5] and store.samples(t.id)[0]["held"] == "cube_a"
-    assert store.cue_rows(t.id)[0]["cues"][0]["kind"] == "vibration"
+    assert cue_rows(store, t.id)[0]["cues"][0]["kind"] == "vibration"
     assert store.events("s1", t.id)[-1]["body"] == {"name": "tap"}
 
 
