@@ -14,7 +14,9 @@ from pathlib import Path
 from server.core.scenario import ParamError
 from scenarios.registry import UnknownScenario
 from server.config import STUDIES_DIR
+from server.core.haptics import contact_gate as gate_defaults
 from server.cpu_plan import MODES, OWN_FROM_CPUS, keep_off_loop_cpu, plan_cpus
+from server.loop.cadence import STATE_HZ
 from server.loop.tracker_udp import is_loopback
 from server.core.scene import SceneError
 
@@ -631,11 +633,11 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--force", action="store_true",
                        help="run the scenario even when no device can show its tactile dimension")
     serve.add_argument("--scene", default=None, help="a scene JSON file to explore instead of the scenario's scene")
-    serve.add_argument("--state-hz", type=float, default=60.0)
-    serve.add_argument("--gate-band", type=float, default=0.002,
-                       help="contact hysteresis band in scene units (default 0.002)")
-    serve.add_argument("--gate-dwell-ms", type=float, default=30.0,
-                       help="minimum on/off time of the debounced contact (default 30 ms)")
+    serve.add_argument("--state-hz", type=float, default=STATE_HZ)
+    serve.add_argument("--gate-band", type=float, default=gate_defaults.BAND,
+                       help=f"contact hysteresis band in scene units (default {gate_defaults.BAND})")
+    serve.add_argument("--gate-dwell-ms", type=float, default=gate_defaults.MIN_DWELL_S * 1000.0,
+                       help=f"minimum on/off time of the debounced contact (default {gate_defaults.MIN_DWELL_S * 1000:g} ms)")
     serve.add_argument("--no-realtime", action="store_true", help="do not ask for SCHED_FIFO for the loop")
     serve.add_argument("--loop-cpu", choices=MODES, default="auto",
                        help="own: the other server processes keep off the loop's CPU; shared: they may run there; "

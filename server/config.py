@@ -9,7 +9,9 @@ from devices.capability import CapabilityReport, check
 from devices.manager import DeviceConfig, DeviceConfigError, check_unique, rig_points, with_fingers
 from devices.profiles import profile_by_model
 from scenarios import registry
+from server.core.haptics import contact_gate as gate_defaults
 from server.cpu_plan import check_mode
+from server.loop.cadence import STATE_HZ
 from server.loop.process import LoopConfig
 from server.loop.tracker_udp import is_loopback
 from server.core.points import PRIMARY_POINT, check_point_name
@@ -28,11 +30,11 @@ class Settings:
     scenario_params: dict = field(default_factory=dict)  # the scenario's PARAMS (docs/scenarios.md)
     scene_file: str | None = None
     tick_hz: int = 1000
-    state_hz: float = 60.0
+    state_hz: float = STATE_HZ
     realtime: bool = True
     loop_cpu: str = "auto"         # the loop's CPU: "auto", "shared" or "own" (server/cpu_plan.py)
-    gate_band: float = 0.002       # contact hysteresis band, scene units (docs/haptics.md)
-    gate_dwell_s: float = 0.030    # minimum on and off time of the debounced contact
+    gate_band: float = gate_defaults.BAND         # contact hysteresis band, scene units (docs/haptics.md)
+    gate_dwell_s: float = gate_defaults.MIN_DWELL_S  # minimum on and off time of the debounced contact
     web_root: Path = field(default=WEB_ROOT)
     max_frame_bytes: int = 1 << 20  # frames above this close the connection (1009); 64 KiB+ get an error
     devices: tuple[DeviceConfig, ...] = ()  # real devices (docs/devices.md)

@@ -52,6 +52,7 @@ from server.core.cues import cue_to_wire
 from server.core.records import TIMING_SAMPLE
 from scenarios import registry
 from server.core.scenario import NO_TOOL_CUES, Trial
+from server.loop.cadence import STATE_HZ
 from server.loop.simulation import Simulation, TickResult
 
 MAX_REPORTED_FAILURES = 10  # a failing scenario fails every tick: report the first ones, then every 1000th
@@ -103,7 +104,7 @@ class TickOutput:
 
 
 class LoopCore:
-    def __init__(self, sim: Simulation, *, state_hz: float = 60.0,
+    def __init__(self, sim: Simulation, *, state_hz: float = STATE_HZ,
                  make_sim: Callable[..., Simulation] | None = None, build_off_tick: bool = False,
                  drawn: bool = True):
         if not 0 < state_hz <= sim.tick_hz:

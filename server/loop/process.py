@@ -30,10 +30,12 @@ from dataclasses import asdict, dataclass, field
 
 from devices.feed import CUE_HEARTBEAT_MS
 from scenarios import registry
+from server.core.haptics import contact_gate as gate_defaults
 from server.core.haptics.contact_gate import ContactGate
 from server import ipc
 from server.cpu_plan import pin_process
 from server.loop.builder import SwitchBuilder
+from server.loop.cadence import STATE_HZ
 from server.loop.clock import Clock, MonotonicClock
 from server.loop.core import LoopCore
 from server.loop.scheduler import DeadlineScheduler
@@ -53,13 +55,13 @@ class LoopConfig:
     start_frame: int = 0
     scene_file: str | None = None  # a custom scene (docs/protocol.md format) instead of the scenario's
     tick_hz: int = 1000
-    state_hz: float = 60.0
+    state_hz: float = STATE_HZ
     realtime: bool = True
     rt_priority: int = 50
     cpu: int | None = None  # the CPU the loop pins itself to, so its caches stay warm between ticks (server/cpu_plan.py)
-    gate_band: float = 0.002
-    gate_min_on_s: float = 0.030
-    gate_min_off_s: float = 0.030
+    gate_band: float = gate_defaults.BAND
+    gate_min_on_s: float = gate_defaults.MIN_DWELL_S
+    gate_min_off_s: float = gate_defaults.MIN_DWELL_S
     seed: int = 0
     rig: tuple[str, ...] = ()  # the rig's fingers besides the primary point: one tool each (Simulation)
 

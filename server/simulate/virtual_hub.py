@@ -20,6 +20,7 @@ from typing import Callable
 
 from scenarios import registry
 from server.hub.control import ScenarioControl
+from server.loop.cadence import STATE_HZ
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
 from server.simulate.virtual_device import VirtualDevice
@@ -29,7 +30,7 @@ TICK_NS = 1_000_000
 
 class VirtualHub:
     def __init__(self, devices: dict[str, VirtualDevice], *, scenario: str = "contact-angle",
-                 params: dict | None = None, seed: int = 0, tick_hz: int = 1000, state_hz: float = 60.0):
+                 params: dict | None = None, seed: int = 0, tick_hz: int = 1000, state_hz: float = STATE_HZ):
         self.devices = devices
         self.tick_hz = tick_hz
         spec = registry.resolve(scenario)

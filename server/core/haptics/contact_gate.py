@@ -25,12 +25,15 @@ from __future__ import annotations
 from ..numbers import is_finite_number
 from .compiled import ccore
 
+BAND = 0.002        # the default hysteresis band, scene units (above: ~4 sigma of a Leap's jitter)
+MIN_DWELL_S = 0.030  # the default minimum on and off time (above: felt as a vibration, not a pulse)
+
 
 class ReferenceContactGate:
     """The readable reference; ``ContactGate`` (below) is the compiled twin when it is built."""
 
-    def __init__(self, band: float = 0.002, min_on_s: float = 0.030,
-                 min_off_s: float = 0.030) -> None:
+    def __init__(self, band: float = BAND, min_on_s: float = MIN_DWELL_S,
+                 min_off_s: float = MIN_DWELL_S) -> None:
         for name, v in (("band", band), ("min_on_s", min_on_s), ("min_off_s", min_off_s)):
             if not is_finite_number(v) or v < 0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
