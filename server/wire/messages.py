@@ -1,4 +1,4 @@
-"""Protocol v1.4 messages (docs/protocol.md): validated client messages, server message builders.
+"""Protocol v1.5 messages (docs/protocol.md): validated client messages, server message builders.
 
 Every message is declared once in schema.py. Client messages are frozen dataclasses parsed from
 a decoded map by the declaration's checker (check.py): a wrong field is

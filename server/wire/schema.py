@@ -1,4 +1,4 @@
-"""Protocol v1.4: every message declared once, as data (docs/protocol.md).
+"""Protocol v1.5: every message declared once, as data (docs/protocol.md).
 
 Everything else follows from this module: the Python parsers and builders (messages.py, through
 the checker in check.py), the message tables of docs/protocol.md and the browser client's schema

@@ -47,6 +47,8 @@ namespace Viestac.Client
         public event Action<ErrorMessage> ErrorReceived;
         public event Action<Health> HealthReceived;
         public event Action<Lease> LeaseReceived;
+        /// <summary>What the study asks of this participant connection's session now (v1.5).</summary>
+        public event Action<Ask> AskReceived;
         public event Action<ConnectionStatus, string> StatusChanged;
 
         public ConnectionStatus Status { get; private set; }
@@ -154,6 +156,7 @@ namespace Viestac.Client
                 case MessageType.Error: var he = ErrorReceived; if (he != null) he((ErrorMessage)m); break;
                 case MessageType.Health: var hh = HealthReceived; if (hh != null) hh((Health)m); break;
                 case MessageType.Lease: var hl = LeaseReceived; if (hl != null) hl((Lease)m); break;
+                case MessageType.Ask: var ha = AskReceived; if (ha != null) ha((Ask)m); break;
             }
         }
 

@@ -99,6 +99,25 @@ namespace Viestac.Client.Tests
         }
 
         [Test]
+        public void DispatchesHealthLeaseAndAskToTheirEvents()
+        {
+            var t = new FakeTransport();
+            var s = new ViestacSession(new SessionOptions { Url = new Uri("ws://x/ws"), Role = Roles.Participant, TransportFactory = () => t, Log = _ => { } });
+            var seen = new List<string>();
+            s.HealthReceived += h => seen.Add("health " + h.Status);
+            s.LeaseReceived += l => seen.Add("lease");
+            s.AskReceived += a => seen.Add("ask " + a.Session + " " + a.Questions.Count);
+            s.Start();
+            t.Sent.Take(); // hello
+            t.Push(Vector("welcome")); t.Push(Vector("health-ok")); t.Push(Vector("lease-free")); t.Push(Vector("ask-likert-audio"));
+            Assert.IsTrue(WaitFor(() => { s.Drain(); return seen.Count == 3; }));
+            var ask = Vector("ask-likert-audio");
+            CollectionAssert.AreEqual(new[] { "health " + Vector("health-ok")["status"], "lease",
+                                              "ask " + ask["session"] + " " + ((List<object>)ask["questions"]).Count }, seen);
+            s.Dispose();
+        }
+
+        [Test]
         public void WarnsWhenNobodyDrainsAndDropsTheOldestStatesBeyondTheCap()
         {
             var t = new FakeTransport();
