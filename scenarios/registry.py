@@ -14,6 +14,7 @@ from typing import Callable
 
 from server.core.scenario import ParamError, Scenario, check_params
 from scenarios.contact_angle import ContactAngle
+from scenarios.free import FreeExploration
 from scenarios.friction_temperature import FrictionTemperature
 from scenarios.hot_wire import HotWire
 from scenarios.peg_in_hole import PegInHole
@@ -33,7 +34,7 @@ class ScenarioSpec:
 
 SCENARIOS = MappingProxyType({cls.id: ScenarioSpec(cls.id, cls.title, cls) for cls in (
     ContactAngle, TextureScenario, StiffnessScenario, ShapeScenario, FrictionTemperature, Positioning, PegInHole,
-    HotWire, PickPlace,
+    HotWire, PickPlace, FreeExploration,
 )})
 
 

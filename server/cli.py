@@ -627,12 +627,15 @@ def build_parser() -> argparse.ArgumentParser:
     serve = sub.add_parser("serve", help="run the server with a simulated rig (no hardware needed)")
     serve.add_argument("--host", default="127.0.0.1")
     serve.add_argument("--port", type=int, default=8000, help="0 picks a free port (printed)")
-    serve.add_argument("--scenario", default="contact-angle")
+    serve.add_argument("--scenario", default=None,
+                       help="the scenario to run (default: free-v1 with --scene, else contact-angle; docs/scenarios.md)")
     serve.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                        help="a scenario parameter, e.g. --param period_us=3000 (repeatable; GET /api/scenarios lists them)")
     serve.add_argument("--force", action="store_true",
                        help="run the scenario even when no device can show its tactile dimension")
-    serve.add_argument("--scene", default=None, help="a scene JSON file to explore instead of the scenario's scene")
+    serve.add_argument("--scene", default=None,
+                       help="a scene JSON file (docs/protocol.md): free-v1 explores it; with --scenario, that scenario "
+                            "starts on it instead of its own scene")
     serve.add_argument("--state-hz", type=float, default=STATE_HZ)
     serve.add_argument("--gate-band", type=float, default=gate_defaults.BAND,
                        help=f"contact hysteresis band in scene units (default {gate_defaults.BAND})")

@@ -9,6 +9,7 @@ from devices.capability import CapabilityReport, check
 from devices.manager import DeviceConfig, DeviceConfigError, check_unique, rig_points, with_fingers
 from devices.profiles import profile_by_model
 from scenarios import registry
+from scenarios.free import ID as FREE_SCENARIO
 from server.core.haptics import contact_gate as gate_defaults
 from server.cpu_plan import check_mode
 from server.loop.cadence import STATE_HZ
@@ -20,13 +21,14 @@ from server.tracking.sources import SourceSpec, parse_specs
 
 WEB_ROOT = Path(__file__).resolve().parents[1] / "clients" / "web"
 STUDIES_DIR = Path(__file__).resolve().parents[1] / "studies"
+DEFAULT_SCENARIO = "contact-angle"
 
 
 @dataclass(frozen=True)
 class Settings:
     host: str = "127.0.0.1"
     port: int = 8000
-    scenario: str = "contact-angle"
+    scenario: str | None = None    # None: free-v1 when there is a scene_file, else DEFAULT_SCENARIO
     scenario_params: dict = field(default_factory=dict)  # the scenario's PARAMS (docs/scenarios.md)
     scene_file: str | None = None
     tick_hz: int = 1000
@@ -71,6 +73,8 @@ class Settings:
             raise ValueError("lease_ttl_s must be in 1..2592000 s (30 days)")
         if not (0.0 <= self.gate_band <= 0.1 and 0.0 <= self.gate_dwell_s <= 1.0):
             raise ValueError("gate band must be in [0, 0.1] scene units and dwell in [0, 1] s")
+        if self.scenario is None:  # serve --scene FILE.json alone: explore the file
+            object.__setattr__(self, "scenario", FREE_SCENARIO if self.scene_file is not None else DEFAULT_SCENARIO)
         spec = registry.resolve(self.scenario)  # fails early, with a hint
         object.__setattr__(self, "scenario", spec.id)
         object.__setattr__(self, "scenario_params", registry.check_scenario_params(spec, self.scenario_params))

@@ -124,3 +124,33 @@ def test_scenario_parameters_reach_the_loop():
     config = Settings(scenario="texture", scenario_params={"period_us": 3000, "velocity": -0.2}).loop_config()
     assert config.scenario_params["period_us"] == 3000.0 and config.scenario_params["velocity"] == -0.2
     assert config.scenario_params["skin"] == "", "defaults are filled in"
+
+
+class _Served(Exception):
+    """Raised in place of the app: the settings `viestac serve` built, before anything listens."""
+
+
+def _served_settings(monkeypatch, *args) -> Settings:
+    import server.app
+    from server import cli
+
+    def capture(settings, **_):
+        raise _Served(settings)
+
+    monkeypatch.setattr(server.app, "create_app", capture)
+    with pytest.raises(_Served) as served:
+        cli.main(["serve", "--port", "0", "--tracker-udp", "off", "--no-rig", *args])
+    return served.value.args[0]
+
+
+def test_serve_with_a_scene_file_runs_free_v1_on_it_and_a_named_scenario_over_it(monkeypatch, tmp_path):
+    from server.core.scene import Scene
+    from server.loop.process import build_core
+
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps({"name": "ball", "objects": [{"id": "ball", "shape": {"type": "sphere", "radius": 0.3}}]}))
+    core = build_core(_served_settings(monkeypatch, "--scene", str(path)).loop_config())
+    assert (core.sim.scenario.id, core.sim.scene) == ("free-v1", Scene.load(path))
+    core = build_core(_served_settings(monkeypatch, "--scenario", "stiffness", "--scene", str(path)).loop_config())
+    assert (core.sim.scenario.id, core.sim.scene) == ("stiffness-v1", Scene.load(path))
+    assert _served_settings(monkeypatch).scenario == "contact-angle-v1"

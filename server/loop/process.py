@@ -30,6 +30,7 @@ from dataclasses import asdict, dataclass, field
 
 from devices.feed import CUE_HEARTBEAT_MS
 from scenarios import registry
+from scenarios.free import ID as FREE_SCENARIO
 from server.core.haptics import contact_gate as gate_defaults
 from server.core.haptics.contact_gate import ContactGate
 from server import ipc
@@ -76,12 +77,15 @@ class LoopConfig:
 
 
 def build_core(config: LoopConfig) -> LoopCore:
-    def make_sim(scenario, seed: int, scene: Scene | None = None) -> Simulation:
+    scene = Scene.load(config.scene_file) if config.scene_file else None
+
+    def make_sim(scenario, seed: int, given: Scene | None = None) -> Simulation:
         gate = ContactGate(config.gate_band, config.gate_min_on_s, config.gate_min_off_s)
-        return Simulation(scenario, tick_hz=config.tick_hz, gate=gate, seed=seed, scene=scene, rig=config.rig)
+        if given is None and scenario.id == FREE_SCENARIO:  # free-v1 explores the scene file, after a switch too
+            given = scene
+        return Simulation(scenario, tick_hz=config.tick_hz, gate=gate, seed=seed, scene=given, rig=config.rig)
 
     scenario = registry.create(config.scenario, **config.scenario_params)
-    scene = Scene.load(config.scene_file) if config.scene_file else None
     core = LoopCore(make_sim(scenario, config.seed, scene), state_hz=config.state_hz, make_sim=make_sim,
                     build_off_tick=True)  # switches are built by SwitchBuilder, never inside a tick
     core.params, core.seed = dict(config.scenario_params), config.seed
