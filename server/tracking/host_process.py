@@ -32,7 +32,7 @@ import msgpack
 
 from devices.realtime import fifo_this_thread
 from server import ipc
-from server.tracking import leap_client, replay, scripted, store
+from server.tracking import sources, store
 from server.tracking.calibration import Calibration
 from server.tracking.health import SourceHealth
 from server.tracking.one_euro import DEFAULT_PARAMS
@@ -59,7 +59,7 @@ class Source:
     def __init__(self, spec: SourceSpec, calibration: Calibration, target: tuple[str, int]):
         self.spec = spec
         self.pipeline = SourcePipeline(spec.name, calibration, nominal_hz=spec.nominal_hz,
-                                       filter_params=None if spec.kind == "scripted" else DEFAULT_PARAMS)
+                                       filter_params=DEFAULT_PARAMS if sources.KINDS[spec.kind].filtered else None)
         self.health = SourceHealth(spec.name, spec.kind, spec.nominal_hz, self.pipeline.ttl / 1000.0)
         self.target = target
         family = socket.AF_INET6 if ":" in target[0] else socket.AF_INET
@@ -104,54 +104,7 @@ class Source:
         return {"ok": True, "points": out, "units": self.pipeline.calibration.units}
 
     async def run(self) -> None:
-        kind = self.spec.kind
-        if kind == "leap":
-            await self._run_leap()
-        elif kind == "replay":
-            await self._run_replay()
-        else:
-            await self._run_scripted()
-
-    async def _run_leap(self) -> None:
-        def on_frame(frame, recv_ns):
-            if frame.points:
-                conf = sum(frame.confidence.values()) / len(frame.confidence) if frame.confidence else 1.0
-                t_s = frame.timestamp_us / 1e6 if frame.timestamp_us else recv_ns / 1e9
-                self.sample(frame.points, t_s, conf)
-
-        def on_state(note, connected):
-            self.health.note, self.health.connected = note, connected
-            if not connected:
-                self.pipeline.reset_filters()  # a reconnect starts a new track
-
-        await leap_client.run(self.spec.target, on_frame, on_state)
-
-    async def _run_replay(self) -> None:
-        track = replay.parse_csv(Path(self.spec.target).read_text(), where=self.spec.target)
-        cursor = replay.ReplayCursor(track, loop=self.spec.loop)
-        self.health.connected, self.health.note = True, "playing"
-        start = time.monotonic()
-        while not cursor.done:
-            due = cursor.next_time()
-            await asyncio.sleep(max(0.0, start + due - time.monotonic()))
-            rows = cursor.due(time.monotonic() - start)
-            if rows:
-                _, row = rows[-1]  # behind schedule: only the newest row matters
-                # its time on the replay's clock, rising across passes (the filters need that)
-                self.sample(row, cursor.last_time, 1.0)
-        self.health.connected, self.health.note = False, "replay finished"
-
-    async def _run_scripted(self) -> None:
-        fn = scripted.script(self.spec.target)
-        period = 1.0 / self.spec.nominal_hz
-        self.health.connected, self.health.note = True, "running"
-        start = time.monotonic()
-        k = 0
-        while True:
-            k += 1
-            await asyncio.sleep(max(0.0, start + k * period - time.monotonic()))
-            t = time.monotonic() - start
-            self.sample(fn(t), t, 1.0)
+        await sources.KINDS[self.spec.kind].run(self)  # its kind's module (server/tracking/sources.py)
 
 
 class TrackerHost:

@@ -1,62 +1,42 @@
-"""Tracker source specifications (`viestac serve --tracker SPEC`, repeatable).
+"""Tracker source specifications (`viestac serve --tracker SPEC`, repeatable), and the kinds of
+source: one module each, declaring its SourceKind (server/tracking/source_kind.py), listed below.
 
     leap[:URL]                      the Leap Motion service (default ws://127.0.0.1:6437/v6.json)
     replay:FILE.csv[:loop|:once]    a recorded trajectory (scene units; default: loop)
     scripted:NAME                   a scripted demo source (server/tracking/scripted.py)
 
 Each source gets a name (its kind; `leap2`, `replay2`, ... for a second one of a kind), which
-names its health entry, its calibration file and its REST routes. Pure.
+names its health entry, its calibration file and its REST routes.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from pathlib import Path
+from types import MappingProxyType
+from typing import Mapping
 
-from server.tracking import leap_frames, replay, scripted
+from server.tracking import leap_source, replay_source, scripted_source
+from server.tracking.source_kind import SourceKind, SourceSpec
 
-LEAP_URL = "ws://127.0.0.1:6437/v6.json"
+__all__ = ["KINDS", "LEAP_URL", "SourceKind", "SourceSpec", "parse_spec", "parse_specs"]
 
+LEAP_URL = leap_source.LEAP_URL
 
-@dataclass(frozen=True)
-class SourceSpec:
-    name: str
-    kind: str          # leap | replay | scripted
-    target: str        # URL, file or script name
-    loop: bool = True  # replay only
-    nominal_hz: float = 120.0
-
-    def to_dict(self) -> dict:
-        return {"name": self.name, "kind": self.kind, "target": self.target, "loop": self.loop,
-                "nominal_hz": self.nominal_hz}
-
-    @classmethod
-    def from_dict(cls, table: dict) -> "SourceSpec":
-        return cls(**table)
+# The whole list, explicit (no registration by import side effect): a new kind is a module with
+# its KIND and one entry here.
+KINDS: Mapping[str, SourceKind] = MappingProxyType({k.name: k for k in (
+    leap_source.KIND, replay_source.KIND, scripted_source.KIND,
+)})
 
 
-def parse_spec(text: str, taken: set[str] | frozenset = frozenset()) -> SourceSpec:
-    kind, _, rest = text.strip().partition(":")
-    if kind == "leap":
-        url = rest or LEAP_URL
-        if not url.startswith(("ws://", "wss://")):
-            raise ValueError(f"--tracker {text!r}: a Leap URL starts with ws:// (e.g. {LEAP_URL})")
-        spec = SourceSpec("leap", "leap", url, nominal_hz=leap_frames.NOMINAL_HZ)
-    elif kind == "replay":
-        loop = True
-        path = rest
-        for suffix, value in ((":loop", True), (":once", False)):
-            if rest.endswith(suffix):
-                path, loop = rest[: -len(suffix)], value
-        if not path:
-            raise ValueError(f"--tracker {text!r}: expected replay:FILE.csv[:loop|:once]")
-        track = replay.parse_csv(Path(path).read_text(), where=path)  # fails early, naming the line
-        spec = SourceSpec("replay", "replay", path, loop=loop, nominal_hz=round(1.0 / track.period_s, 3))
-    elif kind == "scripted":
-        scripted.script(rest)
-        spec = SourceSpec("scripted", "scripted", rest, nominal_hz=scripted.RATE_HZ)
-    else:
-        raise ValueError(f"--tracker {text!r}: expected leap[:URL], replay:FILE.csv[:loop|:once] or scripted:NAME")
+def parse_spec(text: str, taken: set[str] | frozenset = frozenset(),
+               kinds: Mapping[str, SourceKind] | None = None) -> SourceSpec:
+    kinds = KINDS if kinds is None else kinds
+    name, _, rest = text.strip().partition(":")
+    kind = kinds.get(name)
+    if kind is None:
+        usages = [k.usage for k in kinds.values()]
+        raise ValueError(f"--tracker {text!r}: expected {', '.join(usages[:-1])} or {usages[-1]}")
+    spec = kind.parse(rest, text)
     name, n = spec.name, 1
     while name in taken:
         n += 1
@@ -64,8 +44,8 @@ def parse_spec(text: str, taken: set[str] | frozenset = frozenset()) -> SourceSp
     return SourceSpec(name, spec.kind, spec.target, spec.loop, spec.nominal_hz)
 
 
-def parse_specs(texts) -> tuple[SourceSpec, ...]:
+def parse_specs(texts, kinds: Mapping[str, SourceKind] | None = None) -> tuple[SourceSpec, ...]:
     specs: list[SourceSpec] = []
     for text in texts:
-        specs.append(parse_spec(text, {s.name for s in specs}))
+        specs.append(parse_spec(text, {s.name for s in specs}, kinds))
     return tuple(specs)

@@ -11,13 +11,15 @@ import os
 import re
 from pathlib import Path
 
-from server.tracking.calibration import Calibration, leap_default
+from server.tracking.calibration import Calibration
+from server.tracking.sources import KINDS
 
 _NAME = re.compile(r"^[a-z][a-z0-9_-]{0,31}$")
 
 
 def default_for(kind: str) -> Calibration:
-    return leap_default() if kind == "leap" else Calibration()
+    declared = KINDS.get(kind)
+    return declared.calibration() if declared is not None else Calibration()
 
 
 def path_for(data_dir: Path, name: str) -> Path:
