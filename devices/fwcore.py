@@ -190,7 +190,6 @@ def _load(path: Path) -> ctypes.CDLL:
         "vt_device_take_output": (sz, [vp, u8p, sz]),
         "vt_device_advance": (sz, [vp, u64, ctypes.POINTER(_Edge), sz]),
         "vt_device_next_edge_us": (u64, [vp]),
-        "vt_device_set_watchdog": (ctypes.c_int, [vp, ctypes.c_uint32]),
         "vt_device_watchdog_deadline_us": (u64, [vp]),
         "vt_device_channel": (ctypes.POINTER(_Channel), [vp, ctypes.c_uint8]),
         "vt_device_counter": (ctypes.c_uint32, [vp, ctypes.c_int]),
@@ -434,13 +433,6 @@ class FirmwareCore:
             return self._pending[0].t_us
         t = self._lib.vt_device_next_edge_us(self._dev)
         return None if t == NEVER else t
-
-    def set_watchdog(self, timeout_ms: int) -> None:
-        """The watchdog's timeout as a sketch sets its power-up default (0 = off); it arms at the
-        next valid frame. A host sets it with SET_WATCHDOG (docs/device-protocol.md §2)."""
-        self._quiet_until = 0  # the C state changed outside _run: ask it again
-        if self._lib.vt_device_set_watchdog(self._dev, int(timeout_ms)) != 0:
-            raise ValueError(f"watchdog timeout must be 0 or 10..60000 ms, got {timeout_ms!r}")
 
     def watchdog_deadline_us(self) -> int | None:
         """When the watchdog trips unless a valid frame comes first; None while disarmed."""

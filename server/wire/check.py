@@ -204,7 +204,6 @@ _KINDS: dict[str, Callable[[dict], Check]] = {
     "tuple": _tuple, "map": _map, "any_of": _any_of,
     "bool": _when(lambda v, t: isinstance(v, bool)),
     "null": _when(lambda v, t: v is None),
-    "any": _when(lambda v, t: True),
     "enum": _when(lambda v, t: isinstance(v, str) and v in t["values"]),
     "const": _when(lambda v, t: v == t["value"]),
 }

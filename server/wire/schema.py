@@ -10,7 +10,7 @@ data drives the JavaScript checker (clients/web/src/protocol.js):
   (3.0) counts as the integer 3, a non-integral one is refused;
 - `{"kind": "number", "min", "max", "min_exclusive", "max_abs", "decimals"}`: any finite number;
   `decimals` says to how many decimal places the server rounds it (documentation only);
-- `{"kind": "bool"}`, `{"kind": "null"}`, `{"kind": "any"}`;
+- `{"kind": "bool"}`, `{"kind": "null"}`;
 - `{"kind": "string", "min_len", "max_len"}`: lengths in Unicode code points;
 - `{"kind": "enum", "values"}`, `{"kind": "const", "value"}`;
 - `{"kind": "vec", "size", "min", "max_abs", "decimals"}`: an array of `size` numbers;
@@ -83,10 +83,6 @@ def boolean() -> dict:
 
 def null() -> dict:
     return {"kind": "null", "doc": "null"}
-
-
-def anything(doc: str = "any") -> dict:
-    return {"kind": "any", "doc": doc}
 
 
 def string(min_len: int = 0, max_len: int | None = None, doc: str | None = None) -> dict:

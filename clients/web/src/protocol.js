@@ -234,7 +234,6 @@ const KINDS = {
   number: (x, t) => isNum(x) && inBounds(x, t),
   bool: (x) => isBool(x),
   null: (x) => x === null,
-  any: () => true,
   string: (x, t) => isStr(x) && codePoints(x) >= (t.min_len ?? 0) && codePoints(x) <= (t.max_len ?? Infinity),
   enum: (x, t) => t.values.includes(x),
   const: (x, t) => x === t.value,
