@@ -31,8 +31,7 @@ from dataclasses import asdict, dataclass, field
 from devices.feed import CUE_HEARTBEAT_MS
 from scenarios import registry
 from scenarios.free import ID as FREE_SCENARIO
-from server.core.haptics import contact_gate as gate_defaults
-from server.core.haptics.contact_gate import ContactGate
+from server.core.haptics.contact_gate import BAND, MIN_DWELL_S, ContactGate
 from server import ipc
 from server.cpu_plan import pin_process
 from server.loop.builder import SwitchBuilder
@@ -60,9 +59,9 @@ class LoopConfig:
     realtime: bool = True
     rt_priority: int = 50
     cpu: int | None = None  # the CPU the loop pins itself to, so its caches stay warm between ticks (server/cpu_plan.py)
-    gate_band: float = gate_defaults.BAND
-    gate_min_on_s: float = gate_defaults.MIN_DWELL_S
-    gate_min_off_s: float = gate_defaults.MIN_DWELL_S
+    gate_band: float = BAND
+    gate_min_on_s: float = MIN_DWELL_S
+    gate_min_off_s: float = MIN_DWELL_S
     seed: int = 0
     rig: tuple[str, ...] = ()  # the rig's fingers besides the primary point: one tool each (Simulation)
 
