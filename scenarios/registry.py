@@ -25,6 +25,9 @@ from scenarios.stiffness import StiffnessScenario
 from scenarios.texture import TextureScenario
 
 
+DEFAULT_SCENARIO = "contact-angle"  # what the server runs when it is told nothing (serve, LoopConfig, a virtual hub)
+
+
 @dataclass(frozen=True)
 class ScenarioSpec:
     id: str

@@ -21,14 +21,13 @@ from server.tracking.sources import SourceSpec, parse_specs
 
 WEB_ROOT = Path(__file__).resolve().parents[1] / "clients" / "web"
 STUDIES_DIR = Path(__file__).resolve().parents[1] / "studies"
-DEFAULT_SCENARIO = "contact-angle"
 
 
 @dataclass(frozen=True)
 class Settings:
     host: str = "127.0.0.1"
     port: int = 8000
-    scenario: str | None = None    # None: free-v1 when there is a scene_file, else DEFAULT_SCENARIO
+    scenario: str | None = None    # None: free-v1 when there is a scene_file, else registry.DEFAULT_SCENARIO
     scenario_params: dict = field(default_factory=dict)  # the scenario's PARAMS (docs/scenarios.md)
     scene_file: str | None = None
     tick_hz: int = 1000
@@ -74,7 +73,8 @@ class Settings:
         if not (0.0 <= self.gate_band <= 0.1 and 0.0 <= self.gate_dwell_s <= 1.0):
             raise ValueError("gate band must be in [0, 0.1] scene units and dwell in [0, 1] s")
         if self.scenario is None:  # serve --scene FILE.json alone: explore the file
-            object.__setattr__(self, "scenario", FREE_SCENARIO if self.scene_file is not None else DEFAULT_SCENARIO)
+            object.__setattr__(self, "scenario", FREE_SCENARIO if self.scene_file is not None
+                               else registry.DEFAULT_SCENARIO)
         spec = registry.resolve(self.scenario)  # fails early, with a hint
         object.__setattr__(self, "scenario", spec.id)
         object.__setattr__(self, "scenario_params", registry.check_scenario_params(spec, self.scenario_params))

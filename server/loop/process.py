@@ -48,7 +48,7 @@ MAX_BACKLOG = 10_000  # records waiting for the hub (~5 MB); beyond that the old
 
 @dataclass(frozen=True)
 class LoopConfig:
-    scenario: str = "contact-angle"
+    scenario: str = registry.DEFAULT_SCENARIO
     scenario_params: dict = field(default_factory=dict)
     trial: dict | None = None  # a free trial ({"phase", "params", "index"}) restored after a restart
     start_tick: int = 0  # a restarted loop continues the dead one's clock (server/hub/supervisor.py)

@@ -29,7 +29,7 @@ TICK_NS = 1_000_000
 
 
 class VirtualHub:
-    def __init__(self, devices: dict[str, VirtualDevice], *, scenario: str = "contact-angle",
+    def __init__(self, devices: dict[str, VirtualDevice], *, scenario: str = registry.DEFAULT_SCENARIO,
                  params: dict | None = None, seed: int = 0, tick_hz: int = 1000, state_hz: float = STATE_HZ):
         self.devices = devices
         self.tick_hz = tick_hz
