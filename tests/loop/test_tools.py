@@ -181,6 +181,20 @@ def test_a_scenario_switch_keeps_who_drives_each_tool_and_what_is_lost():
     assert core.sim.data.lost_sources == {"udp:a": (THUMB,)}
 
 
+def test_a_scenario_switch_keeps_the_drawn_points_and_the_ttl_running_and_starts_the_objects_anew():
+    """What SimData.carry_over carries: a source's drawn points and its ttl (it is lost after the
+    switch as it would have been before); what the new scenario starts without: the old objects."""
+    core = two_fingers()
+    run(core, 5, [tracker("udp:h", 1, DOME_TOP, points={"right.wrist": (0, 0, 1.4)}, ttl=40)])
+    core.tick([["input", 1, "scale", "press", False]], 0)
+    assert core.sim.data.visibility == {"angle_scale": False} and core.sim.data.deadlines == {"udp:h": 0.04}
+    ticks = run(core, 50, [["scenario", "contact-angle", {}, 0]])
+    assert ticks[0][1]["points"] == {"right.wrist": [0.0, 0.0, 1.4]}
+    assert ticks[0][1]["visible"] == {"angle_scale": True}, "the new scenario's own, not the old one's hidden scale"
+    lost = [(tick, e["source"]) for tick, state, *_ in ticks for e in state["events"] if e["name"] == "tracker_lost"]
+    assert lost == [(40, "udp:h")] and ticks[-1][1]["points"] == {}
+
+
 # -- each device gets its own finger's cues ------------------------------------------------------
 
 class Fingers(ContactAngle):
