@@ -263,3 +263,4 @@ class Snapshot:
     that `Simulation.restore` copies again, so one snapshot restores any number of times."""
     data: SimData
     scenario: dict[str, Any]
+    scene: str  # the hash of the scene it was taken on: restored only onto that scene

@@ -152,11 +152,15 @@ class Simulation:
     # -- snapshots (module doc) ------------------------------------------------------------------
     def snapshot(self) -> Snapshot:
         """The run as it stands between two ticks, for `restore` (any number of times)."""
-        return Snapshot(self.data.copy(), copy.deepcopy(vars(self.scenario), {id(self.scene): self.scene}))
+        # the memo makes a scenario's reference to the scene (the model) a reference, not a copy
+        return Snapshot(self.data.copy(), copy.deepcopy(vars(self.scenario), {id(self.scene): self.scene}),
+                        self.scene.hash)
 
     def restore(self, snapshot: Snapshot) -> None:
         """Back to `snapshot` (of this simulation): the next steps are those that followed it, bit
         for bit, given the same inputs. The model (scenario object, scene) stays as it is."""
+        if snapshot.scene != self.scene.hash:
+            raise ValueError(f"a snapshot of another scene than {self.scene.name!r}")
         self.data = snapshot.data.copy()
         state = vars(self.scenario)
         state.clear()

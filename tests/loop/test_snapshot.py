@@ -152,6 +152,8 @@ def test_a_snapshot_shares_nothing_that_changes_with_the_running_simulation():
     assert fingerprint_of(snap.data) == kept
     assert snap.data.tools[0] is not sim.data.tools[0] and snap.data.tools[0].god is not sim.data.tools[0].god
     assert snap.data.tool_by_name[THUMB] is snap.data.tools[1], "the copy's lookup names the copy's tools"
+    with pytest.raises(ValueError, match="another scene"):
+        Simulation(registry.create("contact-angle")).restore(snap)
 
 
 def fingerprint_of(data) -> str:
