@@ -149,13 +149,13 @@ def render(sim: Simulation, samples, out_path: str | Path) -> int:
     core = LoopCore(sim)
     tick_ns = 1_000_000_000 / sim.tick_hz
     index, fed = 0, -1
-    others = [tool.name for tool in sim.tools[1:]]
+    others = [tool.name for tool in sim.data.tools[1:]]
     with open(out_path, "w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(OUT_COLUMNS + [f"{name}.{c}" for name in others
                                        for c in ("proxy_x", "proxy_y", "proxy_z", "contact", "cues")])
         for _ in range(n_ticks):
-            tick = core.sim.tick
+            tick = core.sim.data.tick
             t = t0 + tick / sim.tick_hz
             while index + 1 < len(samples) and samples[index + 1][0] <= t + 1e-12:
                 index += 1

@@ -70,7 +70,7 @@ def test_a_sample_without_the_primary_point_drives_the_tool_it_names(tmp_path):
     write(path, multipoint_columns([THUMB]), [(i / 100, 0.0, 0.0, 1.0 - 0.8 * i / 50) for i in range(51)])
     sim = make_simulation("contact-angle", tools=(THUMB,))
     render(sim, read_trajectory(path), out)
-    assert sim.tool_by_name[THUMB].driver == "render" and sim.tools[0].driver is None
+    assert sim.data.tool_by_name[THUMB].driver == "render" and sim.data.tools[0].driver is None
 
 
 @pytest.mark.parametrize("header, row, message", [

@@ -66,7 +66,7 @@ def time_tools(n: int, every: int, ticks: int) -> dict:
     """Cost per tick with n tools and a tracker sample every `every` ticks."""
     core = build_core(LoopConfig(scenario="contact-angle", rig=FINGERTIPS[1:n], realtime=False))
     core.outbox.clear()
-    tools = core.sim.tools
+    tools = core.sim.data.tools
     clock = time.perf_counter_ns
     tick_ns, god_ns, states = [], [], 0
     gc.collect()
@@ -84,7 +84,7 @@ def time_tools(n: int, every: int, ticks: int) -> dict:
                 tick_ns.append(t1 - t0)
                 states += out.state is not None
         # the god-object alone, on the same HIPs, one fresh god-object per tool
-        bodies = core.sim.bodies
+        bodies = core.sim.data.bodies
         gods = [type(tool.god)(tool.proxy_radius) for tool in tools]
         for i in range(WARM_UP + ticks):
             hips = [fingertip(k, i - i % every) for k in range(n)]

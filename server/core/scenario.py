@@ -171,6 +171,9 @@ class Trial:
     def to_dict(self) -> dict:
         return {"phase": self.phase, "params": dict(self.params), "index": self.index}
 
+    def __deepcopy__(self, memo: dict) -> Trial:
+        return self  # immutable (frozen, read-only params): a copy of a simulation shares it (Simulation.snapshot)
+
     @property
     def title(self) -> str:
         """What the participant's HUD calls this trial: "Practice 2" (trial phase), "Trial 3"."""
@@ -204,6 +207,9 @@ class _NoToolCues(Mapping):
 
     def __hash__(self) -> int:
         return 0
+
+    def __reduce__(self) -> str:
+        return "NO_TOOL_CUES"  # copied or pickled, the one shared instance (compared by identity)
 
 
 NO_TOOL_CUES: Mapping[str, tuple[Cue, ...]] = _NoToolCues()

@@ -3,9 +3,10 @@
 A tool owns the tracked position (the HIP: the latest applied tracker sample), the position a
 scenario holds it at instead (the experimenter's "tap"), the god-object proxy and its radius, the
 contact gate, and the tracker rule: which source drives it. A tool is named by the tracked point
-that drives it (server/core/points.py, e.g. "right.thumb.tip"). The simulation owns a tuple of
-tools, one per rig point, the primary (the HIP, "right.index.tip") first; each has its own driver
-and god-object, and tools do not collide with each other.
+that drives it (server/core/points.py, e.g. "right.thumb.tip"). The simulation's data
+(server/loop/sim_data.py) holds a tuple of tools, one per rig point, the primary (the HIP,
+"right.index.tip") first; each has its own driver and god-object, and tools do not collide with
+each other.
 
 Tracker rule (docs/protocol.md): one source drives a tool at a time. A sample is applied when the
 tool has no driver, or it comes from the driver, or the driver has sent nothing for
@@ -96,7 +97,8 @@ class Tool:
         return True
 
     def take_driver(self, other: Tool) -> None:
-        """Keep who drives across a rebuilt simulation (a scenario switch), not where it was."""
+        """Keep who drives across a rebuilt simulation (a scenario switch: SimData.carry_over), not
+        where it was."""
         self.driver, self.seq, self._driver_t = other.driver, other.seq, other._driver_t
         self.ignored, self.lost = other.ignored, other.lost
 

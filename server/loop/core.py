@@ -156,7 +156,7 @@ class LoopCore:
                 self.outbox.append(["log", "error", f"record {record[0]} failed: {traceback.format_exc()}"])
         out = self._out
         sim = self.sim
-        tick = sim.tick
+        tick = sim.data.tick
         try:
             result, state = self.step(now_ns)
             out.cues = self.device_cues(result)
@@ -299,16 +299,7 @@ class LoopCore:
 
     def _take_over(self, sim: Simulation, params: dict, seed: int) -> None:
         """`sim` replaces the running simulation; announces the new scene."""
-        old = self.sim
-        sim.tick = old.tick
-        sim.refusals = old.refusals
-        sim.events = old.events  # unpublished events and trial ends of the old scenario still go out
-        sim.finished = old.finished
-        for previous in old.tools:  # who drives a tool does not change with the scene
-            tool = sim.tool_by_name.get(previous.name)
-            if tool is not None:
-                tool.take_driver(previous)
-        sim.carry_tracking(old)
+        sim.data.carry_over(self.sim.data)  # the tick, unpublished events, who drives what (SimData)
         sim.drawn = self.drawn
         self.sim, self.params, self.seed = sim, dict(params), seed
         self.outbox.extend(self.announce())

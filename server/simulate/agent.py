@@ -79,7 +79,7 @@ class PositioningAgent:
 
     def seen(self, object_id: str) -> tuple[float, float]:
         """(y, z) of an object as the side view shows it."""
-        pose = self.hub.core.sim.moved.get(object_id) or self.hub.core.sim.scene.object(object_id).pose
+        pose = self.hub.core.sim.data.moved.get(object_id) or self.hub.core.sim.scene.object(object_id).pose
         return pose.pos[1], pose.pos[2]
 
     # -- the body -------------------------------------------------------------------------------

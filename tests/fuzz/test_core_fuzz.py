@@ -27,18 +27,18 @@ CORE = LoopCore(Simulation(ContactAngle()))  # one core: the state a hostile seq
 @given(positions, st.sampled_from(SANE), st.integers(min_value=1, max_value=3))
 def test_any_finite_positions_never_wedge_the_core(hostile, sane, ticks_each):
     core = CORE
-    seq = core.sim.tick
+    seq = core.sim.data.tick
     for pos in hostile:
         for _ in range(ticks_each):
-            t = core.sim.tick
+            t = core.sim.data.tick
             out = core.tick([["tracker", 1, seq, 0.0, list(pos), None, t * MS]], t * MS)
             seq += 1
             if out.result is not None:
                 assert all(math.isfinite(v) and abs(v) <= WORKSPACE_HALF_EXTENT_M + 1 for v in out.result.proxy)
-    t = core.sim.tick
+    t = core.sim.data.tick
     core.tick([["tracker", 1, seq, 0.0, list(sane), None, t * MS]], t * MS)
     for _ in range(3):
-        t = core.sim.tick
+        t = core.sim.data.tick
         out = core.tick((), t * MS)
     assert out.error is None and out.result is not None
     proxy = out.result.proxy

@@ -76,7 +76,7 @@ def test_device_refusals_reach_the_scenario_and_its_hud():
     core.apply(["devices", {"refusals": ["tac (fingertac) cannot show the tilt cue"]}], 0)
     core.apply(["tracker", 1, 0, 0.0, _dome(), None, 0], 0)
     _, state = core.step(0)
-    assert core.sim.refusals == ("tac (fingertac) cannot show the tilt cue",)
+    assert core.sim.data.refusals == ("tac (fingertac) cannot show the tilt cue",)
     assert "cannot show the tilt cue" in state["hud"]
 
 

@@ -20,7 +20,7 @@ def tracker(seq, pos, client=1):
 def run(core, records_by_tick, ticks):
     outs = []
     for _ in range(ticks):
-        t = core.sim.tick
+        t = core.sim.data.tick
         out = core.tick(records_by_tick.get(t, ()), t * MS)
         outs.append({"tick": out.tick, "error": out.error, "faults": list(out.faults), "state": out.state,
                      "proxy": out.result.proxy if out.result else None})
@@ -41,7 +41,7 @@ def test_huge_tracker_positions_do_not_wedge_the_loop_and_a_sane_sample_is_rende
 
 def test_a_tool_clamps_what_it_is_offered_and_placed_at():
     sim = Simulation(ContactAngle())
-    tool = sim.tools[0]
+    tool = sim.data.tools[0]
     assert tool.offer(1, 0, (0.0, 1e308, -1e308), 0.0)
     assert tool.tracked == (0.0, WORKSPACE_HALF_EXTENT_M, -WORKSPACE_HALF_EXTENT_M)
     sim.set_hip((float("nan"), float("inf"), 0.3))
@@ -58,7 +58,7 @@ def test_a_failing_tick_is_counted_reported_and_recovered_from(monkeypatch):
     scenario = Exploding()
     core = LoopCore(Simulation(scenario))
     run(core, {0: [tracker(0, DOME_TOP)]}, 3)
-    tool = core.sim.tools[0]
+    tool = core.sim.data.tools[0]
     assert tool.god.proxy is not None
     scenario.failing = True
     failed = run(core, {}, 12)
@@ -93,7 +93,7 @@ def test_a_proxy_left_far_away_by_a_failure_is_not_reused(monkeypatch):
     """Even a god-object that got somewhere absurd is forgotten by the failure it causes."""
     core = LoopCore(Simulation(ContactAngle()))
     run(core, {0: [tracker(0, DOME_TOP)]}, 2)
-    tool = core.sim.tools[0]
+    tool = core.sim.data.tools[0]
     tool.god.reset((0.0, 1.35e154, 0.5))  # what a driver without the clamp could leave behind
     original = tool.god.step
 

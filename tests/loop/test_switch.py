@@ -51,10 +51,10 @@ def test_tick_never_builds_a_switch_it_only_records_it():
 def test_a_trial_sent_after_a_switch_waits_for_the_new_scenario():
     core, _ = off_tick_core()
     core.tick([["scenario", "stiffness", {}, 0], ["trial", TRIAL]], 0)
-    assert core.sim.trial is None, "the trial is for the scenario being built, not the running one"
+    assert core.sim.data.trial is None, "the trial is for the scenario being built, not the running one"
     switch = core.pending_switch
     core.install(switch, core.build(switch))
-    assert core.sim.scenario.id == "stiffness-v1" and core.sim.trial is not None and core.sim.trial.index == 5
+    assert core.sim.scenario.id == "stiffness-v1" and core.sim.data.trial is not None and core.sim.data.trial.index == 5
     scenarios = [r[1] for r in core.outbox if r[0] == "scenario"]
     assert scenarios[-1]["trial"]["index"] == 5, "the trial is announced right after the new scenario"
 
@@ -70,7 +70,7 @@ def test_a_second_switch_during_the_build_wins_and_the_first_is_discarded():
     assert core.sim.scenario.id == "contact-angle-v1"
     second = core.pending_switch
     assert core.install(second, core.build(second))
-    assert core.sim.scenario.id == "texture-v1" and core.sim.trial is None, "the first switch's trial went with it"
+    assert core.sim.scenario.id == "texture-v1" and core.sim.data.trial is None, "the first switch's trial went with it"
     assert make.built == ["stiffness-v1", "texture-v1"]
 
 
@@ -98,7 +98,7 @@ def test_without_build_off_tick_apply_builds_and_installs_at_once():
     core = LoopCore(Simulation(ContactAngle()))
     core.apply(["scenario", "stiffness", {}, 0], 0)
     core.apply(["trial", TRIAL], 0)
-    assert core.pending_switch is None and core.sim.scenario.id == "stiffness-v1" and core.sim.trial.index == 5
+    assert core.pending_switch is None and core.sim.scenario.id == "stiffness-v1" and core.sim.data.trial.index == 5
 
 
 def test_the_builder_warms_up_off_the_calling_thread_then_builds_the_pending_switch(monkeypatch):

@@ -51,7 +51,7 @@ def run(core, ticks, records_at=None):
     """Run `ticks` ticks from the core's current tick; return the outputs' data per tick."""
     seen = []
     for _ in range(ticks):
-        t = core.sim.tick
+        t = core.sim.data.tick
         out = core.tick((records_at or {}).get(t, ()), t * MS)
         seen.append({"tick": out.tick, "cues": out.cues, "records": list(out.records), "state": out.state,
                      "failed": out.result is None, "error": out.error})
@@ -65,7 +65,7 @@ def test_a_failing_step_turns_every_actuator_off_reports_once_and_the_next_good_
     assert [s["cues"] for s in first] == [TILT, None, None]
     scenario.failing = True
     failed = run(core, 3)
-    assert [s["tick"] for s in failed] == [3, 4, 5] and core.sim.tick == 6, "the tick counter advances"
+    assert [s["tick"] for s in failed] == [3, 4, 5] and core.sim.data.tick == 6, "the tick counter advances"
     assert all(s["failed"] and s["state"] is None for s in failed)
     assert [s["cues"] for s in failed] == [[], None, None], "every actuator off, once"
     kinds = [[r[0] if r[0] != "log" else r[1] for r in s["records"]] for s in failed]
@@ -137,7 +137,7 @@ def test_a_quiet_driver_loses_the_hip_after_driver_quiet_s():
     core.tick([tracker(1, 0, FREE)], 0)
     quiet = round(DRIVER_QUIET_S * 1000)
     run(core, quiet - 2)
-    assert core.sim.tick == quiet - 1
+    assert core.sim.data.tick == quiet - 1
     out = core.tick([tracker(2, 0, DOME_TOP)], (quiet - 1) * MS)
     assert out.result.hip == tuple(FREE), "silent for less than DRIVER_QUIET_S: still the driver's"
     out = core.tick([tracker(2, 1, DOME_TOP)], quiet * MS)
@@ -210,7 +210,7 @@ def test_the_state_record_carries_the_touchability_overrides():
     assert out.state["haptic"] == {}, "the tick that asks renders with the old set"
     states = [s["state"] for s in run(core, 40) if s["state"] is not None]
     assert states[0]["haptic"] == {"left": False} and states[0]["visible"]["left"] is False
-    run(core, 1, {core.sim.tick: [["input", 1, "r", "press"]]})
+    run(core, 1, {core.sim.data.tick: [["input", 1, "r", "press"]]})
     assert [s["state"]["haptic"] for s in run(core, 40) if s["state"] is not None][-1] == {}
 
 
@@ -238,7 +238,7 @@ def test_the_recorder_takes_a_trials_metrics_from_the_loops_finished_entries(rec
             recorder.on_record(record)
         if out.state is not None:
             recorder.on_record(["state", out.state])
-        out = core.tick((), core.sim.tick * MS)
+        out = core.tick((), core.sim.data.tick * MS)
     assert recorder.end().metrics == {"completion_s": 1.5}
 
 
@@ -267,12 +267,12 @@ def test_a_body_moved_while_untouchable_is_where_it_was_last_moved_when_it_count
                            6: ("stiffness", 123.0), 7: ("haptic", True)}
     for _ in range(7):
         sim.step()
-        assert "hemisphere" not in {b.id for b in sim.bodies}, "untouchable while carried"
+        assert "hemisphere" not in {b.id for b in sim.data.bodies}, "untouchable while carried"
     sim.step()
-    body = {b.id: b for b in sim.bodies}["hemisphere"]
+    body = {b.id: b for b in sim.data.bodies}["hemisphere"]
     assert body.pose.pos == (0.5, 0.0, 0.0), "the last pose it was given, not the one it was made untouchable at"
     assert body.stiffness_n_per_m == 123.0, "a change made while untouchable is kept"
-    assert sim.moved["hemisphere"].pos == (0.5, 0.0, 0.0)
+    assert sim.data.moved["hemisphere"].pos == (0.5, 0.0, 0.0)
 
 
 def test_a_run_nobody_draws_records_the_same_and_leaves_the_picture_out():

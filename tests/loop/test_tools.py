@@ -40,7 +40,7 @@ def run(core: LoopCore, ticks: int, records=()):
     """`ticks` ticks, `records` applied before the first; every tick's (tick, state, cues) kept."""
     out = []
     for i in range(ticks):
-        o = core.tick(list(records) if i == 0 else [], core.sim.tick * MS)
+        o = core.tick(list(records) if i == 0 else [], core.sim.data.tick * MS)
         out.append((o.tick, o.state, o.cues, o.finger_cues, o.result))
     return out
 
@@ -50,7 +50,7 @@ def run(core: LoopCore, ticks: int, records=()):
 def test_the_default_rig_has_one_tool_the_primary_point_and_the_state_lists_it():
     core = LoopCore(Simulation(ContactAngle()))
     state = core.tick([tracker(1, 0, DOME_TOP)], 0).state
-    assert [t.name for t in core.sim.tools] == [PRIMARY_POINT]
+    assert [t.name for t in core.sim.data.tools] == [PRIMARY_POINT]
     assert state["tools"] == [{"name": PRIMARY_POINT, "hip": state["hip"], "proxy": state["proxy"], "contact": True,
                                "lost": False}]
     assert state["points"] == {} and state["tracking"] == {"lost": []}
@@ -60,8 +60,8 @@ def test_tools_are_the_primary_then_the_rig_then_what_the_scenario_needs_each_on
     class Grasp(ContactAngle):
         fingers = (PRIMARY_POINT, "right.middle.tip", THUMB)
     sim = Simulation(Grasp(), rig=(THUMB, "left.index.tip"))
-    assert [t.name for t in sim.tools] == [PRIMARY_POINT, THUMB, "left.index.tip", "right.middle.tip"]
-    assert len({id(t.gate) for t in sim.tools}) == 4, "each tool has its own contact gate"
+    assert [t.name for t in sim.data.tools] == [PRIMARY_POINT, THUMB, "left.index.tip", "right.middle.tip"]
+    assert len({id(t.gate) for t in sim.data.tools}) == 4, "each tool has its own contact gate"
     with pytest.raises(ValueError, match="not a tracked point name"):
         tool_names(("right.index.nail",))
 
@@ -98,7 +98,7 @@ def test_points_of_a_sample_move_their_tools_and_the_others_are_drawn():
     (_, state, _, _, result), = run(core, 1, [tracker(1, 0, FREE, points=points)])
     assert [t.hip for t in result.tools] == [FREE, DOME_TOP]
     assert state["points"] == {"right.wrist": [0.1, 0.2, 1.5], "right.palm": [0.1, 0.1, 1.4]}
-    assert state["driver"] == [1, 0] and core.sim.tool_by_name[THUMB].driver == 1
+    assert state["driver"] == [1, 0] and core.sim.data.tool_by_name[THUMB].driver == 1
 
 
 def test_the_tracker_rule_holds_per_tool():
@@ -106,7 +106,7 @@ def test_the_tracker_rule_holds_per_tool():
     core.tick([tracker(1, 0, FREE), tracker(2, 0, FREE_SIDE, point=THUMB)], 0)
     out = core.tick([tracker(2, 1, DOME_TOP), tracker(1, 1, DOME_TOP, point=THUMB)], MS)
     assert [t.hip for t in out.result.tools] == [FREE, FREE_SIDE], "each tool keeps its own driver"
-    assert [t.driver for t in core.sim.tools] == [1, 2]
+    assert [t.driver for t in core.sim.data.tools] == [1, 2]
     assert "from 1 ignored: 2 drives right.thumb.tip" in " ".join(r[2] for r in out.records if r[0] == "log")
 
 
@@ -141,7 +141,7 @@ def test_loss_does_not_wait_for_the_gates_minimum_on_time():
 def test_a_lost_source_that_sends_again_is_back():
     core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
     run(core, 30, [tracker("udp:a", 1, DOME_TOP, ttl=20)])
-    assert core.sim.lost_sources == {"udp:a": (PRIMARY_POINT,)}
+    assert core.sim.data.lost_sources == {"udp:a": (PRIMARY_POINT,)}
     (tick, state, cues, _, result), = run(core, 1, [tracker("udp:a", 2, DOME_TOP, ttl=20)])
     assert [e["name"] for e in state["events"]] == ["tracker_back"]
     assert state["events"][0]["source"] == "udp:a" and state["tracking"] == {"lost": []}
@@ -159,7 +159,7 @@ def test_another_source_taking_over_the_lost_tools_clears_the_loss():
 def test_a_sample_without_ttl_is_held_as_the_mouse_is():
     core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
     ticks = run(core, 2000, [tracker(3, 1, DOME_TOP)])
-    assert all(r.contact for *_, r in ticks) and core.sim.lost_sources == {}
+    assert all(r.contact for *_, r in ticks) and core.sim.data.lost_sources == {}
 
 
 def test_a_lost_source_drops_its_drawn_points_and_a_source_that_leaves_is_not_lost():
@@ -177,8 +177,22 @@ def test_a_scenario_switch_keeps_who_drives_each_tool_and_what_is_lost():
     core = two_fingers()
     run(core, 30, [tracker("udp:a", 1, FREE, point=THUMB, ttl=5), tracker(2, 1, DOME_TOP)])
     core.tick([["scenario", "contact-angle", {}, 0]], 0)
-    assert [t.driver for t in core.sim.tools] == [2, None] and core.sim.tool_by_name[THUMB].lost
-    assert core.sim.lost_sources == {"udp:a": (THUMB,)}
+    assert [t.driver for t in core.sim.data.tools] == [2, None] and core.sim.data.tool_by_name[THUMB].lost
+    assert core.sim.data.lost_sources == {"udp:a": (THUMB,)}
+
+
+def test_a_scenario_switch_keeps_the_drawn_points_and_the_ttl_running_and_starts_the_objects_anew():
+    """What SimData.carry_over carries: a source's drawn points and its ttl (it is lost after the
+    switch as it would have been before); what the new scenario starts without: the old objects."""
+    core = two_fingers()
+    run(core, 5, [tracker("udp:h", 1, DOME_TOP, points={"right.wrist": (0, 0, 1.4)}, ttl=40)])
+    core.tick([["input", 1, "scale", "press", False]], 0)
+    assert core.sim.data.visibility == {"angle_scale": False} and core.sim.data.deadlines == {"udp:h": 0.04}
+    ticks = run(core, 50, [["scenario", "contact-angle", {}, 0]])
+    assert ticks[0][1]["points"] == {"right.wrist": [0.0, 0.0, 1.4]}
+    assert ticks[0][1]["visible"] == {"angle_scale": True}, "the new scenario's own, not the old one's hidden scale"
+    lost = [(tick, e["source"]) for tick, state, *_ in ticks for e in state["events"] if e["name"] == "tracker_lost"]
+    assert lost == [(40, "udp:h")] and ticks[-1][1]["points"] == {}
 
 
 # -- each device gets its own finger's cues ------------------------------------------------------
@@ -315,7 +329,7 @@ def test_the_recorder_keeps_every_tracked_point_and_the_loss_and_export_writes_a
             recorder.on_record(record)
         if out.state is not None:
             recorder.on_record(["state", out.state])
-        out = core.tick((), core.sim.tick * MS)
+        out = core.tick((), core.sim.data.tick * MS)
     recorder.end()
     rows = store.point_samples(trial.id, trial.attempt)
     assert [tick for tick, _ in rows] == list(range(0, 60, 10))

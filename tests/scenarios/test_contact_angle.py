@@ -97,15 +97,15 @@ def test_angle_scale_shows_in_training_only_and_hud_never_gives_the_angle_away()
     assert sim.scene.overlays[0].id == SCALE_ID
     sim.input("tap_angle", "press", -30.0)
     train = _steps(sim, 40)[-1]
-    assert sim.visibility[SCALE_ID] is True and train.output.hud == "Angle -30°"
+    assert sim.data.visibility[SCALE_ID] is True and train.output.hud == "Angle -30°"
     sim.set_trial(Trial.parse(ContactAngle.TRIAL_PARAMS, "main", {"angle_deg": 50.0}, index=2))
     main = _steps(sim, 40)[-1]
-    assert sim.visibility[SCALE_ID] is False
+    assert sim.data.visibility[SCALE_ID] is False
     assert main.output.hud == "Trial 3: which angle do you feel?" and "50" not in main.output.hud
     assert main.output.values["angle_deg"] == pytest.approx(50.0, abs=1e-6)  # the operator still sees it
     sim.input("scale", "press", True)  # the experimenter may show it anyway
     sim.step()
-    assert sim.visibility[SCALE_ID] is True
+    assert sim.data.visibility[SCALE_ID] is True
 
 
 def test_main_trial_tap_is_released_after_the_time_limit():
@@ -116,7 +116,7 @@ def test_main_trial_tap_is_released_after_the_time_limit():
     assert results[1000].contact and not results[-1].contact
     release = [e for r in results for e in r.output.events if e["name"] == "release"]
     assert release and release[0]["by"] == "time_limit"
-    assert sim.events[-1]["name"] == "release" and sim.events[-1]["tick"] == pytest.approx(2000, abs=2)
+    assert sim.data.events[-1]["name"] == "release" and sim.data.events[-1]["tick"] == pytest.approx(2000, abs=2)
 
 
 def test_the_study_design_is_spec_md():

@@ -116,7 +116,7 @@ def test_scripted_run_metrics_equal_those_of_the_script():
     off = (0.0, 0.0, 0.1)   # 0.1 above the wire: outside the 0.06 threshold
     script = (along(path, 0.0, 1.0, 500) + along(path, 1.0, 1.6, 300, off) + along(path, 1.6, path.length, 2000))
     results = run(sim, approach + script)
-    events = {e["name"]: e for e in sim.events}
+    events = {e["name"]: e for e in sim.data.events}
     assert set(events) >= {"start", "trial_done"} and sc.phase == "done"
     done = events["trial_done"]
     start_tick = events["start"]["tick"]
@@ -151,13 +151,13 @@ def test_restart_key_and_operator_threshold():
     assert sc.phase == "tracing" and sc.time_outside > 0
     sim.input("r", "down")
     sim.step()
-    assert sc.phase == "start" and sim.events[-1]["name"] == "restart" and sc.time_outside == 0
+    assert sc.phase == "start" and sim.data.events[-1]["name"] == "restart" and sc.time_outside == 0
     sim.input("threshold", "press", 0.12)
     sim.step()
-    assert sc.allowed == 0.12 and sim.events[-1] == {**sim.events[-1], "name": "threshold", "threshold": 0.12}
+    assert sc.allowed == 0.12 and sim.data.events[-1] == {**sim.data.events[-1], "name": "threshold", "threshold": 0.12}
     sim.input("threshold", "press", 0.3)  # not below max_distance: refused, kept
     sim.step()
-    assert sc.allowed == 0.12 and sim.events[-1]["name"] == "refused"
+    assert sc.allowed == 0.12 and sim.data.events[-1]["name"] == "refused"
     sim.set_trial(Trial.parse(HotWire.TRIAL_PARAMS, "main", {"threshold": 0.02}))
     sim.step()
     assert sc.allowed == 0.02 and sc.phase == "start"
@@ -171,18 +171,18 @@ def test_moving_target_paces_the_run():
     sim, sc = make(path="segments", target_speed=speed, threshold=0.06, max_distance=0.3)
     path = sc.path
     run(sim, [path.start] * 2)
-    assert sim.visibility["pacer"] is True
-    start_tick = next(e["tick"] for e in sim.events if e["name"] == "start")
+    assert sim.data.visibility["pacer"] is True
+    start_tick = next(e["tick"] for e in sim.data.events if e["name"] == "start")
     last = run(sim, [path.start] * 400)[-1]  # 0.4 s at the start: the pacer is 0.2 ahead
-    assert sim.moved["pacer"].pos == pytest.approx(path.point_at(0.2), abs=1e-3)
+    assert sim.data.moved["pacer"].pos == pytest.approx(path.point_at(0.2), abs=1e-3)
     assert last.output.values["lag"] == pytest.approx(0.2, abs=1e-3) and last.output.values["deviation"] == 0
     assert isinstance(last.output.cues[0], PulseTrain), "on the wire but behind the target: the lag is the cue"
     # follow 0.4 s behind the pacer to the end
-    behind = [path.point_at(speed * ((sim.tick + k - start_tick) / 1000 - 0.4)) for k in range(1, 30000)]
+    behind = [path.point_at(speed * ((sim.data.tick + k - start_tick) / 1000 - 0.4)) for k in range(1, 30000)]
     behind = behind[:next(k for k, p in enumerate(behind) if p == path.end) + 1]
     results = run(sim, behind)
-    assert sc.phase == "done" and sim.visibility["pacer"] is False
-    done = next(e for e in sim.events if e["name"] == "trial_done")
+    assert sc.phase == "done" and sim.data.visibility["pacer"] is False
+    done = next(e for e in sim.data.events if e["name"] == "trial_done")
     assert 0.15 < done["lag_mean"] <= 0.2 + 1e-3, "0.2 along the path, a chord at the corners"
     assert results[-1].output.values["phase"] == "done"
 
@@ -198,5 +198,5 @@ def test_moving_target_run_ends_only_when_the_target_arrives():
     wait = int(path.length / (2 * speed) * 1000) + 5
     run(sim, [path.end] * wait)
     assert sc.phase == "done"
-    done = next(e for e in sim.events if e["name"] == "trial_done")
+    done = next(e for e in sim.data.events if e["name"] == "trial_done")
     assert done["completion_s"] == pytest.approx(path.length / speed, abs=2e-3)

@@ -56,7 +56,7 @@ def test_the_nearest_hole_is_chosen_again_every_tick():
         best = min(ITEMS, key=lambda h: math.dist(carried, hole_centre(h, CUBE_B)))
         assert r.output.values["nearest_hole"] == best.id
         assert r.output.values["distance"] == pytest.approx(math.dist(carried, hole_centre(best, CUBE_B)), abs=1e-6)
-    assert [e["hole"] for e in sim.events if e["name"] == "nearest_hole"] == ["cube_b", "cube_a", "sphere", "cube_b"]
+    assert [e["hole"] for e in sim.data.events if e["name"] == "nearest_hole"] == ["cube_b", "cube_a", "sphere", "cube_b"]
 
 
 @pytest.mark.parametrize("reverse", [False, True])
@@ -94,18 +94,18 @@ def test_at_the_hole_strongest_or_in_reverse_silent(reverse, expected):
 def test_insertion_into_its_own_hole_with_metrics_of_the_path():
     sim, sc = make()
     results = pick(sim, CUBE_A)
-    pick_tick = next(e["tick"] for e in sim.events if e["name"] == "pick")
+    pick_tick = next(e["tick"] for e in sim.data.events if e["name"] == "pick")
     above = over(CUBE_A, dz=0.6)
     rim = over(CUBE_A, dz=-0.03)  # below the rim top: the proxy rests on the rim, the cube is in
     results += run(sim, line(results[-1].hip, above, 400) + line(above, rim, 200))
-    done = next(e for e in sim.events if e["name"] == "trial_done")
+    done = next(e for e in sim.data.events if e["name"] == "trial_done")
     assert done["object"] == "cube_a" and done["hole"] == "cube_a" and done["own_hole"] is True
     assert done["completion_s"] == pytest.approx((done["tick"] - pick_tick) / 1000, abs=1e-9)
     carried = [(r.proxy[0], r.proxy[1], max(0.15, r.proxy[2] - HANG)) for r in results[pick_tick:done["tick"] + 1]]
     assert done["path_length"] == pytest.approx(sum(math.dist(a, b) for a, b in zip(carried, carried[1:])), abs=1e-6)
     assert finished(results) == [(done["tick"], metrics_of(done))], "the insertion is the step's `finished` too"
-    assert sim.moved["cube_a"].pos == (*CUBE_A.hole_at, 0.15), "it drops to the bottom and stays"
-    assert "cube_a" in sim.untouchable
+    assert sim.data.moved["cube_a"].pos == (*CUBE_A.hole_at, 0.15), "it drops to the bottom and stays"
+    assert "cube_a" in sim.data.untouchable
     after = run(sim, [above])[-1]
     assert after.output.cues == () and after.output.values["last_hole"] == "cube_a"
 
@@ -118,7 +118,7 @@ def test_a_cube_fits_the_round_hole_only_when_the_holes_are_scaled():
     assert sc.carried is CUBE_B, "a cube's corners do not fit the round hole at scale 1"
     sim.input("hole_scale", "press", 1.5)
     run(sim, [over(SPHERE, CUBE_B, dz=0.6)] * 2 + line(over(SPHERE, CUBE_B, dz=0.6), into_round, 100))
-    done = next(e for e in sim.events if e["name"] == "trial_done")
+    done = next(e for e in sim.data.events if e["name"] == "trial_done")
     assert done["hole"] == "sphere" and done["own_hole"] is False
     # the round hole is taken: carrying the sphere, the nearest free hole is never it
     pick(sim, SPHERE)
@@ -135,10 +135,10 @@ def test_a_trial_grasps_only_its_object_and_r_clears_the_table_outside_trials():
     assert sc.carried is SPHERE and sc._reverse() is True
     sim.set_trial(None)
     sim.step()
-    assert sc.carried is None and "sphere" not in sim.untouchable, "a new trial (or none) clears the table"
+    assert sc.carried is None and "sphere" not in sim.data.untouchable, "a new trial (or none) clears the table"
     pick(sim, CUBE_A)
     run(sim, line(over(CUBE_A, dz=0.6), over(CUBE_A, dz=-0.03), 100))
     assert sc.placed == {"cube_a": "cube_a"}
     sim.input("r", "down")
     sim.step()
-    assert sc.placed == {} and sim.moved["cube_a"].pos == (*CUBE_A.start, 0.15) and "cube_a" not in sim.untouchable
+    assert sc.placed == {} and sim.data.moved["cube_a"].pos == (*CUBE_A.start, 0.15) and "cube_a" not in sim.data.untouchable

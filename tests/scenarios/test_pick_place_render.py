@@ -45,7 +45,7 @@ def test_a_recorded_grasp_and_place_replays_through_render(tmp_path):
     phases = [v["phase"] for v in values]
     assert [p for k, p in enumerate(phases) if k == 0 or p != phases[k - 1]] == ["idle", "held", "placed"]
     assert values[-1]["drops"] == 0 and values[-1]["placement_error"] < 0.02
-    assert sim.moved[BLOCK].pos[2] == HALF and abs(sim.moved[BLOCK].pos[1] + 0.9) < 0.02
+    assert sim.data.moved[BLOCK].pos[2] == HALF and abs(sim.data.moved[BLOCK].pos[1] + 0.9) < 0.02
     thumb_cued = [r[f"{THUMB}.cues"] != "[]" for r in table]
     index_cued = [r["cues"] != "[]" for r in table]
     assert any(thumb_cued) and any(index_cued), "each finger's contact cue in its own column"

@@ -51,13 +51,13 @@ def make():
 
 def test_the_scenario_gets_two_tools_index_first():
     sim, _, _ = make()
-    assert [t.name for t in sim.tools] == [INDEX, THUMB]
+    assert [t.name for t in sim.data.tools] == [INDEX, THUMB]
 
 
 def test_pressing_both_fingers_in_from_opposite_sides_grasps_and_each_finger_feels_its_own_contact():
     sim, sc, hand = make()
     results = grasp(hand)
-    assert sc.phase == "held" and [e["name"] for e in sim.events] == ["grasp"]
+    assert sc.phase == "held" and [e["name"] for e in sim.data.events] == ["grasp"]
     last = results[-1]
     index, thumb = last.tools
     assert index.contact and thumb.contact and BLOCK in index.touching and BLOCK in thumb.touching
@@ -86,22 +86,22 @@ def test_a_light_touch_from_both_sides_is_no_grasp():
 def test_carry_to_the_target_and_open_the_fingers_places_the_block():
     sim, sc, hand = make()
     grasp(hand)
-    held_at = sim.moved[BLOCK].pos
+    held_at = sim.data.moved[BLOCK].pos
     assert held_at == pytest.approx((X0, Y0, HALF), abs=1e-9), "no jump at the grasp"
     # lift 0.4, carry to the target (0, −0.9), set down to 0.02 above the table
     route = [(X0, Y0, HALF), (X0, Y0, HALF + 0.4), (0.0, -0.9, HALF + 0.4), (0.0, -0.9, HALF + 0.02)]
     centres = [p for a, b in zip(route, route[1:]) for p in line(a, b, 300)]
     results = hand.move(*zip(*(pinch(c, -0.03) for c in centres)))
     assert sc.phase == "held", "the grasp held all the way"
-    assert sim.moved[BLOCK].pos == pytest.approx((0.0, -0.9, HALF + 0.02), abs=0.01)
+    assert sim.data.moved[BLOCK].pos == pytest.approx((0.0, -0.9, HALF + 0.02), abs=0.01)
     assert all(BLOCK in r.tools[0].touching and BLOCK in r.tools[1].touching for r in results[-50:])
     # open: both fingers back out
     open_i, open_t = pinch(centres[-1], 0.1)
     press_i, press_t = pinch(centres[-1], -0.03)
     hand.move(line(press_i, open_i, 50), line(press_t, open_t, 50))
     assert sc.phase == "placed"
-    assert sim.moved[BLOCK].pos == pytest.approx((0.0, -0.9, HALF), abs=0.01), "it dropped onto the target"
-    place = next(e for e in sim.events if e["name"] == "place")
+    assert sim.data.moved[BLOCK].pos == pytest.approx((0.0, -0.9, HALF), abs=0.01), "it dropped onto the target"
+    place = next(e for e in sim.data.events if e["name"] == "place")
     assert place["error"] < 0.01
 
 
@@ -116,10 +116,10 @@ def test_the_thumbs_tracker_lost_drops_the_block():
     sim.offer("hand", hand.seq, i, points={THUMB: t}, ttl_ms=40)
     results = [sim.step() for _ in range(60)]
     assert sc.phase == "idle" and sc.drops == 1
-    lost = [e for e in sim.events if e["name"] == "drop"]
+    lost = [e for e in sim.data.events if e["name"] == "drop"]
     assert lost and lost[-1]["reason"] == "tracking_lost"
     assert results[-1].output.cues == () and results[-1].output.tool_cues == {THUMB: ()}, "no cue stays on"
-    assert sim.moved[BLOCK].pos[2] == HALF
+    assert sim.data.moved[BLOCK].pos[2] == HALF
 
 
 def test_a_fast_carry_at_a_trackers_rate_keeps_the_grasp():
@@ -132,7 +132,7 @@ def test_a_fast_carry_at_a_trackers_rate_keeps_the_grasp():
     centres = [c for c in line(start, end, 60) for _ in range(8)]  # 60 samples over 0.48 s, 8 ticks each
     hand.move(*zip(*(pinch(c, -0.03) for c in centres)))
     assert sc.phase == "held" and sc.drops == 0
-    assert sim.moved[BLOCK].pos == pytest.approx(end, abs=1e-6)
+    assert sim.data.moved[BLOCK].pos == pytest.approx(end, abs=1e-6)
 
 
 def test_the_grip_cue_stays_steady_through_a_fast_carry():

@@ -53,9 +53,9 @@ def test_grasp_attaches_the_object_shows_the_arrow_and_stops_touching_it():
     x, y = ITEMS[0].start
     last = run_path(sim, [(x, y, 0.9)] * 3)[-1]
     assert sc.phase == "carry" and last.output.hud == "Bring it to the arrow"
-    assert "cube_a" in sim.untouchable and sim.visibility["arrow_head"] is True
-    assert sim.moved["cube_a"].pos == pytest.approx((x, y, 0.9 - HANG))
-    assert [e["name"] for e in sim.events] == ["pick"]
+    assert "cube_a" in sim.data.untouchable and sim.data.visibility["arrow_head"] is True
+    assert sim.data.moved["cube_a"].pos == pytest.approx((x, y, 0.9 - HANG))
+    assert [e["name"] for e in sim.data.events] == ["pick"]
 
 
 def test_hold_two_seconds_then_go_then_insert_with_metrics_of_the_path():
@@ -66,13 +66,13 @@ def test_hold_two_seconds_then_go_then_insert_with_metrics_of_the_path():
     above = (t[0], t[1], t[2] + HANG)
     path = line((item.start[0], item.start[1], 0.34), above, 400)
     results += run_path(sim, path + [above] * 2100)
-    ticks = {e["name"]: e["tick"] for e in sim.events}
+    ticks = {e["name"]: e["tick"] for e in sim.data.events}
     assert ticks["go"] - ticks["reached"] == 2000, "GO after exactly 2 s at the target"
     assert results[ticks["go"] - 1].output.hud.startswith("Hold") and results[ticks["go"]].output.hud == "GO"
     into = (t[0], t[1], item.hole.height + 0.1)  # the HIP stays above the rim: the proxy is free
     results += run_path(sim, line(above, into, 100))
     assert sc.phase == "inserted"
-    done = next(e for e in sim.events if e["name"] == "trial_done")
+    done = next(e for e in sim.data.events if e["name"] == "trial_done")
     # from the grasp on, the free proxy is the HIP and the object hangs 0.21 below it (not below the table)
     carried = [(r.hip[0], r.hip[1], max(item.half, r.hip[2] - HANG)) for r in results[ticks["pick"]:done["tick"] + 1]]
     assert done["path_length"] == pytest.approx(sum(math.dist(a, b) for a, b in zip(carried, carried[1:])), abs=1e-6)
@@ -104,7 +104,7 @@ def test_space_brings_the_next_object_only_after_insertion():
     sc.phase = "inserted"
     sim.input(" ", "down")
     sim.step()
-    assert sc.index == 1 and sc.phase == "idle" and sim.moved["sphere"].pos == (*ITEMS[1].start, 0.15)
+    assert sc.index == 1 and sc.phase == "idle" and sim.data.moved["sphere"].pos == (*ITEMS[1].start, 0.15)
 
 
 @pytest.mark.parametrize("cue, depth, expected", [
@@ -152,7 +152,7 @@ def test_trial_selects_object_and_cue_and_bad_values_are_named():
     sim.set_trial(Trial.parse(Positioning.TRIAL_PARAMS, "main", {"object": "sphere", "cue": "P2"}))
     sim.step()
     assert sc.index == 1 and sc.guide.pattern == "P2"
-    assert sim.moved["cube_a"].pos == (*ITEMS[0].start, 0.15) and "cube_a" not in sim.untouchable, "a clean table"
+    assert sim.data.moved["cube_a"].pos == (*ITEMS[0].start, 0.15) and "cube_a" not in sim.data.untouchable, "a clean table"
     with pytest.raises(ParamError, match="object must be one of"):
         Trial.parse(Positioning.TRIAL_PARAMS, "main", {"object": "pyramid"})
 
@@ -160,15 +160,15 @@ def test_trial_selects_object_and_cue_and_bad_values_are_named():
 def test_moving_holes_and_hole_scale():
     sim, sc = make(hole_speed=0.01)
     run_path(sim, [(0.0, 0.0, 2.0)] * 1001)
-    assert sim.moved["cube_a_hole"].pos[1] == pytest.approx(ITEMS[0].hole_at[1] + 0.01, abs=1e-5)
+    assert sim.data.moved["cube_a_hole"].pos[1] == pytest.approx(ITEMS[0].hole_at[1] + 0.01, abs=1e-5)
     assert sc.target(ITEMS[0])[1] == pytest.approx(ITEMS[0].hole_at[1] + 0.01, abs=1e-5)
     item, hole = ITEMS[0], ITEMS[0].hole_at
     off = (hole[0] + 0.09, hole[1], 0.3)
     assert not inserted(item, off, hole, 1.0) and inserted(item, off, hole, 1.5)
     sim.input("hole_scale", "press", 1.5)
     sim.step()
-    assert sc.scale == 1.5 and sim.events[-1]["name"] == "hole_scale"
-    assert sim.scales["cube_a_hole"] == (1.5, 1.5, 1.0) and sim.scales["sphere_hole"] == (1.5, 1.5, 1.0)
+    assert sc.scale == 1.5 and sim.data.events[-1]["name"] == "hole_scale"
+    assert sim.data.scales["cube_a_hole"] == (1.5, 1.5, 1.0) and sim.data.scales["sphere_hole"] == (1.5, 1.5, 1.0)
     sim.input("hole_scale", "press", 1.0)
     sim.step()
-    assert sim.scales == {}, "back at scene size: no override left"
+    assert sim.data.scales == {}, "back at scene size: no override left"

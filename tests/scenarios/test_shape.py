@@ -86,15 +86,15 @@ def test_touching_the_presented_cone(y, direction):
 
 def test_trial_presents_one_shape_at_the_centre_and_hides_it():
     sim = _present("sphere")
-    assert sim.moved["sphere"].pos == (0.0, 0.0, 0.5)
-    assert {s: sim.visibility[s] for s in SHAPES} == {"cube": False, "sphere": False, "cone": False}
-    assert sim.untouchable == {"cube", "cone"}
+    assert sim.data.moved["sphere"].pos == (0.0, 0.0, 0.5)
+    assert {s: sim.data.visibility[s] for s in SHAPES} == {"cube": False, "sphere": False, "cone": False}
+    assert sim.data.untouchable == {"cube", "cone"}
     last = _touch(sim, (0.0, 0.0, 1.04))
     assert last.output.cues == (Tilt(0.0, 100.0),) and "which shape" in last.output.hud
     sim.set_trial(None)  # back to the gallery
     sim.step()
-    assert sim.untouchable == set() and all(sim.visibility[s] for s in SHAPES)
-    assert sim.moved["cube"].pos == (0.0, -1.5, 0.5)
+    assert sim.data.untouchable == set() and all(sim.data.visibility[s] for s in SHAPES)
+    assert sim.data.moved["cube"].pos == (0.0, -1.5, 0.5)
 
 
 def test_texture_overlay_lowers_the_tilt_magnitude():

@@ -59,7 +59,7 @@ def test_random_key_and_production_keys_with_every_press_recorded():
     sim.input("ArrowDown", "up")  # key releases are not presses
     last = _tap(sim, SPACING, 40)[-1]
     assert last.output.cues == (level_cue(8),) and last.force[2] == pytest.approx(80 * 0.02, rel=1e-6)
-    keys = [e for e in sim.events if e["name"] == "key"]
+    keys = [e for e in sim.data.events if e["name"] == "key"]
     assert [(e["key"], e["right_level"]) for e in keys] == [("ArrowDown", 9), ("ArrowDown", 8), ("ArrowDown", 7),
                                                              ("ArrowUp", 8)]
     assert [e["tick"] for e in keys] == sorted(e["tick"] for e in keys) and all("t" in e for e in keys)
@@ -72,12 +72,12 @@ def test_recording_hides_the_left_sphere_and_makes_it_untouchable():
     sim = Simulation(StiffnessScenario())
     sim.input("r", "press")
     sim.step()
-    assert sim.visibility[LEFT] is False and sim.visibility["left_label"] is False
-    assert LEFT in sim.untouchable
+    assert sim.data.visibility[LEFT] is False and sim.data.visibility["left_label"] is False
+    assert LEFT in sim.data.untouchable
     assert _tap(sim, -SPACING)[-1].output.cues == ()
     sim.input("r", "press")
     sim.step()
-    assert sim.visibility[LEFT] is True and LEFT not in sim.untouchable
+    assert sim.data.visibility[LEFT] is True and LEFT not in sim.data.untouchable
 
 
 def test_estimation_keeps_the_right_reference_and_the_n_key_draws_from_the_seed():
@@ -116,7 +116,7 @@ def test_a_production_trial_reports_its_result_when_recording_stops():
     results.append(sim.step())
     sim.input("r", "press")
     results.append(sim.step())
-    done = [e for e in sim.events if e["name"] == "trial_done"]
+    done = [e for e in sim.data.events if e["name"] == "trial_done"]
     assert len(done) == 1
     assert done[0]["produced_level"] == start - 1 and done[0]["target_level"] == 4
     assert done[0]["match_time_s"] == pytest.approx(0.501, abs=1e-9)  # pressed after tick 0, again after tick 501

@@ -41,7 +41,7 @@ def test_plane_moves_at_the_fixed_velocity_only_while_touched(velocity):
     y1 = results[-1].output.poses[PLANE_ID].pos[1]
     ticks = len(results) - 1 - first
     assert (y1 - y0) / (ticks / 1000) == pytest.approx(velocity, rel=1e-9)
-    assert sim.moved[PLANE_ID].pos[1] == pytest.approx(y1)
+    assert sim.data.moved[PLANE_ID].pos[1] == pytest.approx(y1)
     sim.set_hip((0.0, 0.2, 1.0))
     after = [sim.step() for _ in range(200)]
     assert all(PLANE_ID not in r.output.poses for r in after[50:]), "the plane stops when the HIP leaves"
