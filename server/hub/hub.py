@@ -519,11 +519,11 @@ class Hub:
     @property
     def scenario_target(self) -> dict | None:
         """What the loop runs once the switches sent to it land (ScenarioControl.target)."""
-        return self.control.target(self.scenario_state)
+        return self.control.target()
 
     def scenario_info(self) -> dict:
         # the scene hash names the scene this scenario announced (the loop sends the scene first)
-        return self.control.info(self.scenario_state, self.scene_hash)
+        return self.control.info(self.scene_hash)
 
     def clients(self) -> list[dict]:
         return [c.session.info() for c in self.connections.values()]
