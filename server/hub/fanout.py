@@ -30,7 +30,8 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from server.hub.event_log import EventLog
 from server.hub.owner import Owner
-from server.hub.session import CLOSED, Close, Gate, ServerInfo, Session
+from server.hub.outbox import Close
+from server.hub.session import CLOSED, Gate, ServerInfo, Session
 from server.wire import codec, messages
 
 SLICE = 8
@@ -203,7 +204,7 @@ class Fanout:
             while True:
                 await c.wake.wait()
                 c.wake.clear()
-                while (item := c.session.next_frame()) is not None:
+                while (item := c.session.outbox.next_frame()) is not None:
                     if isinstance(item, Close):
                         await c.ws.close(code=item.code)
                         return

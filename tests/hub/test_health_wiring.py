@@ -86,7 +86,7 @@ def health_frames(status, codes=()):
 
 def taken(session):
     out = []
-    while (item := session.next_frame()) is not None:
+    while (item := session.outbox.next_frame()) is not None:
         out.append(codec.decode(item, session.fmt))
     return out
 

@@ -34,7 +34,7 @@ def test_records_the_hub_never_offered_on_their_own_still_give_their_events():
 
         def taken(session) -> list[dict]:
             out = []
-            while (frame := session.next_frame()) is not None:
+            while (frame := session.outbox.next_frame()) is not None:
                 out.append(codec.decode(frame, session.fmt))
             return [m for m in out if m["type"] == "state"]
 
