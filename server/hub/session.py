@@ -1,6 +1,6 @@
 """One /ws client's protocol session, I/O-free (the shape of websockets' sans-I/O protocol core).
 
-The hub's shell (server/hub/hub.py) owns the socket and the clock; this object owns every
+The hub's shell (server/hub/fanout.py) owns the socket and the clock; this object owns every
 protocol decision about one client:
 - the hello grace period: the first frame must be a `hello` with a valid token, by the deadline
   (`hello_deadline_passed`); without one the client gets `unauthorized` and the connection closes

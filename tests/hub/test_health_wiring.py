@@ -153,7 +153,7 @@ def test_the_hub_turns_records_and_reports_into_health_and_tells_each_client():
         assert [r["code"] for r in taken(session)[-1]["reasons"]] == ["tick_failures", "device_missing"]
         hub.link.on_loop_record(["recovered", {"tick": 10, "failures": 1}])
         hub.link.on_loop_record(["state", state_record(failures=1, periods=(1000, 2000, 2000, 2500))])
-        hub.health_feed.check_health()  # state records are judged by the periodic check (Hub.watch_health)
+        hub.health_feed.check_health()  # state records are judged by the periodic check (HealthFeed.watch_health)
         assert [r["code"] for r in taken(session)[-1]["reasons"]] == ["device_missing", "overruns"]
 
         hub.health_feed.on_child_exit("device_host", -9)

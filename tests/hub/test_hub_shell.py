@@ -14,7 +14,7 @@ from tests.hub.access_fakes import FakeAccess, with_token
 
 
 class FakeSocket:
-    """What Hub.serve uses of a starlette WebSocket; the test plays the client. Its hello carries
+    """What Fanout.serve uses of a starlette WebSocket; the test plays the client. Its hello carries
     the admin's token (tests/hub/access_fakes.py); `lease` messages are kept apart in `leases`
     (tests/hub/test_hub_access.py looks at them), everything else in `got`."""
 
