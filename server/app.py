@@ -29,7 +29,7 @@ from server.experiment.engine import Experiment
 from server.experiment.store import Store, utc_now
 from server.hub.device_host import DeviceHost
 from server.hub.hub import Hub
-from server.hub.owner import HubForWorkers
+from server.hub.owner import HubForWorkers, Owner
 from server.hub.supervisor import LoopSupervisor
 from server.hub.tracker_host import TrackerHost
 from server.loop import tracker_udp
@@ -50,15 +50,20 @@ async def _tick_lease(access: AccessControl, every_s: float = 0.25) -> None:
             log.exception("lease tick failed")
 
 
-def _access_control(settings: Settings, hub: Hub) -> AccessControl:
+def _access_control(settings: Settings) -> AccessControl:
     access = AccessControl.open(settings.data_dir, lease_ttl_s=settings.lease_ttl_s)
     secret = os.environ.get(ADMIN_TOKEN_ENV)
     if secret:
         access.book.add_ephemeral(secret, "admin", label="env")
-    if hasattr(hub, "set_lease"):  # the clients see the lease as it changes (protocol v1.3 `lease`)
-        access.on_lease_change = hub.set_lease
-    hub.access_control = access
     return access
+
+
+def _resumable(state: dict | None, experiment: Experiment) -> dict | None:
+    """What a restarted loop runs: what the loop last announced, with its trial unless a trial is
+    recorded (the experiment ends that attempt as interrupted, docs/data.md)."""
+    if state is None or experiment.recorder.active is None:
+        return state
+    return {**state, "trial": None}
 
 
 async def _flush_recorder(experiment: Experiment, every_s: float = 0.25) -> None:
@@ -75,43 +80,44 @@ def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None =
     process off the loop's CPU first); otherwise planned here from this process's CPUs."""
     if cpu_plan is None:
         cpu_plan = plan_cpus(os.sched_getaffinity(0), settings.loop_cpu)
+    owner = Owner("the hub")  # one thread owns the hub and its children: the event loop's (server/hub/owner.py)
+    access = _access_control(settings)  # the clients see the lease as it changes (protocol v1.3 `lease`)
+    # The loop's records go to the hub's loop link; a restarted loop comes back with what ran
+    # (the hub's scenario control owns it), not with the start-up scenario.
+    supervisor = LoopSupervisor(settings.loop_config(cpu=cpu_plan.loop), lambda record: hub.link.on_loop_record(record),
+                                resume=lambda: _resumable(hub.control.state, experiment))
+    supervisor.owner = owner
     hub = Hub(server_name=f"viestac/{__version__}", tick_hz=settings.tick_hz, state_hz=settings.state_hz,
-              overrun_threshold=settings.overrun_threshold)
-    supervisor = LoopSupervisor(settings.loop_config(cpu=cpu_plan.loop), hub.on_loop_record)
-    supervisor.owner = hub.owner  # one thread owns both: the event loop's (server/hub/owner.py)
-    hub.send_to_loop = supervisor.send
-    # A restarted loop comes back with what ran, not with the start-up scenario; a recorded trial
-    # is not restarted by it (the experiment ends that attempt as interrupted, docs/data.md).
-    hub.on_scenario = lambda state: supervisor.resume(
-        state, trial=None if experiment.recorder.active is not None else state["trial"])
+              overrun_threshold=settings.overrun_threshold, send_to_loop=supervisor.send, access=access, owner=owner)
 
     store = Store(settings.data_dir / "viestac.sqlite", utc_now)
     # REST runs the engine on worker threads (SQLite off the event loop); its hub calls run on the owner.
-    experiment = Experiment(store, HubForWorkers(hub, hub.owner), studies_dir=settings.studies_dir, software_version=__version__,
+    experiment = Experiment(store, HubForWorkers(hub, owner), studies_dir=settings.studies_dir, software_version=__version__,
                             config=settings.recorded(), record_every=settings.record_every,
                             force_scenarios=settings.force)
 
-    access = _access_control(settings, hub)
     # participants answer the study's questions over /ws (protocol v1.5 `ask`, `answer`)
-    answers = ParticipantAnswers(experiment, hub, access.audit)
-    hub.on_answer, hub.participant_view, experiment.on_change = answers.answer, answers.view, answers.changed
+    answers = ParticipantAnswers(experiment, hub.answers, access.audit)
+    hub.answers.connect(answers.answer, answers.view)
+    experiment.on_change = answers.changed
 
     rig = (SimulatedRig(settings.rig_models, directory=default_rig_dir())
            if settings.simulated_rig and not settings.devices else None)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
-        hub.owner.bind()
+        owner.bind()
+        feed = hub.health_feed
         # each device on its finger (rig file `finger`, --finger): it gets that tool's cues only
         configs = settings.device_configs(await asyncio.to_thread(rig.start) if rig else [])
-        hub.device_profiles = {c.name: c.profile for c in configs}  # until the devices identify themselves
-        devices = DeviceHost(configs, on_report=hub.on_device_report,
-                             on_profiles=lambda profiles: setattr(hub, "device_profiles", profiles))
-        devices.owner = hub.owner
+        feed.device_profiles = {c.name: c.profile for c in configs}  # until the devices identify themselves
+        devices = DeviceHost(configs, on_report=hub.link.on_device_report,
+                             on_profiles=lambda profiles: setattr(feed, "device_profiles", profiles))
+        devices.owner = owner
         # health hears of every start and exit at once, not at its next 25 ms poll
         for name, child in (("loop", supervisor), ("device_host", devices)):
-            child.on_start = lambda _what, name=name: hub.on_child_start(name)
-            child.on_exit = lambda _what, code, name=name: hub.on_child_exit(name, code)
+            child.on_start = lambda _what, name=name: feed.on_child_start(name)
+            child.on_exit = lambda _what, code, name=name: feed.on_child_exit(name, code)
         devices.start()  # the serial devices and the cue feed run in a process of their own
         supervisor.cue_sock = devices.loop_end  # the loop sends changed cues straight to it
         app.state.device_host = devices
@@ -127,12 +133,13 @@ def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None =
         trackers = None
         if settings.trackers and supervisor.tracker_sock is not None:  # sources run outside loop and hub
             trackers = TrackerHost(settings.tracker_specs(), app.state.tracker_udp, settings.data_dir)
-            trackers.owner = hub.owner
-            trackers.on_sources = hub.on_tracker_sources  # a lost tracker makes health degraded
+            trackers.owner = owner
+            trackers.on_sources = feed.on_tracker_sources  # a lost tracker makes health degraded
             trackers.start()
         app.state.tracker_host = trackers
         flusher = asyncio.get_running_loop().create_task(_flush_recorder(experiment))
-        health = asyncio.get_running_loop().create_task(hub.watch_health({"loop": supervisor, "device_host": devices}))
+        health = asyncio.get_running_loop().create_task(
+            feed.watch_health({"loop": supervisor, "device_host": devices}, each_poll=hub.link.retry_undelivered))
         access.tick()  # a lease that expired while the server was down goes now
         access.on_lease_change(access.lease.snapshot())
         lease_tick = asyncio.get_running_loop().create_task(_tick_lease(access))
@@ -177,7 +184,7 @@ def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None =
 
     @app.websocket("/ws")
     async def websocket(ws: WebSocket) -> None:
-        await hub.serve(ws)
+        await hub.fanout.serve(ws)
 
     if settings.web_root.is_dir():
         app.mount("/", WebClient(directory=settings.web_root), name="web")  # an allowlist, not the folder

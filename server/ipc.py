@@ -16,7 +16,7 @@ socket empty and raises (~1.2 µs of a 2.6 µs drain of one record, warm).
 
 Records, hub → loop: ["tracker", client_id, seq, t_ms, [x,y,z], quat|None, recv_ns] (+ [point,
 points, ttl_ms] for a v1.4 sample with any of them: server/wire/messages.py Tracker.loop_record),
-["input", client_id, key, action, value?], ["trial", body|None], ["scenario", name, params, seed],
+["input", client_id, key, action, value?], ["trial", body|None], ["scenario", name, params, seed, n],
 ["devices", report], ["record", every_n_ticks], ["tracker_gone", client_id] (a /ws client that
 sent tracker samples left: the HIP it drove goes home), ["stop"].
 Records, loop → hub: ["hello", info], ["scene", scene_map, hash], ["scenario", info],

@@ -64,23 +64,23 @@ def _cpu_plan(request: Request) -> dict | None:
                                 "person can act on), with loop timing over the last 10 s")
 async def health(request: Request, hub: HubDep, supervisor: SupervisorDep) -> dict:
     alive = supervisor.alive
-    report = hub.check_health()  # server/hub/health.py; the same verdict the clients' `health` message carries
+    report = hub.health_feed.check_health()  # server/hub/health.py; the same verdict the clients' `health` message carries
     return {"status": report.status, "reasons": list(report.reasons), "notes": list(report.notes),
             "version": __version__, "uptime_s": round(time.monotonic() - _STARTED, 3),
-            "loop": {"alive": alive, "pid": hub.loop_info.get("pid"), "rt": hub.telemetry.rt,
-                     "cpu": hub.loop_info.get("cpu"), "cpus": _cpu_plan(request),
-                     "restarts": supervisor.restarts, "scenario": hub.loop_info.get("scenario"),
-                     "tick_hz": hub.tick_hz, "state_hz": hub.state_hz,
+            "loop": {"alive": alive, "pid": hub.link.loop_info.get("pid"), "rt": hub.link.telemetry.rt,
+                     "cpu": hub.link.loop_info.get("cpu"), "cpus": _cpu_plan(request),
+                     "restarts": supervisor.restarts, "scenario": hub.link.loop_info.get("scenario"),
+                     "tick_hz": hub.fanout.server.tick_hz, "state_hz": hub.fanout.server.state_hz,
                      "dropped_to_loop": supervisor.dropped_to_loop},
-            "telemetry": hub.telemetry_summary(), "clients": len(hub.connections), "scene": hub.scene_hash,
+            "telemetry": hub.link.telemetry_summary(), "clients": len(hub.fanout.connections), "scene": hub.fanout.scene_hash,
             "tracker_udp": getattr(request.app.state, "tracker_udp", None),
-            "warnings": [r["text"] for r in hub.log_records if r["level"] == "warning"][-5:]}
+            "warnings": [r["text"] for r in hub.link.log_records if r["level"] == "warning"][-5:]}
 
 
 @router.get("/scenarios", summary="Scenarios this server can run, with their parameters, controls, study "
                                   "parts and required tactile dimensions, and whether the configured devices can run them")
 async def scenarios(hub: HubDep) -> list[dict]:
-    return [{**describe(spec.factory), "capability": hub.capability(spec.factory).to_dict()}
+    return [{**describe(spec.factory), "capability": hub.control.capability(spec.factory).to_dict()}
             for spec in SCENARIOS.values()]
 
 
@@ -112,7 +112,7 @@ def _busy_or_bad(exc: Exception) -> HTTPException:
 
 @router.get("/scenario", responses=errors(503), summary="The running scenario: id, parameters, trial, declaration, capability check")
 async def scenario(hub: HubDep) -> dict:
-    info = hub.scenario_info()
+    info = hub.control.info(hub.fanout.scene_hash)  # the scene the scenario announced (it comes first)
     if not info:
         raise HTTPException(503, "the loop has not announced its scenario yet")
     return info
@@ -122,7 +122,7 @@ async def scenario(hub: HubDep) -> dict:
                                   "configured device can show it, unless force")
 async def switch_scenario(body: ScenarioRequest, hub: HubDep) -> dict:
     try:
-        return hub.switch_scenario(body.name, body.params, body.seed, body.force)
+        return hub.control.switch_scenario(body.name, body.params, body.seed, body.force)
     except UnknownScenario as exc:
         raise HTTPException(404, str(exc)) from None
     except ScenarioRefused as exc:
@@ -136,7 +136,7 @@ async def switch_scenario(body: ScenarioRequest, hub: HubDep) -> dict:
                                                                      "not connected, unless force")
 async def start_trial(body: TrialRequest, hub: HubDep) -> dict:
     try:
-        return {"trial": hub.set_trial(body.phase, body.params, body.index, body.force)}
+        return {"trial": hub.control.set_trial(body.phase, body.params, body.index, body.force)}
     except DeviceMissing as exc:
         raise HTTPException(409, exc.report.message) from None
     except (ParamError, BusyError) as exc:
@@ -147,7 +147,7 @@ async def start_trial(body: TrialRequest, hub: HubDep) -> dict:
                                                                                      "free exploration)")
 async def end_trial(hub: HubDep) -> dict:
     try:
-        return {"trial": hub.set_trial(None)}
+        return {"trial": hub.control.set_trial(None)}
     except BusyError as exc:
         raise _busy_or_bad(exc) from None
 
@@ -155,7 +155,7 @@ async def end_trial(hub: HubDep) -> dict:
 @router.post("/command", responses=errors(400, 422, 503), summary="Send a key or experimenter command to the running scenario, as an operator")
 async def command(body: CommandRequest, hub: HubDep) -> dict:
     try:
-        hub.command(body.key, body.action, body.value, role="operator")
+        hub.control.command(body.key, body.action, body.value, role="operator")
     except (ParamError, BusyError) as exc:
         raise _busy_or_bad(exc) from None
     return {"ok": True}
@@ -163,21 +163,21 @@ async def command(body: CommandRequest, hub: HubDep) -> dict:
 
 @router.get("/scene", responses=errors(503), summary="The current static scene (docs/protocol.md scene format)")
 async def scene(hub: HubDep) -> dict:
-    if hub.scene is None:
+    if hub.fanout.scene is None:
         raise HTTPException(503, "the loop has not published a scene yet")
-    return {"hash": hub.scene_hash, "scene": hub.scene}
+    return {"hash": hub.fanout.scene_hash, "scene": hub.fanout.scene}
 
 
 @router.get("/state", responses=errors(503), summary="The latest state frame")
 async def state(hub: HubDep) -> dict:
-    if hub.last_state is None:
+    if hub.link.last_state is None:
         raise HTTPException(503, "no state yet")
-    return hub.last_state
+    return hub.link.last_state
 
 
 @router.get("/clients", summary="Connected WebSocket clients with their counters")
 async def clients(hub: HubDep) -> list[dict]:
-    return hub.clients()
+    return hub.fanout.clients()
 
 
 @router.get("/devices", responses=errors(422, 503), summary="Configured tactile devices: status, identity, link counters, refusals")
@@ -195,12 +195,12 @@ async def devices(request: Request, writes: int = Query(0, ge=0, le=1024, descri
 
 @router.get("/telemetry", summary="Loop timing since the last reset (exact to 1 µs)")
 async def telemetry(hub: HubDep) -> dict:
-    return hub.telemetry.cumulative()
+    return hub.link.telemetry.cumulative()
 
 
 @router.get("/trackers", responses=errors(422), summary="Recent tracker samples with when the hub received and the loop applied them")
 async def trackers(hub: HubDep, request: Request, limit: int = 1000) -> dict:
-    rows = list(hub.tracker_applied)[-max(1, min(limit, 4096)):]
+    rows = list(hub.link.tracker_applied)[-max(1, min(limit, 4096)):]
     host = getattr(request.app.state, "tracker_host", None)  # the --tracker sources' health (docs/trackers.md)
     return {"columns": ["client_id", "seq", "t_ms", "hub_recv_ns", "loop_applied_ns"], "rows": rows,
             "clock": "hub_recv_ns and loop_applied_ns are CLOCK_MONOTONIC of the server machine",
@@ -209,5 +209,5 @@ async def trackers(hub: HubDep, request: Request, limit: int = 1000) -> dict:
 
 @router.post("/telemetry/reset", summary="Start a new cumulative timing window")
 async def telemetry_reset(hub: HubDep) -> dict:
-    hub.telemetry.reset_cumulative()
+    hub.link.telemetry.reset_cumulative()
     return {"ok": True}

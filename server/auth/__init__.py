@@ -53,7 +53,7 @@ class AccessControl:
         self.audit = audit
         self.throttle = throttle
         self.clock = clock
-        # wired to hub.set_lease(snapshot); called on the thread that changed the lease (REST
+        # wired to the hub's fan-out (Fanout.set_lease); called on the thread that changed the lease (REST
         # handlers run in a thread pool: the callee hands it to its event loop if it needs to)
         self.on_lease_change: Callable[[dict], None] = lambda snapshot: None
         self._published: dict = lease.to_record()  # the lease as last persisted and published

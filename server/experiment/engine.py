@@ -57,7 +57,7 @@ class Forbidden(ExperimentError):
 
 
 class HubPort(Protocol):
-    """What the engine needs of the hub (server/hub/hub.py)."""
+    """What the engine needs of the hub (server/hub/owner.py HubForWorkers; server/simulate/virtual_hub.py)."""
     scenario_state: dict | None
     scenario_target: dict | None  # what runs once the switches sent land (the loop builds them off the tick)
     listeners: list

@@ -17,6 +17,7 @@ that is not connected), BusyError.
 from __future__ import annotations
 
 from dataclasses import replace
+from itertools import count
 from typing import Any, Callable, Mapping
 
 from devices.capability import CapabilityReport, check, missing_device_text
@@ -47,7 +48,12 @@ class BusyError(RuntimeError):
 
 
 class ScenarioControl:
-    """`send`: hands one record to the loop (False: dropped). `profiles`: the device profiles by
+    """The one owner of "which scenario runs": what was asked (the last switch sent), which
+    switches are in flight (by number), and what the loop announced (`state`); every reader (the
+    hub's health feed and REST, the engine through the hub, the loop supervisor when it restarts
+    the loop, the virtual hub) reads it here.
+
+    `send`: hands one record to the loop (False: dropped). `profiles`: the device profiles by
     name as they are now (for the capability check); `statuses`: each device's connection status
     as last reported (a device not in it counts as connected)."""
 
@@ -57,29 +63,32 @@ class ScenarioControl:
         self.profiles = profiles
         self.statuses = statuses
         self.scenario_cls = None  # the scenario the loop runs (or was last told to run)
-        self._in_flight: list[str] = []  # ids of switches sent that the loop has not announced yet
+        self.state: dict | None = None  # what the loop last announced: id, params, seed, trial (tick, switch)
+        self._numbers = count(1)  # switches are numbered: the loop echoes the number when it settles one
+        self._in_flight: list[int] = []  # numbers of the switches sent that the loop has not settled yet
+        self._settled = 0  # the highest switch number the loop announced
         self._asked: dict | None = None  # the last switch sent: {"id", "params", "seed"}
 
-    def target(self, announced: Mapping[str, Any] | None) -> Mapping[str, Any] | None:
+    def target(self) -> Mapping[str, Any] | None:
         """What the loop runs once the switches in flight land: the last switch sent, or what it
-        `announced` when none is in flight (the engine decides from this whether a trial needs a
+        announced when none is in flight (the engine decides from this whether a trial needs a
         switch; the loop builds a switch off the tick, so its announcement comes later)."""
-        return self._asked if self._in_flight else announced
+        return self._asked if self._in_flight else self.state
 
-    def announced(self, state: Mapping[str, Any]) -> None:
-        """The loop announced what it runs (its `scenario` record). While switches are in flight,
-        an announcement of the scenario before them (a trial's end, written before the loop read
-        the switch) must not undo `scenario_cls`: a trial sent next is for the scenario asked for.
-        The loop announces every switch it installs, and one whose build failed as `failed`; a
-        switch superseded before its build is covered by the announcement of the later one."""
-        failed = state.get("failed")
-        if failed in self._in_flight:
-            self._in_flight.remove(failed)
-        running = state["id"]
-        if running in self._in_flight:
-            del self._in_flight[:self._in_flight.index(running) + 1]
+    def announced(self, state: dict) -> None:
+        """The loop announced what it runs (its `scenario` record). Its `switch` is the number of
+        the last switch it settled: installed, or failed to build (then `failed` names it and the
+        state is what goes on); a switch superseded before its build is settled with the later
+        one. An announcement written before the loop read a switch (a trial's end) carries an
+        older number, so it settles nothing sent after it, even a switch back to the same
+        scenario with new parameters (A, B, A: matched by number, not by id), and it does not
+        undo `scenario_cls`: a trial sent next is for the scenario asked for."""
+        self.state = state
+        settled = state.get("switch", 0)
+        self._settled = max(self._settled, settled)
+        self._in_flight = [n for n in self._in_flight if n > settled]
         if not self._in_flight:
-            self.scenario_cls = registry.resolve(running).factory
+            self.scenario_cls = registry.resolve(state["id"]).factory
 
     def loop_restarted(self) -> None:
         """A new loop process runs what it was started with: nothing it was asked is in flight."""
@@ -134,11 +143,13 @@ class ScenarioControl:
         report = self.capability(spec.factory)
         if not report.ok and not force:
             raise ScenarioRefused(report)
-        if not self.send(["scenario", spec.id, checked, seed]):
+        number = next(self._numbers)
+        if not self.send(["scenario", spec.id, checked, seed, number]):
             raise BusyError("the loop's input mailbox is full; try again")
         # the mailbox is ordered: a trial or command sent next is for the new scenario
         self.scenario_cls = spec.factory
-        self._in_flight.append(spec.id)
+        if number > self._settled:  # (a loop that builds at once, the virtual hub's, settled it already)
+            self._in_flight.append(number)
         self._asked = {"id": spec.id, "params": checked, "seed": seed}
         return {"id": spec.id, "params": checked, "seed": seed, "capability": report.to_dict()}
 
@@ -156,10 +167,12 @@ class ScenarioControl:
             raise BusyError("the loop's input mailbox is full; try again")
         return trial
 
-    def info(self, state: Mapping[str, Any] | None, scene_hash: str) -> dict:
-        """The running scenario as REST shows it: what the loop announced, the scene it announced
-        with it, the declaration and the capability check."""
+    def info(self, scene_hash: str) -> dict:
+        """The running scenario as REST shows it: what the loop announced (its switch number is
+        the hub's business), the scene it announced with it, the declaration and the capability
+        check."""
+        state = self.state
         if self.scenario_cls is None or state is None:
             return {}
-        return {**state, "scene": scene_hash, "info": describe(self.scenario_cls),
+        return {**{k: v for k, v in state.items() if k != "switch"}, "scene": scene_hash, "info": describe(self.scenario_cls),
                 "capability": self.capability().to_dict()}

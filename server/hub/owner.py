@@ -71,29 +71,29 @@ class HubForWorkers:
 
     @property
     def listeners(self) -> list:  # appended to once, when the engine is built (before serving)
-        return self._hub.listeners
+        return self._hub.link.listeners
 
     @property
     def scenario_state(self) -> dict | None:
-        return self._owner.call(getattr, self._hub, "scenario_state")
+        return self._owner.call(getattr, self._hub.control, "state")
 
     @property
     def scenario_target(self) -> dict | None:
-        return self._owner.call(getattr, self._hub, "scenario_target")
+        return self._owner.call(self._hub.control.target)
 
     @property
     def last_state(self) -> dict | None:
-        return self._owner.call(getattr, self._hub, "last_state")
+        return self._owner.call(getattr, self._hub.link, "last_state")
 
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
-        return self._owner.call(self._hub.switch_scenario, name, params, seed, force)
+        return self._owner.call(self._hub.control.switch_scenario, name, params, seed, force)
 
     def set_trial(self, phase: str | None, params: dict | None = None, index: int = 0,
                   force: bool = False) -> dict | None:
-        return self._owner.call(self._hub.set_trial, phase, params, index, force)
+        return self._owner.call(self._hub.control.set_trial, phase, params, index, force)
 
     def require_devices(self, scenario: str | None = None, force: bool = False) -> None:
-        self._owner.call(self._hub.require_devices, scenario, force)
+        self._owner.call(self._hub.control.require_devices, scenario, force)
 
     def set_recording(self, every_n_ticks: int) -> None:
-        self._owner.call(self._hub.set_recording, every_n_ticks)
+        self._owner.call(self._hub.link.set_recording, every_n_ticks)

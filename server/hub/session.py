@@ -1,6 +1,6 @@
 """One /ws client's protocol session, I/O-free (the shape of websockets' sans-I/O protocol core).
 
-The hub's shell (server/hub/hub.py) owns the socket and the clock; this object owns every
+The hub's shell (server/hub/fanout.py) owns the socket and the clock; this object owns every
 protocol decision about one client:
 - the hello grace period: the first frame must be a `hello` with a valid token, by the deadline
   (`hello_deadline_passed`); without one the client gets `unauthorized` and the connection closes
@@ -11,18 +11,14 @@ protocol decision about one client:
   (`server.auth.policy.POLICY`, `decide`) and the control lease, through `Gate`, what the
   session asks of access control (injected: the session itself does no I/O);
 - decoding and validation (server/wire), with exactly one `error` per bad frame;
-- what the client is sent: an ordered control queue (welcome, scene, health, lease, errors,
-  close) and a latest-wins slot for state frames, taken by the shell's sender with `next_frame()`;
-  a frame that was replaced in the slot (or never offered: the hub offers the newest) loses its
-  picture, not its events: the next frame sent carries them first (server/hub/event_log.py);
-- the ordering rule: every state after `scene` H names H until the next `scene`. A state frame
-  whose scene is not the last scene handed out is dropped when it is taken (the slot may hold a
-  frame of the previous scene when the new scene goes first: control is sent before the slot);
-- the input budget: `input` messages spend tokens of a bucket refilled on the injected clock
-  (INPUT_BURST, INPUT_RATE_PER_S; docs/protocol.md "Input budget"); one over budget is dropped
-  with `rate_limited`, at most one such error a second (the rest are counted), so one client's
-  key flood can neither flood the loop's events nor every viewer's state frames; refusals of
-  tracker samples (a client that may not drive) are answered at the same pace;
+- what the client is sent and when: its `outbox` (server/hub/outbox.py: an ordered control queue
+  and a latest-wins slot for state frames, taken by the shell's sender with `next_frame()`);
+- the ordering rule: every state after `scene` H names H until the next `scene` (the outbox
+  drops a state frame of a scene the client was not sent);
+- the input budget (server/hub/input_budget.py): `input` and `answer` messages spend its tokens;
+  one over budget is dropped with `rate_limited`, at most one such error a second (the rest are
+  counted); refusals of tracker samples (a client that may not drive) are answered at the same
+  pace;
 - a participant's study answers (v1.5 `answer`): they come out as `ParticipantAnswer` for the
   experiment engine, always for the token's own session; a participant connection of a session
   is sent that session's latest `ask` (`set_ask`);
@@ -35,7 +31,6 @@ forwards them and reports a refusal back with `reply_error`. When the lease chan
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
@@ -43,18 +38,13 @@ from server.auth import Unauthorized
 from server.auth.identity import Identity
 from server.auth.policy import POLICY, decide
 from server.hub.event_log import EventLog
+from server.hub.input_budget import (FORBIDDEN_TRACKER_ERROR_EVERY_NS, INPUT_BURST, INPUT_RATE_PER_S,
+                                     RATE_LIMITED_ERROR_EVERY_NS, InputBudget)
+from server.hub.outbox import Outbox
 from server.wire import codec, messages
 from server.wire.codec import WireError
 
 HELLO_TIMEOUT_NS = 1_000_000_000
-MAX_PENDING_ERRORS = 64  # a client that floods bad frames and does not read gets no more replies queued
-# Input budget: a person types at most ~10-15 keys/s and a held key repeats at ~30/s (each repeat
-# a `down`), so 50/s never limits a person; a burst of 20 covers chords and a quick series of
-# presses. A client over it loses inputs, never its connection.
-INPUT_BURST = 20
-INPUT_RATE_PER_S = 50.0
-RATE_LIMITED_ERROR_EVERY_NS = 1_000_000_000  # at most one `rate_limited` error a second per client
-FORBIDDEN_TRACKER_ERROR_EVERY_NS = 1_000_000_000  # a refused tracker stream: one `forbidden` a second
 POLICY_CLOSE = 1008  # RFC 6455 "policy violation": no valid token, or too many connections of one token
 # The wire role a token may ask for, highest first: observer < participant < operator.
 _RANK = {"observer": 0, "participant": 1, "operator": 2}
@@ -127,12 +117,6 @@ class ParticipantAnswer:
     client_id: int
 
 
-@dataclass(frozen=True)
-class Close:
-    """Close the connection with this code (after everything queued before it)."""
-    code: int
-
-
 class Session:
     def __init__(self, client_id: int, fmt: str, server: ServerInfo, opened_ns: int, *, gate: Gate = CLOSED,
                  hello_timeout_ns: int = HELLO_TIMEOUT_NS, events: EventLog | None = None):
@@ -146,32 +130,18 @@ class Session:
         self.welcomed = False
         self.close_code: int | None = None
         self.hello_deadline_ns = opened_ns + hello_timeout_ns
-        # control items: (kind, frame, scene hash or None) with kind welcome | scene | health | error, or a
-        # Close; the slot: (frame, scene hash, its message, the number of its last event)
-        self._control: deque = deque()
-        self._slot: tuple | None = None
-        self.events = events  # the hub's numbered events (None: a frame's events are its own only)
-        self._events_through: int | None = None  # the last event number in a frame sent to this client
-        self._pending_errors = 0
+        self.outbox = Outbox(fmt, events)  # what the client is sent, in order
         self._scene: tuple[str, bytes | str] | None = None  # the current scene in this client's format
         self._health: bytes | str | None = None  # the current `health` message in this client's format
         self._lease: bytes | str | None = None  # the current `lease` message in this client's format
         self._ask: bytes | str | None = None  # the current `ask` message (participants of a session)
         self._driving = False  # tracker samples of this client went to the loop since it last lost the right
-        self._tracker_refusal_ns: int | None = None  # when the last refused tracker was answered
-        self._sent_scene: str | None = None  # the last scene handed to the sender
-        self._closed = False  # Close was handed out: nothing more goes
-        # counters (GET /api/clients)
-        self.frames_sent = 0
-        self.frames_dropped = 0
-        self.events_carried = 0  # events of frames this client missed, sent with a later frame
+        # counters (GET /api/clients; the outbox counts the frames)
         self.tracker_count = 0
         self.last_tracker: dict | None = None
         self.errors = 0
         self.rate_limited = 0  # inputs dropped over the budget
-        self._tokens = float(INPUT_BURST)
-        self._tokens_ns = opened_ns
-        self._rate_error_ns: int | None = None  # when the last rate_limited error was queued
+        self.budget = InputBudget(opened_ns)
 
     @property
     def closing(self) -> bool:
@@ -190,7 +160,7 @@ class Session:
         who = self.identity
         return {"client_id": self.id, "role": self.role, "client": self.client_name, "format": self.fmt,
                 "token_id": who.token_id if who else None, "site": who.site if who else None,
-                "frames_sent": self.frames_sent, "frames_dropped": self.frames_dropped,
+                "frames_sent": self.outbox.frames_sent, "frames_dropped": self.outbox.frames_dropped,
                 "tracker_count": self.tracker_count, "last_tracker": self.last_tracker, "errors": self.errors,
                 "rate_limited": self.rate_limited}
 
@@ -252,10 +222,20 @@ class Session:
             return []
         refusal = self.refusal(kind)
         if refusal is not None:
-            if kind == "tracker":
-                self._refuse_tracker(refusal, now_ns)
-            else:
+            # a tracker stream comes at up to 1 kHz: one `forbidden` a second, the rest counted
+            if kind != "tracker" or self.budget.reply_due("tracker", FORBIDDEN_TRACKER_ERROR_EVERY_NS, now_ns):
                 self.reply_error("forbidden", refusal)
+            else:
+                self.errors += 1
+            return []
+        # answers share the input budget: each one is a disk write
+        if isinstance(message, (messages.Input, messages.Answer)) and not self.budget.spend(now_ns):
+            self.rate_limited += 1
+            if self.budget.reply_due("input", RATE_LIMITED_ERROR_EVERY_NS, now_ns):
+                self.reply_error("rate_limited", f"more than {INPUT_RATE_PER_S:g} inputs a second (bursts of "
+                                                 f"{INPUT_BURST}): input dropped ({self.rate_limited} so far)")
+            else:
+                self.errors += 1  # refused without a reply: counted, not queued
             return []
         if isinstance(message, messages.Tracker):
             self._driving = True
@@ -264,52 +244,18 @@ class Session:
             record = message.loop_record(self.id, now_ns)
             return [ToLoop(record, busy="the loop's input mailbox is full; tracker sample dropped")]
         if isinstance(message, messages.Input):
-            if not self._spend_input_token(now_ns):
-                self._refuse_over_budget(now_ns)
-                return []
             return [Command(message.key, message.action, message.value, self.role, self.id)]
         if isinstance(message, messages.Answer):
-            if not self._spend_input_token(now_ns):  # answers share the input budget: each one is a disk write
-                self._refuse_over_budget(now_ns)
-                return []
             return [ParticipantAnswer(self.asks_for, message.seq, message.question, message.value, self.identity,
                                       self.id)]
         return []
-
-    def _spend_input_token(self, now_ns: int) -> bool:
-        elapsed = max(0, now_ns - self._tokens_ns)  # a clock that steps back refills nothing
-        self._tokens_ns = max(self._tokens_ns, now_ns)
-        self._tokens = min(float(INPUT_BURST), self._tokens + elapsed * (INPUT_RATE_PER_S / 1e9))
-        if self._tokens >= 1.0:
-            self._tokens -= 1.0
-            return True
-        return False
-
-    def _refuse_tracker(self, reason: str, now_ns: int) -> None:
-        """A tracker stream comes at up to 1 kHz: one `forbidden` a second, the rest counted."""
-        last = self._tracker_refusal_ns
-        if last is not None and now_ns - last < FORBIDDEN_TRACKER_ERROR_EVERY_NS:
-            self.errors += 1
-            return
-        self._tracker_refusal_ns = now_ns
-        self.reply_error("forbidden", reason)
-
-    def _refuse_over_budget(self, now_ns: int) -> None:
-        self.rate_limited += 1
-        last = self._rate_error_ns
-        if last is not None and now_ns - last < RATE_LIMITED_ERROR_EVERY_NS:
-            self.errors += 1  # refused without a reply: counted, not queued
-            return
-        self._rate_error_ns = now_ns
-        self.reply_error("rate_limited", f"more than {INPUT_RATE_PER_S:g} inputs a second (bursts of {INPUT_BURST}): "
-                                         f"input dropped ({self.rate_limited} so far)")
 
     def _hello(self, hello: messages.Hello) -> None:
         if hello.version != messages.PROTOCOL_VERSION:
             self.reply_error("unsupported_version", f"protocol version {hello.version} is not supported; "
                                                     f"this server speaks v{messages.PROTOCOL_VERSION}")
             self.close_code = 1002
-            self._control.append(Close(1002))
+            self.outbox.close(1002)
             return
         if self.welcomed:
             self.reply_error("bad_message", "hello must be the first message of a connection")
@@ -338,7 +284,7 @@ class Session:
         """One error, then close 1008; nothing else is sent (no welcome, no scene, no state)."""
         self.reply_error(code, text)
         self.close_code = POLICY_CLOSE
-        self._control.append(Close(POLICY_CLOSE))
+        self.outbox.close(POLICY_CLOSE)
 
     def disconnected(self) -> list[ToLoop]:
         """The connection is gone: a client whose tracker samples reached the loop leaves the HIP
@@ -351,8 +297,7 @@ class Session:
         no longer leaves it: the returned `tracker_gone` sends the HIP home."""
         self._lease = frames[self.fmt]
         if self.welcomed and not self.closing:
-            self._control = deque(item for item in self._control if not _is_kind(item, "lease"))
-            self._control.append(("lease", self._lease, None))
+            self.outbox.latest("lease", self._lease)
         if self._driving and self.refusal("tracker") is not None:
             self._driving = False
             return [ToLoop(["tracker_gone", self.id])]
@@ -362,25 +307,24 @@ class Session:
     def reply_error(self, code: str, text: str) -> None:
         """One `error` frame for the client (also for refusals the hub learns: busy, command rules)."""
         self.errors += 1
-        if self.closing or self._pending_errors >= MAX_PENDING_ERRORS:
-            return
-        self._pending_errors += 1
-        self._control.append(("error", codec.encode(messages.error(code, text), self.fmt), None))
+        if not self.closing:
+            self.outbox.error(code, text)
 
     def _welcome(self) -> None:
         self.welcomed = True
         s = self.server
         identity = self.identity.to_dict() if self.identity is not None else None
         welcome = messages.welcome(self.id, self.role, s.name, s.tick_hz, s.state_hz, self.fmt, identity)
-        self._control.append(("welcome", codec.encode(welcome, self.fmt), None))
+        out = self.outbox
+        out.put("welcome", codec.encode(welcome, self.fmt))
         if self._scene is not None:
-            self._control.append(("scene", self._scene[1], self._scene[0]))
+            out.put("scene", self._scene[1], self._scene[0])
         if self._health is not None:  # after the scene: a v1.0 client reads welcome, then scene
-            self._control.append(("health", self._health, None))
+            out.put("health", self._health)
         if self._lease is not None:
-            self._control.append(("lease", self._lease, None))
+            out.put("lease", self._lease)
         if self._ask is not None and self.asks_for is not None:
-            self._control.append(("ask", self._ask, None))
+            out.put("ask", self._ask)
 
     def set_ask(self, frames: Mapping[str, bytes | str]) -> None:
         """What the study asks of this participant now (`frames`: the `ask` message per format; the
@@ -389,8 +333,7 @@ class Session:
         self._ask = frames[self.fmt]
         if self.asks_for is None or self.closing:
             return
-        self._control = deque(item for item in self._control if not _is_kind(item, "ask"))
-        self._control.append(("ask", self._ask, None))
+        self.outbox.latest("ask", self._ask)
 
     def set_scene(self, scene_hash: str, frames: Mapping[str, bytes | str]) -> None:
         """The current scene (`frames`: its scene message encoded per format). A welcomed client
@@ -398,9 +341,7 @@ class Session:
         self._scene = (scene_hash, frames[self.fmt])
         if not self.welcomed or self.closing:
             return
-        if any(_is_scene(item) for item in self._control):
-            self._control = deque(item for item in self._control if not _is_scene(item))
-        self._control.append(("scene", self._scene[1], scene_hash))
+        self.outbox.latest("scene", self._scene[1], scene_hash)
 
     def set_health(self, frames: Mapping[str, bytes | str]) -> None:
         """The server's current `health` message (`frames`: encoded per format). A welcomed client
@@ -408,70 +349,14 @@ class Session:
         self._health = frames[self.fmt]
         if not self.welcomed or self.closing:
             return
-        self._control = deque(item for item in self._control if not _is_kind(item, "health"))
-        self._control.append(("health", self._health, None))
+        self.outbox.latest("health", self._health)
 
     def offer_state(self, frame: bytes | str, scene_hash: str, message: Mapping[str, Any] | None = None,
                     events_upto: int | None = None) -> None:
         """The latest state frame (in this client's format) and the scene it names; it replaces a
         frame not yet sent (counted as dropped). Clients not yet welcomed get none. With the
         frame's `message` and the number its events end at in the hub's EventLog, a frame sent
-        after missed ones is encoded again with their events first (`next_frame`)."""
+        after missed ones is encoded again with their events first (Outbox.next_frame)."""
         if not self.welcomed or self.closing:
             return
-        if self._slot is not None:
-            self.frames_dropped += 1
-        self._slot = (frame, scene_hash, message, events_upto)
-
-    @property
-    def pending(self) -> bool:
-        """Something is waiting for the sender."""
-        return not self._closed and (bool(self._control) or self._slot is not None)
-
-    def next_frame(self) -> bytes | str | Close | None:
-        """What the sender sends next: control messages in order, then the latest state frame;
-        None when nothing is waiting. After a `Close`, nothing."""
-        if self._closed:
-            return None
-        while self._control:
-            item = self._control.popleft()
-            if isinstance(item, Close):
-                self._closed = True
-                return item
-            kind, frame, scene_hash = item
-            if kind == "error":
-                self._pending_errors -= 1
-            elif kind == "scene":
-                self._sent_scene = scene_hash
-            return frame
-        if self._slot is None:
-            return None
-        (frame, scene_hash, message, upto), self._slot = self._slot, None
-        if scene_hash != self._sent_scene:  # of a scene this client was not (or no longer) sent
-            self.frames_dropped += 1  # (its events go with the next frame sent)
-            return None
-        if upto is not None and self.events is not None:
-            frame = self._with_missed_events(frame, message, upto)
-        self.frames_sent += 1
-        return frame
-
-    def _with_missed_events(self, frame: bytes | str, message: Mapping[str, Any], upto: int) -> bytes | str:
-        """`frame`, or, when this client was not sent the frames just before it, the frame encoded
-        again with their events in front of its own (each event once, in order)."""
-        own = message["events"]
-        through, self._events_through = self._events_through, upto
-        if through is None:  # the first frame: events from here on
-            return frame
-        missed = self.events.between(through, upto - len(own))
-        if not missed:
-            return frame
-        self.events_carried += len(missed)
-        return codec.encode({**message, "events": messages.wire_events([*missed, *own])}, self.fmt)
-
-
-def _is_scene(item) -> bool:
-    return _is_kind(item, "scene")
-
-
-def _is_kind(item, kind: str) -> bool:
-    return isinstance(item, tuple) and item[0] == kind
+        self.outbox.offer_state(frame, scene_hash, message, events_upto)

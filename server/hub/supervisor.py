@@ -11,7 +11,8 @@ socket (server/loop/tracker_udp.py); both are made once and kept across loop res
 A restarted loop continues the clock: it starts at the tick the dead one would have reached (the
 last tick seen here plus the time since then on this process's monotonic clock), so ticks, the
 simulation time and frame numbers never go back (the recorder and the clients rely on it). It
-resumes the scenario that ran (`resume`), and a free trial, but never a recorded trial: the
+resumes the scenario that ran, read from its one owner when the loop is started (`resume`: the
+hub's ScenarioControl, server/hub/control.py), and a free trial, but never a recorded trial: the
 experiment ends that attempt as interrupted (docs/data.md "A loop restart during a trial").
 """
 
@@ -33,9 +34,14 @@ from server.loop.process import LoopConfig
 class LoopSupervisor(ChildProcess):
     what = "loop process"
 
-    def __init__(self, config: LoopConfig, on_record: Callable[[list], None]):
+    def __init__(self, config: LoopConfig, on_record: Callable[[list], None],
+                 resume: Callable[[], dict | None] = lambda: None):
+        """`config`: what the first loop runs. `resume()`: what a loop started now runs instead,
+        {"id", "params", "seed", "trial"} as the running loop announced it (the trial None when it
+        must not be resumed), or None (nothing announced yet: `config`'s)."""
         super().__init__()
         self.config = config
+        self.resume = resume
         self.on_record = on_record
         # Sockets owned elsewhere and passed to every loop process:
         self.cue_sock: socket.socket | None = None      # the loop end of the cue channel (device host)
@@ -43,11 +49,6 @@ class LoopSupervisor(ChildProcess):
         self.dropped_to_loop = 0
         self._doorbell: ipc.Doorbell | None = None
         self._last: tuple[int, int, float] | None = None  # (tick, frame, monotonic s) of the last state record
-
-    def resume(self, state: dict, *, trial: dict | None) -> None:
-        """What a restarted loop runs: the scenario the loop announced, and `trial` (None: none)."""
-        self.config = replace(self.config, scenario=state["id"], scenario_params=state["params"], seed=state["seed"],
-                              trial=trial)
 
     def continue_from(self, now_s: float) -> tuple[int, int]:
         """(tick, frame) a loop started now begins at: past every tick and frame the last one reached."""
@@ -61,6 +62,10 @@ class LoopSupervisor(ChildProcess):
     def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
         start_tick, start_frame = self.continue_from(time.monotonic())
         config = replace(self.config, start_tick=start_tick, start_frame=start_frame)
+        state = self.resume()
+        if state is not None:  # a restarted loop comes back with what ran, not with the start-up scenario
+            config = replace(config, scenario=state["id"], scenario_params=state["params"], seed=state["seed"],
+                             trial=state["trial"])
         self._doorbell = ipc.Doorbell()
         args = ["--fd", str(theirs.fileno()), "--doorbell", str(self._doorbell.fd)]
         passed = [theirs.fileno(), self._doorbell.fd]

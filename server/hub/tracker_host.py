@@ -36,7 +36,7 @@ class TrackerHost(ChildProcess):
         self.sources: list[dict] = [{"name": s.name, "kind": s.kind, "status": "lost", "reasons": ["starting"]}
                                     for s in self.specs]
         self.info: dict = {}
-        self.on_sources = lambda sources: None  # the hub's health hears every report (Hub.on_tracker_sources)
+        self.on_sources = lambda sources: None  # the hub's health hears every report (HealthFeed.on_tracker_sources)
 
     def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
         proc = subprocess.Popen(

@@ -68,6 +68,7 @@ class Switch:
     name: str
     params: dict
     seed: int
+    number: int = 0  # the hub's number for it, echoed as `switch` in the announcements (0: unnumbered)
 
 
 def _round(v, digits: int = 9) -> list[float]:
@@ -144,6 +145,7 @@ class LoopCore:
         self._wire: list = [None, []]
         self.build_off_tick = build_off_tick  # True: the driver builds a switch off the tick (module doc)
         self.pending_switch: Switch | None = None  # asked, not yet installed
+        self.switch = 0  # the number of the last switch installed or abandoned (the hub matches its own by it)
         self._waiting: list[list] = []  # trial records for the pending switch's scenario
 
     # -- the tick --------------------------------------------------------------------------------
@@ -241,10 +243,10 @@ class LoopCore:
                                                           body.get("params"), body.get("index", 0))
             self.sim.set_trial(trial)
             self.outbox.append(self.scenario_record())
-        elif kind == "scenario":  # ["scenario", name, params, seed]: switch between trials (module doc)
-            _, name, params, seed = record
+        elif kind == "scenario":  # ["scenario", name, params, seed, number?]: switch between trials (module doc)
+            _, name, params, seed, *numbered = record
             registry.resolve(name)  # an unknown name is reported now, not after a build
-            self.ask_switch(Switch(name, dict(params), seed))
+            self.ask_switch(Switch(name, dict(params), seed, numbered[0] if numbered else 0))
         elif kind == "record":  # ["record", every_n_ticks]: trajectory rows ride with the state records
             self.record_every = max(0, int(record[1]))
             self.trajectory = []
@@ -274,6 +276,7 @@ class LoopCore:
         if switch is not self.pending_switch:
             return False
         self.pending_switch = None
+        self.switch = switch.number
         self._take_over(sim, switch.params, switch.seed)
         waiting, self._waiting = self._waiting, []
         for record in waiting:
@@ -293,6 +296,7 @@ class LoopCore:
                                                     "its scenario could not be built"])
                 self._waiting = []
             # the hub counts this switch as in flight until it hears of it: say what runs instead
+            self.switch = switch.number
             record = self.scenario_record()
             record[1]["failed"] = switch.name
             self.outbox.append(record)
@@ -306,8 +310,11 @@ class LoopCore:
 
     def scenario_record(self) -> list:
         sim = self.sim
-        return ["scenario", {"id": sim.scenario.id, "params": self.params, "seed": self.seed,
-                             "trial": sim.trial.to_dict() if sim.trial else None, "tick": sim.tick}]
+        info = {"id": sim.scenario.id, "params": self.params, "seed": self.seed,
+                "trial": sim.trial.to_dict() if sim.trial else None, "tick": sim.tick}
+        if self.switch:  # every switch up to this one is settled (installed, superseded or failed)
+            info["switch"] = self.switch
+        return ["scenario", info]
 
     def announce(self) -> list[list]:
         """The records a hub needs to know what runs: the scene, then the scenario."""

@@ -37,10 +37,9 @@ class VirtualHub:
         sim = Simulation(registry.create(spec.id, **(params or {})), tick_hz=tick_hz, seed=seed)
         self.core = LoopCore(sim, state_hz=state_hz, drawn=False)  # no viewer: the recorder and the participant read
         self.core.params, self.core.seed = registry.check_scenario_params(spec, params or {}), seed
+        # which scenario runs: the hub's one owner of it (it hears the announcements in _emit)
         self.control = ScenarioControl(self._send, lambda: {n: d.profile for n, d in self.devices.items()})
-        self.control.scenario_cls = spec.factory
         self.listeners: list[Callable[[list], None]] = []
-        self.scenario_state: dict | None = None
         self.last_state: dict | None = None
         self.record_every = 0
         self.last_error: str | None = None  # why the last failed tick failed (the listeners got it as a log record)
@@ -49,9 +48,13 @@ class VirtualHub:
 
     # -- what the engine asks (checked as the hub checks them) ------------------------------------
     @property
+    def scenario_state(self) -> dict | None:
+        return self.control.state
+
+    @property
     def scenario_target(self) -> dict | None:
         """What runs once the switches sent land: here a switch is built at once (LoopCore)."""
-        return self.scenario_state
+        return self.control.target()
 
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
         return self.control.switch_scenario(name, params, seed, force)
@@ -122,7 +125,6 @@ class VirtualHub:
 
     def _emit(self, record: list) -> None:
         if record[0] == "scenario":
-            self.scenario_state = record[1]
             self.control.announced(record[1])
         for listener in self.listeners:
             listener(record)

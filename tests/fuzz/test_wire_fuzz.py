@@ -11,7 +11,8 @@ import msgpack
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from server.hub.session import MAX_PENDING_ERRORS, Close, ServerInfo, Session
+from server.hub.outbox import MAX_PENDING_ERRORS, Close
+from server.hub.session import ServerInfo, Session
 from server.wire import codec, messages
 from server.wire.codec import WireError
 
@@ -92,9 +93,9 @@ def test_a_session_never_raises_answers_each_frame_once_and_stays_bounded(frames
         events = s.receive(data, now)
         assert s.errors - errors_before <= 1, "at most one error per frame"
         assert len(events) <= 1
-        assert s._pending_errors <= MAX_PENDING_ERRORS and len(s._control) <= MAX_PENDING_ERRORS + 4
+        assert s.outbox._pending_errors <= MAX_PENDING_ERRORS and len(s.outbox._control) <= MAX_PENDING_ERRORS + 4
         if s.closing:
             break
-    while (item := s.next_frame()) is not None:
+    while (item := s.outbox.next_frame()) is not None:
         if not isinstance(item, Close):
             assert codec.decode(item, fmt)["type"] in ("welcome", "error")

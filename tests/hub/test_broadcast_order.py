@@ -30,19 +30,17 @@ def test_a_broadcast_sends_to_participants_and_operators_before_the_observers_wh
     roles = ["observer"] * 20 + ["participant"] + ["observer"] * 5 + ["operator"]
 
     async def go() -> list[int]:
-        hub = Hub(server_name="test", tick_hz=1000, state_hz=60)
-        hub.access_control = FakeAccess()
-        hub.send_to_loop = lambda record: True
+        hub = Hub(server_name="test", tick_hz=1000, state_hz=60, access=FakeAccess(), send_to_loop=lambda record: True)
         order: list[int] = []
         sockets = [OrderedSocket(n, order) for n in range(1, len(roles) + 1)]
         serving = []
         for ws, role in zip(sockets, roles):  # they join in this order
-            serving.append(asyncio.create_task(hub.serve(ws)))
+            serving.append(asyncio.create_task(hub.fanout.serve(ws)))
             ws.send({"type": "hello", "v": 1, "role": role, "client": "t"})
             await settle()
-        hub.on_loop_record(["scene", {"name": "a"}, "aaaa"])
+        hub.link.on_loop_record(["scene", {"name": "a"}, "aaaa"])
         await settle()
-        hub.on_loop_record(["state", state_record(1, "aaaa")])
+        hub.link.on_loop_record(["state", state_record(1, "aaaa")])
         for _ in range(10):
             await settle()
         for ws in sockets:

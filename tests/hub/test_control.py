@@ -57,9 +57,9 @@ def test_switches_check_the_name_the_parameters_and_the_devices():
         ctl.switch_scenario("contact-angle")  # tilt: the FingerTac shows no macro roughness
     assert not refused.value.report.ok and sent == []
     forced = ctl.switch_scenario("contact-angle", {"magnitude_pct": 50}, seed=3, force=True)
-    assert sent == [["scenario", "contact-angle-v1", forced["params"], 3]] and forced["params"]["magnitude_pct"] == 50.0
+    assert sent == [["scenario", "contact-angle-v1", forced["params"], 3, 1]] and forced["params"]["magnitude_pct"] == 50.0
     info = ctl.switch_scenario("stiffness", {"middle_level": 4}, seed=1)
-    assert info["capability"]["ok"] and sent[-1] == ["scenario", "stiffness-v1", {"middle_level": 4, "labels": True}, 1]
+    assert info["capability"]["ok"] and sent[-1] == ["scenario", "stiffness-v1", {"middle_level": 4, "labels": True}, 1, 2]
     with pytest.raises(ParamError, match="mode"):  # trials are checked against the new scenario at once
         ctl.set_trial("main", {"angle_deg": 10})
 
@@ -80,10 +80,10 @@ def test_trials_are_parsed_against_the_running_scenario():
 
 def test_what_the_loop_announces_is_the_running_scenario():
     ctl, _ = control()
-    assert ctl.info(None, "") == {}
+    assert ctl.info("") == {}
     state = {"id": "stiffness-v1", "params": {"middle_level": 5, "labels": True}, "seed": 0, "trial": None, "tick": 9}
     ctl.announced(state)
-    info = ctl.info(state, "abc")
+    info = ctl.info("abc")
     assert info["id"] == "stiffness-v1" and info["scene"] == "abc" and info["info"]["id"] == "stiffness-v1"
     assert "capability" in info
 
@@ -94,19 +94,19 @@ def test_an_announcement_written_before_the_loop_read_a_switch_does_not_undo_it(
     ctl.switch_scenario("contact-angle")
     ctl.announced({"id": "stiffness-v1", "trial": None})  # the end of the last trial, written before the switch
     assert ctl.set_trial("main", {"angle_deg": 10})["params"]["angle_deg"] == 10, "the trial is for contact-angle"
-    ctl.announced({"id": "contact-angle-v1"})
+    ctl.announced({"id": "contact-angle-v1", "switch": 1})
     assert ctl.scenario_cls is ContactAngle
 
     ctl.switch_scenario("stiffness")
     ctl.switch_scenario("texture")  # supersedes stiffness before its build: the loop announces texture only
-    ctl.announced({"id": "contact-angle-v1"})
+    ctl.announced({"id": "contact-angle-v1", "switch": 1})
     assert ctl.scenario_cls.id == "texture-v1"
-    ctl.announced({"id": "texture-v1"})
-    ctl.announced({"id": "texture-v1", "trial": None})
+    ctl.announced({"id": "texture-v1", "switch": 3})
+    ctl.announced({"id": "texture-v1", "trial": None, "switch": 3})
     assert ctl.scenario_cls.id == "texture-v1"
 
     ctl.switch_scenario("stiffness")
-    ctl.announced({"id": "texture-v1", "failed": "stiffness-v1"})  # its build failed: texture goes on
+    ctl.announced({"id": "texture-v1", "failed": "stiffness-v1", "switch": 4})  # its build failed: texture goes on
     assert ctl.scenario_cls.id == "texture-v1"
     ctl.switch_scenario("stiffness")
     ctl.loop_restarted()  # the new loop runs what it was started with
@@ -117,9 +117,10 @@ def test_an_announcement_written_before_the_loop_read_a_switch_does_not_undo_it(
 def test_the_target_is_the_last_switch_sent_until_the_loop_announces_it():
     ctl, _ = control()
     announced = {"id": "contact-angle-v1", "params": {}, "seed": 0}
-    assert ctl.target(announced) is announced
+    ctl.announced(announced)
+    assert ctl.target() is announced
     ctl.switch_scenario("stiffness", {"middle_level": 3}, seed=4)
-    assert ctl.target(announced) == {"id": "stiffness-v1", "params": {"middle_level": 3, "labels": True}, "seed": 4}
-    ctl.announced({"id": "stiffness-v1"})
-    later = {"id": "stiffness-v1", "params": {"middle_level": 3, "labels": True}, "seed": 4}
-    assert ctl.target(later) is later
+    assert ctl.target() == {"id": "stiffness-v1", "params": {"middle_level": 3, "labels": True}, "seed": 4}
+    later = {"id": "stiffness-v1", "params": {"middle_level": 3, "labels": True}, "seed": 4, "switch": 1}
+    ctl.announced(later)
+    assert ctl.target() is later

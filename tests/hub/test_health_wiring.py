@@ -86,7 +86,7 @@ def health_frames(status, codes=()):
 
 def taken(session):
     out = []
-    while (item := session.next_frame()) is not None:
+    while (item := session.outbox.next_frame()) is not None:
         out.append(codec.decode(item, session.fmt))
     return out
 
@@ -120,49 +120,48 @@ def state_record(failures=0, periods=(1000,)):
 
 def test_the_hub_turns_records_and_reports_into_health_and_tells_each_client():
     async def go():
-        hub = Hub(server_name="test", tick_hz=1000, state_hz=60, overrun_threshold=2)
-        hub.health.startup_grace_s = 0.0  # the loop "started" a moment ago: count its overruns at once
-        hub.send_to_loop = lambda record: True
-        hub.device_profiles = RIG
-        hub.on_loop_record(["scenario", {"id": "contact-angle-v1", "params": {}, "seed": 0, "trial": None}])
+        hub = Hub(server_name="test", tick_hz=1000, state_hz=60, overrun_threshold=2, send_to_loop=lambda record: True)
+        hub.health_feed.health.startup_grace_s = 0.0  # the loop "started" a moment ago: count its overruns at once
+        hub.health_feed.device_profiles = RIG
+        hub.link.on_loop_record(["scenario", {"id": "contact-angle-v1", "params": {}, "seed": 0, "trial": None}])
         session = Session(1, "json", ServerInfo("t", 1000, 60.0), 0, gate=gate()[0])
-        hub.on_child_start("loop")
-        hub.on_child_start("device_host")
-        assert hub.check_health().status == "starting"
-        session.set_health(hub._health_frames)
+        hub.health_feed.on_child_start("loop")
+        hub.health_feed.on_child_start("device_host")
+        assert hub.health_feed.check_health().status == "starting"
+        session.set_health(hub.fanout.health_frames)
         session.receive(codec.encode(with_token({"type": "hello", "v": 1, "role": "observer"}), "json"), 1)
         assert taken(session)[-1]["status"] == "starting"
 
         class Conn:
             wake = asyncio.Event()
         Conn.session = session
-        hub.connections[1] = Conn
-        hub.on_device_report({"refusals": [], "status": {"fingertac": "connected", "ferrovibe": "connected"}})
-        hub.on_loop_record(["state", state_record()])
-        assert hub.check_health().status == "ok" and taken(session)[-1]["status"] == "ok"
+        hub.fanout.connections[1] = Conn
+        hub.link.on_device_report({"refusals": [], "status": {"fingertac": "connected", "ferrovibe": "connected"}})
+        hub.link.on_loop_record(["state", state_record()])
+        assert hub.health_feed.check_health().status == "ok" and taken(session)[-1]["status"] == "ok"
 
-        hub.on_device_report({"refusals": [], "status": {"fingertac": "connected", "ferrovibe": "disconnected"}})
+        hub.link.on_device_report({"refusals": [], "status": {"fingertac": "connected", "ferrovibe": "disconnected"}})
         got = taken(session)
         assert got[-1]["status"] == "degraded" and got[-1]["reasons"][0]["code"] == "device_missing"
         assert "'ferrovibe' is disconnected" in got[-1]["reasons"][0]["message"]
         with pytest.raises(DeviceMissing):
-            hub.set_trial("main", {"angle_deg": 0})
-        hub.check_health()
+            hub.control.set_trial("main", {"angle_deg": 0})
+        hub.health_feed.check_health()
         assert taken(session) == [], "nothing new: no message"
 
-        hub.on_loop_record(["fault", {"failures": 1, "tick": 9, "error": "OverflowError: x"}])
+        hub.link.on_loop_record(["fault", {"failures": 1, "tick": 9, "error": "OverflowError: x"}])
         assert [r["code"] for r in taken(session)[-1]["reasons"]] == ["tick_failures", "device_missing"]
-        hub.on_loop_record(["recovered", {"tick": 10, "failures": 1}])
-        hub.on_loop_record(["state", state_record(failures=1, periods=(1000, 2000, 2000, 2500))])
-        hub.check_health()  # state records are judged by the periodic check (Hub.watch_health)
+        hub.link.on_loop_record(["recovered", {"tick": 10, "failures": 1}])
+        hub.link.on_loop_record(["state", state_record(failures=1, periods=(1000, 2000, 2000, 2500))])
+        hub.health_feed.check_health()  # state records are judged by the periodic check (HealthFeed.watch_health)
         assert [r["code"] for r in taken(session)[-1]["reasons"]] == ["device_missing", "overruns"]
 
-        hub.on_child_exit("device_host", -9)
-        assert {"device_host_down"} <= {r["code"] for r in hub.check_health().reasons}
+        hub.health_feed.on_child_exit("device_host", -9)
+        assert {"device_host_down"} <= {r["code"] for r in hub.health_feed.check_health().reasons}
         with pytest.raises(DeviceMissing):
-            hub.set_trial("main", {"angle_deg": 0})
-        hub.on_child_exit("loop", -9)
-        assert "loop_down" in hub.check_health().codes
+            hub.control.set_trial("main", {"angle_deg": 0})
+        hub.health_feed.on_child_exit("loop", -9)
+        assert "loop_down" in hub.health_feed.check_health().codes
 
     asyncio.run(go())
 
@@ -171,7 +170,7 @@ def test_the_overrun_threshold_setting_reaches_health(tmp_path):
     with pytest.raises(ValueError, match="overrun_threshold"):
         Settings(overrun_threshold=-1)
     app = create_app(Settings(overrun_threshold=25, data_dir=tmp_path, simulated_rig=False, tracker_udp="off"))
-    assert app.state.hub.health.overrun_threshold == 25
+    assert app.state.hub.health_feed.health.overrun_threshold == 25
 
 
 class FakeChild:
@@ -192,10 +191,10 @@ def test_the_periodic_check_sees_exits_and_restarts_even_between_two_polls():
     async def go():
         hub = Hub(server_name="test", tick_hz=1000, state_hz=60)
         events = []
-        hub.on_child_start = lambda what: events.append(("start", what))
-        hub.on_child_exit = lambda what, code: events.append(("exit", what, code))
+        hub.health_feed.on_child_start = lambda what: events.append(("start", what))
+        hub.health_feed.on_child_exit = lambda what, code: events.append(("exit", what, code))
         loop, host = FakeChild(), FakeChild()
-        task = asyncio.create_task(hub.watch_health({"loop": loop, "device_host": host}))
+        task = asyncio.create_task(hub.health_feed.watch_health({"loop": loop, "device_host": host}))
         loop.proc, host.proc = FakeProc(), FakeProc()
         await asyncio.sleep(0.06)
         assert sorted(events) == [("start", "device_host"), ("start", "loop")]

@@ -8,7 +8,7 @@ from __future__ import annotations
 import asyncio
 import threading
 
-from server.hub import hub as hub_module
+from server.hub import fanout as fanout_module
 from server.hub.hub import Hub
 from tests.hub.access_fakes import EXP_A, SECRET
 from tests.hub.test_hub_shell import FakeSocket, new_hub, settle
@@ -20,7 +20,7 @@ def test_a_hub_without_access_control_admits_nobody():
     async def go():
         hub = Hub(server_name="test", tick_hz=1000, state_hz=60)
         ws = FakeSocket()
-        serving = asyncio.create_task(hub.serve(ws))
+        serving = asyncio.create_task(hub.fanout.serve(ws))
         ws.send({"type": "hello", "v": 1, "role": "observer", "client": "t"})
         await asyncio.wait_for(serving, 3)
         assert [m.get("code") for m in ws.got] == ["unauthorized"] and ws.close_code == 1008
@@ -31,10 +31,10 @@ def test_a_hub_without_access_control_admits_nobody():
 def test_the_lease_reaches_every_client_and_a_driver_that_loses_it_leaves_the_hip():
     async def go():
         hub, to_loop = new_hub()
-        access = hub.access_control
+        access = hub.fanout.access
         hub.owner.bind()
         driver, watcher = FakeSocket(), FakeSocket("json")
-        serving = [asyncio.create_task(hub.serve(ws)) for ws in (driver, watcher)]
+        serving = [asyncio.create_task(hub.fanout.serve(ws)) for ws in (driver, watcher)]
         driver.send({"type": "hello", "v": 1, "role": "participant", "client": "t"})
         watcher.send({"type": "hello", "v": 1, "role": "observer", "client": "t"})
         driver.send(TRACKER)
@@ -64,7 +64,7 @@ def test_experimenter_commands_need_the_lease(monkeypatch):
         hub, to_loop = new_hub()
         monkeypatch.setattr(hub.control, "is_operator_command", lambda key: key == "tap_angle")
         holder, other = FakeSocket(), FakeSocket()
-        serving = [asyncio.create_task(hub.serve(ws)) for ws in (holder, other)]
+        serving = [asyncio.create_task(hub.fanout.serve(ws)) for ws in (holder, other)]
         holder.send({"type": "hello", "v": 1, "role": "operator", "client": "t"})
         other.send({"type": "hello", "v": 1, "role": "operator", "client": "t", "token": SECRET[EXP_A.token_id]})
         await settle()
@@ -82,14 +82,14 @@ def test_experimenter_commands_need_the_lease(monkeypatch):
 
 
 def test_one_token_has_at_most_the_cap_of_connections(monkeypatch):
-    monkeypatch.setattr(hub_module, "MAX_CONNECTIONS_PER_TOKEN", 3)
+    monkeypatch.setattr(fanout_module, "MAX_CONNECTIONS_PER_TOKEN", 3)
 
     async def go():
         hub, _ = new_hub()
         sockets = [FakeSocket() for _ in range(4)]
         serving = []
         for ws in sockets:
-            serving.append(asyncio.create_task(hub.serve(ws)))
+            serving.append(asyncio.create_task(hub.fanout.serve(ws)))
             ws.send({"type": "hello", "v": 1, "role": "observer", "client": "t"})
             await settle()
         assert [ws.got[0]["type"] for ws in sockets[:3]] == ["welcome"] * 3
@@ -97,7 +97,7 @@ def test_one_token_has_at_most_the_cap_of_connections(monkeypatch):
         sockets[0].leave()
         await settle()
         again = FakeSocket()
-        serving.append(asyncio.create_task(hub.serve(again)))
+        serving.append(asyncio.create_task(hub.fanout.serve(again)))
         again.send({"type": "hello", "v": 1, "role": "observer", "client": "t"})
         await settle()
         assert again.got[0]["type"] == "welcome"  # a closed connection frees its place

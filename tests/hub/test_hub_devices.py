@@ -10,18 +10,17 @@ from server.hub.hub import Hub
 
 def test_reports_reach_the_loop_once_per_change_and_a_restarted_loop_learns_them_again():
     async def go():
-        hub = Hub(server_name="test", tick_hz=1000, state_hz=60)
         to_loop, heard = [], []
-        hub.send_to_loop = lambda record: to_loop.append(record) or True
-        hub.listeners.append(heard.append)
+        hub = Hub(server_name="test", tick_hz=1000, state_hz=60, send_to_loop=lambda record: to_loop.append(record) or True)
+        hub.link.listeners.append(heard.append)
         refusing = {"refusals": ["tac refuses tilt"], "status": {"tac": "connected"}}
         for report in ({"refusals": [], "status": {"tac": "connected"}}, refusing, refusing):
-            hub.on_device_report(report)
+            hub.link.on_device_report(report)
         reports = [r[1] for r in to_loop if r[0] == "devices"]
         assert [r["refusals"] for r in reports] == [[], ["tac refuses tilt"]]
         assert heard == [["devices", r] for r in reports]
         to_loop.clear()
-        hub.on_loop_record(["hello", {"pid": 1, "rt": True}])  # a restarted loop learns the refusals again
+        hub.link.on_loop_record(["hello", {"pid": 1, "rt": True}])  # a restarted loop learns the refusals again
         assert to_loop == [["devices", refusing]]
 
     asyncio.run(go())

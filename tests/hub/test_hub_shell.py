@@ -14,7 +14,7 @@ from tests.hub.access_fakes import FakeAccess, with_token
 
 
 class FakeSocket:
-    """What Hub.serve uses of a starlette WebSocket; the test plays the client. Its hello carries
+    """What Fanout.serve uses of a starlette WebSocket; the test plays the client. Its hello carries
     the admin's token (tests/hub/access_fakes.py); `lease` messages are kept apart in `leases`
     (tests/hub/test_hub_access.py looks at them), everything else in `got`."""
 
@@ -67,10 +67,9 @@ def state_record(tick: int, scene: str) -> dict:
 
 
 def new_hub(accept: bool = True) -> tuple[Hub, list]:
-    hub = Hub(server_name="test", tick_hz=1000, state_hz=60)
-    hub.access_control = FakeAccess()  # the admin holds the lease
     to_loop: list = []
-    hub.send_to_loop = lambda record: to_loop.append(record) or accept
+    hub = Hub(server_name="test", tick_hz=1000, state_hz=60, access=FakeAccess(),  # the admin holds the lease
+              send_to_loop=lambda record: to_loop.append(record) or accept)
     return hub, to_loop
 
 
@@ -83,7 +82,7 @@ def test_trackers_reach_the_loop_and_their_client_leaving_is_announced():
     async def go():
         hub, to_loop = new_hub()
         driver, watcher = FakeSocket(), FakeSocket("json")
-        serving = [asyncio.create_task(hub.serve(ws)) for ws in (driver, watcher)]
+        serving = [asyncio.create_task(hub.fanout.serve(ws)) for ws in (driver, watcher)]
         driver.send({"type": "hello", "v": 1, "role": "participant", "client": "t"})
         watcher.send({"type": "hello", "v": 1, "role": "observer", "client": "t"})
         driver.send({"type": "tracker", "seq": 3, "t": 1.0, "pos": [0, 0.1, 0.2]})
@@ -94,18 +93,18 @@ def test_trackers_reach_the_loop_and_their_client_leaving_is_announced():
         driver.leave()
         await asyncio.gather(*serving)
         assert to_loop[1:] == [["tracker_gone", driver_id]]  # the observer sent no samples: nothing for it
-        assert hub.clients() == []
+        assert hub.fanout.clients() == []
 
     asyncio.run(go())
 
 
 def test_tracker_gone_refused_by_a_full_mailbox_is_retried_until_it_arrives():
     async def go():
-        hub, to_loop = new_hub()
-        accept = [True]
-        hub.send_to_loop = lambda record: (to_loop.append(record) if accept[0] else None) or accept[0]
+        accept, to_loop = [True], []
+        hub = Hub(server_name="test", tick_hz=1000, state_hz=60, access=FakeAccess(),
+                  send_to_loop=lambda record: (to_loop.append(record) if accept[0] else None) or accept[0])
         driver = FakeSocket()
-        serving = asyncio.create_task(hub.serve(driver))
+        serving = asyncio.create_task(hub.fanout.serve(driver))
         driver.send({"type": "hello", "v": 1, "role": "participant", "client": "t"})
         driver.send({"type": "tracker", "seq": 3, "t": 1.0, "pos": [0, 0.1, 0.2]})
         await settle()
@@ -113,11 +112,11 @@ def test_tracker_gone_refused_by_a_full_mailbox_is_retried_until_it_arrives():
         accept[0] = False  # the loop's mailbox is full when the driver leaves
         driver.leave()
         await serving
-        hub.retry_undelivered()
-        assert [r[0] for r in to_loop] == ["tracker"] and list(hub.undelivered) == [["tracker_gone", driver_id]]
+        hub.link.retry_undelivered()
+        assert [r[0] for r in to_loop] == ["tracker"] and list(hub.link.undelivered) == [["tracker_gone", driver_id]]
         accept[0] = True
-        hub.retry_undelivered()
-        assert to_loop[-1] == ["tracker_gone", driver_id] and not hub.undelivered
+        hub.link.retry_undelivered()
+        assert to_loop[-1] == ["tracker_gone", driver_id] and not hub.link.undelivered
 
     asyncio.run(go())
 
@@ -126,7 +125,7 @@ def test_a_full_mailbox_is_reported_to_the_client():
     async def go():
         hub, _ = new_hub(accept=False)
         ws = FakeSocket()
-        serving = asyncio.create_task(hub.serve(ws))
+        serving = asyncio.create_task(hub.fanout.serve(ws))
         ws.send({"type": "hello", "v": 1, "role": "participant", "client": "t"})
         ws.send({"type": "tracker", "seq": 3, "t": 1.0, "pos": [0, 0.1, 0.2]})
         ws.send({"type": "input", "key": "r", "action": "press"})
@@ -142,7 +141,7 @@ def test_an_unsupported_version_is_answered_then_closed():
     async def go():
         hub, _ = new_hub()
         ws = FakeSocket()
-        serving = asyncio.create_task(hub.serve(ws))
+        serving = asyncio.create_task(hub.fanout.serve(ws))
         ws.send({"type": "hello", "v": 9, "role": "participant", "client": "t"})
         await asyncio.wait_for(serving, 2.0)  # serve returns once the sender closed
         assert ws.types() == ["error"] and ws.got[0]["code"] == "unsupported_version" and ws.close_code == 1002
@@ -157,15 +156,15 @@ def test_a_state_of_the_old_scene_read_together_with_the_new_scene_is_not_sent_a
     async def go():
         hub, _ = new_hub()
         sockets = [FakeSocket(("msgpack", "json")[i % 2]) for i in range(10)]  # more than one slice
-        serving = [asyncio.create_task(hub.serve(ws)) for ws in sockets]
-        hub.on_loop_record(["scene", {"name": "a"}, "aaaa"])
+        serving = [asyncio.create_task(hub.fanout.serve(ws)) for ws in sockets]
+        hub.link.on_loop_record(["scene", {"name": "a"}, "aaaa"])
         for ws in sockets:
             ws.send({"type": "hello", "v": 1, "role": "observer", "client": "t"})
         await settle()
-        hub.on_loop_record(["state", state_record(1, "aaaa")])
-        hub.on_loop_record(["scene", {"name": "b"}, "bbbb"])  # in the same reader callback
+        hub.link.on_loop_record(["state", state_record(1, "aaaa")])
+        hub.link.on_loop_record(["scene", {"name": "b"}, "bbbb"])  # in the same reader callback
         await settle()
-        hub.on_loop_record(["state", state_record(2, "bbbb")])
+        hub.link.on_loop_record(["state", state_record(2, "bbbb")])
         await settle()
         for ws in sockets:
             seen = [(m["type"], m.get("hash") or m.get("scene")) for m in ws.got]

@@ -43,21 +43,20 @@ def test_calls_from_other_threads_are_refused_and_marshalled_ones_run_on_the_loo
 
 def test_the_hub_and_the_supervisor_refuse_other_threads():
     async def go():
-        hub = Hub(server_name="test", tick_hz=1000, state_hz=60)
-        supervisor = LoopSupervisor(LoopConfig(), hub.on_loop_record)
+        hub = Hub(server_name="test", tick_hz=1000, state_hz=60, send_to_loop=lambda record: supervisor.send(record))
+        supervisor = LoopSupervisor(LoopConfig(), hub.link.on_loop_record)
         supervisor.owner = hub.owner
-        hub.send_to_loop = supervisor.send
         hub.owner.bind()
-        hub.set_recording(0)  # fine here (no loop process: the record is dropped)
+        hub.link.set_recording(0)  # fine here (no loop process: the record is dropped)
 
         def worker():
-            for call in (lambda: hub.set_recording(5), lambda: supervisor.send(["record", 5]),
-                         lambda: hub.on_loop_record(["log", "warning", "x"])):
+            for call in (lambda: hub.link.set_recording(5), lambda: supervisor.send(["record", 5]),
+                         lambda: hub.link.on_loop_record(["log", "warning", "x"])):
                 with pytest.raises(WrongThread):
                     call()
             HubForWorkers(hub, hub.owner).set_recording(5)  # the engine's way in
 
         await asyncio.to_thread(worker)
-        assert hub.record_every == 5
+        assert hub.link.record_every == 5
 
     asyncio.run(go())

@@ -12,7 +12,8 @@ import msgpack
 import pytest
 
 from server.hub.event_log import EventLog
-from server.hub.session import MAX_PENDING_ERRORS, Close, Command, ServerInfo, Session, ToLoop
+from server.hub.outbox import MAX_PENDING_ERRORS, Close
+from server.hub.session import Command, ServerInfo, Session, ToLoop
 from server.wire import codec
 from tests.hub.access_fakes import ADMIN, ADMIN_SECRET, gate
 
@@ -46,7 +47,7 @@ def state(scene: str, fmt: str = "msgpack", tick: int = 0) -> bytes | str:
 def sent(session: Session) -> list:
     """Everything the sender would send now, decoded (a Close stays a Close)."""
     out = []
-    while (item := session.next_frame()) is not None:
+    while (item := session.outbox.next_frame()) is not None:
         out.append(item if isinstance(item, Close) else codec.decode(item, session.fmt))
     return out
 
@@ -65,7 +66,7 @@ def new(fmt: str = "msgpack", **kw) -> Session:
 @pytest.mark.parametrize("fmt", ["msgpack", "json"])
 def test_hello_is_welcomed_with_its_role_then_the_scene(fmt):
     s = new(fmt)
-    assert sent(s) == [] and not s.pending  # nothing before the hello
+    assert sent(s) == [] and not s.outbox.pending  # nothing before the hello
     assert s.receive(hello("operator", fmt=fmt), T0 + 1000) == []
     welcome, scene = sent(s)
     assert welcome == {"type": "welcome", "v": 1, "client_id": 7, "role": "operator", "server": "viestac/test",
@@ -96,7 +97,7 @@ def test_another_protocol_version_gets_an_error_then_close_1002_and_nothing_more
     assert s.receive(tracker(), T0 + 2) == []
     s.set_scene("bbbb", SCENE_B)
     s.offer_state(state("bbbb"), "bbbb")
-    assert sent(s) == [] and not s.pending and s.hello_wait_s(T0 + 3) is None
+    assert sent(s) == [] and not s.outbox.pending and s.hello_wait_s(T0 + 3) is None
 
 
 # ---- bad frames and roles -----------------------------------------------------------------------
@@ -175,7 +176,7 @@ def test_state_frames_are_latest_wins_and_only_for_welcomed_clients():
     s.offer_state(state("aaaa", tick=3), "aaaa")
     messages = sent(s)
     assert kinds(messages) == ["welcome", "scene", "state"] and messages[2]["tick"] == 3
-    assert (s.frames_sent, s.frames_dropped) == (1, 1)
+    assert (s.outbox.frames_sent, s.outbox.frames_dropped) == (1, 1)
 
 
 def test_the_events_of_a_frame_a_client_missed_come_first_in_its_next_frame():
@@ -208,7 +209,7 @@ def test_the_events_of_a_frame_a_client_missed_come_first_in_its_next_frame():
     got_fast += sent(fast)
     assert [(m["tick"], m["events"]) for m in got_fast] == [(3, [release]), (4, []), (5, [go])]
     assert [(m["tick"], m["events"]) for m in sent(slow)] == [(5, [tap, release, go])]
-    assert (slow.events_carried, fast.events_carried) == (2, 0)
+    assert (slow.outbox.events_carried, fast.outbox.events_carried) == (2, 0)
     offer(6, [], (slow,))
     assert [m["events"] for m in sent(slow)] == [[]], "each event once"
 
@@ -223,7 +224,7 @@ def test_a_state_of_the_previous_scene_is_never_sent_after_the_new_scene():
     s.set_scene("bbbb", SCENE_B)
     messages = sent(s)
     assert kinds(messages) == ["scene"] and messages[0]["hash"] == "bbbb"
-    assert s.frames_dropped == 1
+    assert s.outbox.frames_dropped == 1
     s.offer_state(state("aaaa", tick=2), "aaaa")  # still in flight from before the switch
     assert sent(s) == []
     s.offer_state(state("bbbb", tick=3), "bbbb")
@@ -273,7 +274,7 @@ def test_ordering_holds_for_any_interleaving_of_scenes_and_states():
                 s.offer_state(state(named), named)
             else:
                 for _ in range(rng.randint(1, 3)):
-                    item = s.next_frame()
+                    item = s.outbox.next_frame()
                     if item is None:
                         break
                     message = codec.decode(item)

@@ -11,8 +11,9 @@ import pytest
 from server.auth.identity import Identity
 from server.auth.lease import Lease
 from server.auth.policy import POLICY, decide
-from server.hub.session import (FORBIDDEN_TRACKER_ERROR_EVERY_NS, HELLO_TIMEOUT_NS, INPUT_BURST, Close, Command,
-                                Gate, ParticipantAnswer, ServerInfo, Session, ToLoop)
+from server.hub.input_budget import FORBIDDEN_TRACKER_ERROR_EVERY_NS, INPUT_BURST
+from server.hub.outbox import Close
+from server.hub.session import HELLO_TIMEOUT_NS, Command, Gate, ParticipantAnswer, ServerInfo, Session, ToLoop
 from server.wire import codec, messages
 from server.wire.schema import CLIENT_MESSAGE_NAMES
 from tests.hub.access_fakes import (ADMIN, EXP_A, EXP_B, OBSERVER, PART_1, PART_2, SECRET, Clock, gate)
@@ -40,7 +41,7 @@ def hello(role: str = "participant", token: str | None = None) -> bytes:
 
 def sent(session: Session) -> list:
     out = []
-    while (item := session.next_frame()) is not None:
+    while (item := session.outbox.next_frame()) is not None:
         out.append(item if isinstance(item, Close) else codec.decode(item))
     return out
 

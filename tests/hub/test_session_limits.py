@@ -10,8 +10,9 @@ import json
 import msgpack
 import pytest
 
-from server.hub.session import (INPUT_BURST, INPUT_RATE_PER_S, RATE_LIMITED_ERROR_EVERY_NS, Close, Command,
-                                ServerInfo, Session, ToLoop)
+from server.hub.input_budget import INPUT_BURST, INPUT_RATE_PER_S, RATE_LIMITED_ERROR_EVERY_NS
+from server.hub.outbox import Close
+from server.hub.session import Command, ServerInfo, Session, ToLoop
 from server.wire import codec, messages
 from tests.hub.access_fakes import ADMIN_SECRET, gate
 
@@ -30,7 +31,7 @@ def welcomed(fmt: str = "msgpack") -> Session:
 
 def drain(session: Session) -> list:
     out = []
-    while (item := session.next_frame()) is not None:
+    while (item := session.outbox.next_frame()) is not None:
         out.append(item if isinstance(item, Close) else codec.decode(item, session.fmt))
     return out
 

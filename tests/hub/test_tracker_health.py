@@ -87,26 +87,25 @@ def test_every_tracking_code_is_declared_beside_the_others():
 
 def test_the_hub_turns_the_tracker_hosts_reports_and_the_loops_tracking_into_health():
     async def go():
-        hub = Hub(server_name="test", tick_hz=1000, state_hz=60)
-        hub.send_to_loop = lambda record: True
-        hub.on_child_start("loop")
-        hub.on_child_start("device_host")
-        hub.on_loop_record(["state", state_record()])
-        assert hub.check_health().status == "ok"
-        hub.on_tracker_sources([leap("ok")])
-        assert hub.check_health().status == "ok"
+        hub = Hub(server_name="test", tick_hz=1000, state_hz=60, send_to_loop=lambda record: True)
+        hub.health_feed.on_child_start("loop")
+        hub.health_feed.on_child_start("device_host")
+        hub.link.on_loop_record(["state", state_record()])
+        assert hub.health_feed.check_health().status == "ok"
+        hub.health_feed.on_tracker_sources([leap("ok")])
+        assert hub.health_feed.check_health().status == "ok"
         lost = dict(state_record(), tracking={"lost": [LEAP_ID]},
                     tools=[{"name": "right.index.tip", "hip": [0, 0, 0], "proxy": [0, 0, 0], "contact": False,
                             "lost": True}])
-        hub.on_loop_record(["state", lost])
-        report = hub.check_health()
+        hub.link.on_loop_record(["state", lost])
+        report = hub.health_feed.check_health()
         assert report.codes == {"tracker_lost"} and "right.index.tip" in report.reasons[0]["message"]
-        assert codec.decode(hub._health_frames["json"], "json")["reasons"][0]["code"] == "tracker_lost"
-        hub.on_tracker_sources([leap("lost")])
-        assert [r["code"] for r in hub.check_health().reasons] == ["tracker_lost"]
+        assert codec.decode(hub.fanout.health_frames["json"], "json")["reasons"][0]["code"] == "tracker_lost"
+        hub.health_feed.on_tracker_sources([leap("lost")])
+        assert [r["code"] for r in hub.health_feed.check_health().reasons] == ["tracker_lost"]
         back = dict(state_record(), tracking={"lost": []}, tools=[])
-        hub.on_loop_record(["state", back])
-        hub.on_tracker_sources([leap("ok")])
-        assert hub.check_health().status == "ok"
+        hub.link.on_loop_record(["state", back])
+        hub.health_feed.on_tracker_sources([leap("ok")])
+        assert hub.health_feed.check_health().status == "ok"
 
     asyncio.run(go())
