@@ -211,9 +211,7 @@ def _devices(args: argparse.Namespace) -> int:
     """Serial ports the OS reports, devices configured in a file, and a running server's devices."""
     from devices.manager import DeviceConfigError, load_device_file
     from devices.ports import list_ports, resolve
-    import urllib.error
-
-    from server.bench.loop_bench import get_json
+    from server.client import ServerError, fetch_json
 
     report: dict = {"ports": list_ports(), "configured": [], "server": None}
     if args.devices:
@@ -225,12 +223,9 @@ def _devices(args: argparse.Namespace) -> int:
         report["configured"] = [{"name": c.name, "model": c.profile.model, "port": str(c.port),
                                  "resolves_to": resolve(c.port), "table_2_2": c.profile.table_row()} for c in configs]
     try:
-        report["server"] = get_json(f"{args.server.rstrip('/')}/api/devices", timeout=2.0, token=args.token)
-    except urllib.error.HTTPError as exc:
-        hint = " (give --token or $VIESTAC_TOKEN)" if exc.code in (401, 403) else ""
-        report["server_error"] = f"the server at {args.server} refused: {exc.code} {exc.reason}{hint}"
-    except OSError as exc:
-        report["server_error"] = f"no server at {args.server} ({exc})"
+        report["server"] = fetch_json(f"{args.server.rstrip('/')}/api/devices", timeout=2.0, token=args.token)
+    except ServerError as exc:
+        report["server_error"] = str(exc)
     if args.json:
         print(json.dumps(report, indent=2))
         return 0

@@ -16,7 +16,7 @@ import sys
 
 import pytest
 
-from server.bench.loop_bench import admin_token, start_server, stop_server
+from tests.live_server import admin_token, start_server, stop_server
 
 pytest.importorskip("schemathesis")
 

@@ -17,9 +17,9 @@ import urllib.request
 import numpy as np
 import pytest
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.live_server import get_json, start_server, stop_server
 from tests.browser.conftest import ARTIFACTS, auth_header, new_context, require_web_deps
-from tests.conftest import LiveServer
+from tests.live_server import LiveServer
 
 pytestmark = pytest.mark.browser
 

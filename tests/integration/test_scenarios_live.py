@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from scenarios.positioning import ITEMS
-from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.live_server import get_json, start_server, stop_server
 from tests.integration.test_server_ws import Client
 
 

@@ -14,7 +14,7 @@ import msgpack
 import pytest
 import websockets
 
-from server.bench.loop_bench import admin_token
+from tests.live_server import admin_token
 
 VECTORS = Path(__file__).parents[1] / "vectors"
 INVALID = json.loads((VECTORS / "invalid.json").read_text())["frames"]
