@@ -305,7 +305,19 @@ def _export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _without_extra(command: str, extra: str) -> bool:
+    """True, after saying in one line how to install it, when `extra` is missing (exit 2)."""
+    from server.extras import needs
+
+    line = needs(command, extra)
+    if line:
+        print(line, file=sys.stderr)
+    return line is not None
+
+
 def _analyze(args: argparse.Namespace) -> int:
+    if _without_extra("viestac analyze", "analysis"):
+        return 2
     from server.analysis.load import AnalysisError
     from server.analysis.run import analyze
 
@@ -381,6 +393,8 @@ def _participant_list(text: str) -> list[int]:
 
 
 def _study_power(args: argparse.Namespace, participants: list[int]) -> int:
+    if _without_extra("viestac study --power", "power"):
+        return 2
     import functools
 
     from server.simulate.power import run_power, text_table
@@ -425,13 +439,11 @@ _preloading = None  # the preload thread, joined before the analysis (which draw
 
 
 def _analyze_after_simulation(data_dir: Path, out: Path) -> int:
-    try:
-        from server.analysis.run import analyze  # the analysis of `viestac analyze`
-    except ImportError:
-        print("viestac study: the analysis is not available; run `viestac analyze` on the data", file=sys.stderr)
-        return 0
     if _preloading is not None:
         _preloading.join()  # done by now (it ran beside the last participants); a fork needs no other thread
+    if _without_extra("the analysis after the study", "analysis"):  # the data stay, for `viestac analyze` later
+        return 0
+    from server.analysis.run import analyze  # the analysis of `viestac analyze`
     analyze(data_dir, out)
     print(f"report: {out / 'report.html'}")
     return 0
@@ -779,6 +791,7 @@ def build_parser() -> argparse.ArgumentParser:
     token.set_defaults(func=_token)
 
     bench = sub.add_parser("bench", help="benchmarks")
+    bench.set_defaults(extra="bench")  # every bench, checked in main before it starts
     bench_sub = bench.add_subparsers(dest="bench", required=True)
     loop = bench_sub.add_parser("loop", help="loop timing with N viewers at 60 Hz and tracker clients at 120 Hz")
     loop.add_argument("--seconds", type=float, default=10.0)
@@ -895,6 +908,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     args = build_parser().parse_args(argv)
+    if getattr(args, "extra", None) and _without_extra(f"viestac {args.command}", args.extra):
+        return 2
     try:
         return args.func(args)
     except (UnknownScenario, SceneError, ValueError) as exc:

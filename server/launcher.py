@@ -67,10 +67,11 @@ LEASE_TTL_S = 86400  # the harness's lease lasts the run (a test that studies ex
 
 
 def start_server(scenario: str = "contact-angle", extra: list[str] | None = None,
-                 timeout_s: float = 30.0, *, take_lease: bool = True) -> tuple[subprocess.Popen, str]:
-    """Start `viestac serve --port 0`; return the process and its base URL once healthy, with an
-    admin token registered for it (ADMIN_TOKENS) that holds the control lease (unless not
-    `take_lease`)."""
+                 timeout_s: float = 30.0, *, take_lease: bool = True,
+                 python: str = sys.executable) -> tuple[subprocess.Popen, str]:
+    """Start `viestac serve --port 0` (in `python`: this one, or another venv's); return the
+    process and its base URL once healthy, with an admin token registered for it (ADMIN_TOKENS)
+    that holds the control lease (unless not `take_lease`)."""
     extra = list(extra or [])
     if "--lease-ttl" not in extra:
         extra += ["--lease-ttl", str(LEASE_TTL_S)]
@@ -82,7 +83,7 @@ def start_server(scenario: str = "contact-angle", extra: list[str] | None = None
     if own_data:  # a server of its own gets a database of its own, removed when it stops
         extra += ["--data-dir", tempfile.mkdtemp(prefix="viestac-data-")]
     secret = new_secret(32)
-    proc = subprocess.Popen([sys.executable, "-m", "server.cli", "serve", "--port", "0", "--scenario", scenario,
+    proc = subprocess.Popen([python, "-m", "server.cli", "serve", "--port", "0", "--scenario", scenario,
                              "--log-level", "warning", *extra],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             env={**os.environ, "VIESTAC_ADMIN_TOKEN": secret})
