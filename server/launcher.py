@@ -49,7 +49,10 @@ def auth_headers(url: str, token=_REGISTERED) -> dict[str, str]:
     return {"Authorization": f"Bearer {token}"} if token else {}
 
 
-def get_json(url: str, method: str = "GET", timeout: float = 5.0, body: dict | None = None,
+ANSWER_TIMEOUT_S = 30.0  # a bound for a hung server, not a speed check: a loaded machine answers late
+
+
+def get_json(url: str, method: str = "GET", timeout: float = ANSWER_TIMEOUT_S, body: dict | None = None,
              token=_REGISTERED) -> dict:
     """GET (or POST, DELETE with an optional JSON body) a URL of the server and decode its JSON
     answer; HTTP errors raise urllib.error.HTTPError (its .code and .read() carry the detail).
