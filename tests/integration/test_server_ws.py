@@ -76,15 +76,19 @@ class Client:
 
 
 async def _state_rate(url: str, fmt: str, seconds: float = 3.0) -> tuple[dict, dict, float]:
+    """The rate the server publishes state at, on the loop's clock: frames (the publish counter) per
+    second of loop ticks over `seconds`. The test's own clock would count how fast a loaded
+    machine lets this client read, not what the server sends."""
     client = await Client.connect(url, fmt)
     welcome = await client.recv()
     scene = await client.recv()
-    await client.recv_type("state")
-    count, start = 0, time.monotonic()
+    first = last = await client.recv_type("state")
+    start = time.monotonic()
     while time.monotonic() - start < seconds:
-        if (await client.recv())["type"] == "state":
-            count += 1
-    rate = count / (time.monotonic() - start)
+        message = await client.recv()
+        if message["type"] == "state":
+            last = message
+    rate = (last["frame"] - first["frame"]) / ((last["tick"] - first["tick"]) / welcome["tick_hz"])
     await client.close()
     return welcome, scene, rate
 
