@@ -39,7 +39,9 @@ if [ ! -x .venv/bin/python ]; then
   echo "setup: creating .venv"
   python3 -m venv .venv
 fi
-extras=""
+# Every extra (pyproject.toml): the analysis, the power analysis and the benches; the test extra
+# brings them all. A rig that only serves needs none (`pip install -e .`).
+extras="[analysis,power,bench]"
 [ "$want_test" = 1 ] && extras="[test]"
 stamp=".venv/.installed${extras}"
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then

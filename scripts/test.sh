@@ -13,4 +13,5 @@ echo "== browser client unit tests (node --test)"
 echo "== C# client (clients/unity: Mono build, NUnit 2.6 incl. live tests against viestac serve)"
 bash clients/unity/build.sh
 echo "== Python tests (pytest)"
-exec .venv/bin/python -m pytest -q "$@"
+# --durations=15: the slowest tests, for the wall time the README reports
+exec .venv/bin/python -m pytest -q --durations=15 "$@"

@@ -213,9 +213,7 @@ def _devices(args: argparse.Namespace) -> int:
     """Serial ports the OS reports, devices configured in a file, and a running server's devices."""
     from devices.manager import DeviceConfigError, load_device_file
     from devices.ports import list_ports, resolve
-    import urllib.error
-
-    from server.bench.loop_bench import get_json
+    from server.client import ServerError, fetch_json
 
     report: dict = {"ports": list_ports(), "configured": [], "server": None}
     if args.devices:
@@ -227,12 +225,9 @@ def _devices(args: argparse.Namespace) -> int:
         report["configured"] = [{"name": c.name, "model": c.profile.model, "port": str(c.port),
                                  "resolves_to": resolve(c.port), "table_2_2": c.profile.table_row()} for c in configs]
     try:
-        report["server"] = get_json(f"{args.server.rstrip('/')}/api/devices", timeout=2.0, token=args.token)
-    except urllib.error.HTTPError as exc:
-        hint = " (give --token or $VIESTAC_TOKEN)" if exc.code in (401, 403) else ""
-        report["server_error"] = f"the server at {args.server} refused: {exc.code} {exc.reason}{hint}"
-    except OSError as exc:
-        report["server_error"] = f"no server at {args.server} ({exc})"
+        report["server"] = fetch_json(f"{args.server.rstrip('/')}/api/devices", timeout=2.0, token=args.token)
+    except ServerError as exc:
+        report["server_error"] = str(exc)
     if args.json:
         print(json.dumps(report, indent=2))
         return 0
@@ -312,7 +307,19 @@ def _export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _without_extra(command: str, extra: str) -> bool:
+    """True, after saying in one line how to install it, when `extra` is missing (exit 2)."""
+    from server.extras import needs
+
+    line = needs(command, extra)
+    if line:
+        print(line, file=sys.stderr)
+    return line is not None
+
+
 def _analyze(args: argparse.Namespace) -> int:
+    if _without_extra("viestac analyze", "analysis"):
+        return 2
     from server.analysis.load import AnalysisError
     from server.analysis.run import analyze
 
@@ -388,6 +395,8 @@ def _participant_list(text: str) -> list[int]:
 
 
 def _study_power(args: argparse.Namespace, participants: list[int]) -> int:
+    if _without_extra("viestac study --power", "power"):
+        return 2
     import functools
 
     from server.simulate.power import run_power, text_table
@@ -432,13 +441,11 @@ _preloading = None  # the preload thread, joined before the analysis (which draw
 
 
 def _analyze_after_simulation(data_dir: Path, out: Path) -> int:
-    try:
-        from server.analysis.run import analyze  # the analysis of `viestac analyze`
-    except ImportError:
-        print("viestac study: the analysis is not available; run `viestac analyze` on the data", file=sys.stderr)
-        return 0
     if _preloading is not None:
         _preloading.join()  # done by now (it ran beside the last participants); a fork needs no other thread
+    if _without_extra("the analysis after the study", "analysis"):  # the data stay, for `viestac analyze` later
+        return 0
+    from server.analysis.run import analyze  # the analysis of `viestac analyze`
     analyze(data_dir, out)
     print(f"report: {out / 'report.html'}")
     return 0
@@ -789,6 +796,7 @@ def build_parser() -> argparse.ArgumentParser:
     token.set_defaults(func=_token)
 
     bench = sub.add_parser("bench", help="benchmarks")
+    bench.set_defaults(extra="bench")  # every bench, checked in main before it starts
     bench_sub = bench.add_subparsers(dest="bench", required=True)
     loop = bench_sub.add_parser("loop", help="loop timing with N viewers at 60 Hz and tracker clients at 120 Hz")
     loop.add_argument("--seconds", type=float, default=10.0)
@@ -905,6 +913,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     args = build_parser().parse_args(argv)
+    if getattr(args, "extra", None) and _without_extra(f"viestac {args.command}", args.extra):
+        return 2
     try:
         return args.func(args)
     except (UnknownScenario, SceneError, ValueError) as exc:

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from server.bench.loop_bench import admin_token
+from tests.live_server import admin_token
 from server.config import Settings
 
 

@@ -34,7 +34,8 @@ from pathlib import Path
 from server.bench import faults_measure as fm
 from server.bench.faults_clients import (CONTACT_POS, Participant, Poller, WsClient, health_status, reason_codes,
                                          slow_readers, udp_tracker)
-from server.bench.loop_bench import auth_headers, get_json, start_server, stop_server, token_option
+from server.bench.loop_bench import token_option
+from server.launcher import auth_headers, get_json, start_server, stop_server
 from server.hub.child import HEALTHY_S
 
 FAULTS = ("loop_kill", "device_host_kill", "emulator_restart", "device_unplug", "tracker_loss", "key_flood",

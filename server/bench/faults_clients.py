@@ -20,7 +20,7 @@ import msgpack
 import websockets
 
 from server.bench.load import LATENCY_ANGLE_DEG, LATENCY_IN
-from server.bench.loop_bench import admin_token, auth_headers
+from server.launcher import admin_token, auth_headers
 from server.wire import codec
 
 _A = math.radians(LATENCY_ANGLE_DEG)

@@ -40,7 +40,8 @@ from pathlib import Path
 
 from devices.emulator import Emulator
 from server.bench.load import LATENCY_SWITCH_HZ
-from server.bench.loop_bench import _rss_summary, _tree_rss_mb, get_json, off_loop_cpu, start_server, stop_server, token_option
+from server.bench.loop_bench import _rss_summary, _tree_rss_mb, off_loop_cpu, token_option
+from server.launcher import get_json, start_server, stop_server
 from server.bench.quantiles import tail
 
 SAMPLES = 1000    # by default the run lasts long enough for this many switches: a p99 from ~100 is the maximum

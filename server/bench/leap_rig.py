@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 from devices.emulator import Emulator
-from server.bench.loop_bench import get_json, start_server, stop_server
+from server.launcher import get_json, start_server, stop_server
 from server.tracking import replay
 from server.tracking.calibration import leap_default
 

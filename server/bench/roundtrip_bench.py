@@ -26,7 +26,8 @@ import time
 import websockets
 
 from server.bench.load import hello
-from server.bench.loop_bench import admin_token, get_json, off_loop_cpu, start_server, stop_server, token_option
+from server.bench.loop_bench import off_loop_cpu, token_option
+from server.launcher import admin_token, get_json, start_server, stop_server
 from server.bench.roundtrip import WHERES, match_samples, sample_position, summarize
 from server.bench.roundtrip_sockets import peer_socket_nodelay
 from server.wire import codec

@@ -13,7 +13,7 @@ import argparse
 import json
 import time
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from server.launcher import get_json, start_server, stop_server
 
 SCENARIOS = ("positioning", "hot-wire", "peg-in-hole")
 

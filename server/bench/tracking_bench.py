@@ -216,7 +216,8 @@ def switch_path(rate_hz: float = RATE_HZ):
 
 def latency_study(seconds: float, viewers: int) -> dict:
     from server.bench.leap_rig import LeapRig
-    from server.bench.loop_bench import get_json, off_loop_cpu, token_option
+    from server.bench.loop_bench import off_loop_cpu, token_option
+    from server.launcher import get_json
     from server.bench.quantiles import tail
 
     times, rows, switches = switch_path()

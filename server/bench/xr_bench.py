@@ -30,7 +30,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from server.launcher import get_json, start_server, stop_server
 from server.bench.quantiles import tail
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -86,7 +86,7 @@ def run_xr_bench(touches: int = 20, seconds: float = 5.0) -> dict:
     from devices.emulator import Emulator
     from playwright.sync_api import sync_playwright
 
-    from server.bench.loop_bench import admin_token
+    from server.launcher import admin_token
 
     tmp = Path(tempfile.mkdtemp(prefix="viestac-xr-bench-"))
     emulator = Emulator("ferrovibe", link=tmp / "index")

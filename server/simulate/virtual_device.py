@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from devices.encoder import CueEncoder
-from devices.fake import SimulatedLink
+from devices.simulated_link import SimulatedLink
 from devices.fwcore import Edge, FirmwareCore
 from devices.profiles import DeviceProfile
 from devices.protocol import HostProtocol

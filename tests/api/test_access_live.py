@@ -12,7 +12,7 @@ import urllib.request
 
 import pytest
 
-from server.bench.loop_bench import admin_token, start_server, stop_server
+from tests.live_server import admin_token, start_server, stop_server
 
 STUDY = "thesis-2021"
 EVIL = {"Origin": "http://evil.example"}

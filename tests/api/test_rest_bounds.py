@@ -12,7 +12,7 @@ import urllib.request
 import pytest
 
 from server.api.errors import MAX_INT
-from server.bench.loop_bench import auth_headers, start_server, stop_server
+from tests.live_server import auth_headers, start_server, stop_server
 
 STUDY = "thesis-2021"
 

@@ -11,6 +11,7 @@ import sys
 import pytest
 
 from server.bench.kernel_trace import LoopWakeTrace
+from server import launcher
 from server.bench import loop_bench
 from server.bench.loop_bench import _rss_summary, run_loop_bench
 
@@ -67,7 +68,7 @@ def test_a_short_live_run_reports_loop_timing_and_memory():
 
 
 def test_a_secret_that_starts_with_a_dash_reaches_the_load_generator_as_its_token(monkeypatch):
-    monkeypatch.setitem(loop_bench.ADMIN_TOKENS, "http://127.0.0.1:9", "-Ab_c")  # token_urlsafe does this 1 in 64
+    monkeypatch.setitem(launcher.ADMIN_TOKENS, "http://127.0.0.1:9", "-Ab_c")  # token_urlsafe does this 1 in 64
     option = loop_bench.token_option("ws://127.0.0.1:9/ws")
     assert option == ["--token=-Ab_c"] and loop_bench.token_option("http://127.0.0.1:10") == []
     proc = subprocess.run([sys.executable, "-m", "server.bench.load", "--url", "ws://127.0.0.1:9/ws", "--viewers", "0",

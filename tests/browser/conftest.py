@@ -48,11 +48,10 @@ TOKEN_KEY = "viestac.token"  # clients/web/src/auth.js TOKEN_KEY
 
 
 def admin_token(base_url: str) -> str | None:
-    """The admin token the harness (server.bench.loop_bench.start_server) gave that server."""
-    from server.bench import loop_bench
+    """The admin token the harness (tests/live_server.py) gave that server."""
+    from tests.live_server import admin_token as registered
 
-    find = getattr(loop_bench, "admin_token", None)
-    return find(base_url) if find else None
+    return registered(base_url)
 
 
 def auth_header(base_url: str) -> dict[str, str]:

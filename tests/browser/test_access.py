@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import pytest
 
-from server.bench.loop_bench import admin_token, get_json, start_server, stop_server
+from tests.live_server import admin_token, get_json, start_server, stop_server
 from tests.browser.conftest import ARTIFACTS, new_context, require_web_deps
 from tests.browser.test_console import CONSOLE_VIEWPORT, Console
 from tests.browser.test_web_client import READY_TIMEOUT_MS, VIEWPORT, Client, wait_tracker
-from tests.conftest import LiveServer
+from tests.live_server import LiveServer
 
 pytestmark = pytest.mark.browser
 

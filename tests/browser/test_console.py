@@ -17,10 +17,10 @@ from pathlib import Path
 
 import pytest
 
-from server.bench.loop_bench import start_server, stop_server
+from tests.live_server import start_server, stop_server
 from tests.browser.conftest import ARTIFACTS, auth_header, new_context, require_web_deps
 from tests.browser.test_web_client import READY_TIMEOUT_MS, VIEWPORT, Client, wait_for
-from tests.conftest import LiveServer
+from tests.live_server import LiveServer
 
 pytestmark = pytest.mark.browser
 

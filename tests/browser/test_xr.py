@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from devices.emulator import Emulator
-from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.live_server import get_json, start_server, stop_server
 from tests.browser.conftest import ARTIFACTS, new_context, require_web_deps
 from tests.browser.test_web_client import screenshot_pixels, wait_for
 

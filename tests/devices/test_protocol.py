@@ -9,7 +9,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from devices import messages as m
-from devices.fake import FERROVIBE, FINGERTAC, FakeDevice, SimulatedLink
+from devices.simulated_link import SimulatedLink
+from tests.devices.fake_device import FERROVIBE, FINGERTAC, FakeDevice
 from devices.framing import FrameDecoder, encode_frame
 from devices.messages import ErrorCode, SetPattern, SetTemperature, SetTilt, Stop
 from devices.protocol import (Acked, DeviceErrorReported, FrameRejected, HostProtocol, Identified, Pong,

@@ -2,12 +2,13 @@
 defaults of devices.manager.make_protocol) against the real C firmware core (devices.fwcore).
 The host arms it at the handshake and keeps it fed; a host that goes silent leaves every actuator
 off within the watchdog's timeout, and when it speaks again it learns so and shows every layer
-again. A firmware that predates the watchdog (devices.fake.FakeDevice) keeps working as before."""
+again. A firmware that predates the watchdog (tests/devices/fake_device.py) keeps working as before."""
 
 from __future__ import annotations
 
 from devices import messages as m
-from devices.fake import FERROVIBE, FakeDevice, SimulatedLink
+from devices.simulated_link import SimulatedLink
+from tests.devices.fake_device import FERROVIBE, FakeDevice
 from devices.framing import FrameDecoder, FrameError
 from devices.fwcore import FirmwareCore
 from devices.manager import make_protocol

@@ -14,7 +14,7 @@ import time
 import msgpack
 import pytest
 
-from server.bench.loop_bench import get_json
+from tests.live_server import get_json
 from tests.integration.test_server_ws import Client, run
 
 DOME_R = 0.66

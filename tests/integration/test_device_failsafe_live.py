@@ -32,7 +32,7 @@ from devices.profiles import profile_by_model
 from devices.protocol import WATCHDOG_MS
 from devices.rig import emulator_command
 from server import ipc
-from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.live_server import get_json, start_server, stop_server
 
 ROOT = Path(__file__).resolve().parents[2]
 IN_CONTACT = [0.0, -(0.66 - 0.003) * math.sin(math.radians(30)), (0.66 - 0.003) * math.cos(math.radians(30))]

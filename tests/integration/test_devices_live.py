@@ -12,7 +12,7 @@ import pytest
 from scipy.stats import poisson
 
 from devices.emulator import Emulator
-from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.live_server import get_json, start_server, stop_server
 from tests.integration.test_server_ws import Client, _on_dome
 
 

@@ -15,7 +15,7 @@ import time
 import pytest
 import websockets
 
-from server.bench.loop_bench import admin_token, get_json, start_server, stop_server
+from tests.live_server import admin_token, get_json, start_server, stop_server
 
 # The doc's step 3 in JavaScript: JSON.stringify with every object's keys sorted; then SHA-256.
 NODE_SCENE_HASH = r"""

@@ -15,7 +15,7 @@ import urllib.request
 
 import pytest
 
-from server.bench.loop_bench import auth_headers, start_server, stop_server
+from tests.live_server import auth_headers, start_server, stop_server
 from tests.integration.test_server_ws import Client
 
 STUDY = "thesis-2021"

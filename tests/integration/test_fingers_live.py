@@ -11,7 +11,7 @@ import msgpack
 import pytest
 
 from devices.emulator import Emulator
-from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.live_server import get_json, start_server, stop_server
 from tests.integration.test_server_ws import _on_dome
 
 THUMB = "right.thumb.tip"

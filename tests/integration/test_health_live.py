@@ -15,7 +15,7 @@ import urllib.error
 
 import pytest
 
-from server.bench.loop_bench import get_json
+from tests.live_server import get_json
 from tests.integration.test_experiment_live import Api, new_session
 
 POLL_S = 0.005

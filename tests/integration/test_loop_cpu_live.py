@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.live_server import get_json, start_server, stop_server
 from server.cpu_plan import plan_cpus
 
 pytestmark = pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="one CPU: nothing to plan")

@@ -14,7 +14,7 @@ import websockets
 
 from tests.integration.test_experiment_live import Api, answers_for, new_session, run_trial, touch
 
-from server.bench.loop_bench import admin_token, get_json, start_server, stop_server
+from tests.live_server import admin_token, get_json, start_server, stop_server
 
 
 def test_killed_loop_is_restarted_and_clients_get_the_scene_again():

@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.live_server import get_json, start_server, stop_server
 from tests.integration.test_server_ws import Client
 
 SWITCHES = 200

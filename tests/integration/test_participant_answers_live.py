@@ -9,7 +9,7 @@ import asyncio
 
 import pytest
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.live_server import get_json, start_server, stop_server
 from tests.integration.test_experiment_live import Api
 from tests.integration.test_server_ws import Client
 

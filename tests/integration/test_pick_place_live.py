@@ -11,7 +11,7 @@ import time
 import pytest
 
 from scenarios.pick_place import BLOCK_SIDE, BLOCK_START, THUMB
-from server.bench.loop_bench import start_server, stop_server
+from tests.live_server import start_server, stop_server
 from tests.integration.test_scenarios_live import Server, now_us
 from tests.integration.test_server_ws import Client
 

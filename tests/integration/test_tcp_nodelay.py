@@ -15,7 +15,7 @@ import msgpack
 import pytest
 import websockets
 
-from server.bench.loop_bench import admin_token, start_server, stop_server
+from tests.live_server import admin_token, start_server, stop_server
 from server.bench.roundtrip_sockets import peer_socket_nodelay
 from server.cli import listen_socket
 

@@ -20,7 +20,7 @@ from scenarios.positioning import ITEMS
 from tests.integration.test_experiment_live import STUDY, Api
 from tests.integration.test_scenarios_live import HANG, hold, send_path, wait_for
 from tests.integration.test_server_ws import Client
-from server.bench.loop_bench import start_server, stop_server
+from tests.live_server import start_server, stop_server
 
 PARTICIPANTS = 13
 ITEM = {item.id: item for item in ITEMS}

@@ -10,7 +10,7 @@ import time
 import pytest
 import websockets
 
-from server.bench.loop_bench import get_json
+from tests.live_server import get_json
 from tests.integration.test_server_ws import Client, run
 
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from server.bench.loop_bench import get_json, start_server, stop_server
+from tests.live_server import get_json, start_server, stop_server
 from server.tracking import replay
 
 pytestmark = pytest.mark.slow

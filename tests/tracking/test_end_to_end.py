@@ -7,7 +7,7 @@ import pytest
 
 from scenarios.contact_angle import point_at_angle
 from server.bench.leap_rig import LeapRig
-from server.bench.loop_bench import get_json
+from tests.live_server import get_json
 from server.core.cues import tilt_direction
 
 pytestmark = pytest.mark.slow

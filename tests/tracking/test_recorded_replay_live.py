@@ -16,7 +16,7 @@ import urllib.request
 import pytest
 
 from scenarios.contact_angle import point_at_angle
-from server.bench.loop_bench import auth_headers, get_json, start_server, stop_server
+from tests.live_server import auth_headers, get_json, start_server, stop_server
 from server.tracking import replay
 
 pytestmark = pytest.mark.slow

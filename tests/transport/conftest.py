@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from server import tls
-from server.bench.loop_bench import UNLIMITED_OVERRUNS
+from tests.live_server import UNLIMITED_OVERRUNS
 
 URL_LINE = re.compile(r"on (https?://\S+?)/ ")  # the banner's shape (server.cli.serve_banner)
 

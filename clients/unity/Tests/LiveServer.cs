@@ -1,6 +1,6 @@
 // Starts `viestac serve` (the repository's .venv, the simulated rig) for the live tests, with an
 // admin token registered through VIESTAC_ADMIN_TOKEN (docs/security.md), as the Python tests'
-// harness does (server/bench/loop_bench.py, start_server).
+// harness does (server/launcher.py, start_server).
 using System;
 using System.Diagnostics;
 using System.IO;
