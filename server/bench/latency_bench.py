@@ -39,7 +39,7 @@ import time
 from pathlib import Path
 
 from devices.emulator import Emulator
-from server.bench.load import LATENCY_SWITCH_HZ
+from server.bench.load import LATENCY_SWITCH_HZ, wait_ready
 from server.bench.loop_bench import _rss_summary, _tree_rss_mb, off_loop_cpu, token_option
 from server.launcher import get_json, start_server, stop_server
 from server.bench.quantiles import tail
@@ -141,6 +141,7 @@ def run_latency_bench(seconds: float | None = None, clients: int = 0, warmup_s: 
                                  "--trackers", "0", "--latency-tracker", *udp, "--warmup", str(warmup_s),
                                  "--seconds", str(seconds), *token_option(base), *off_loop_cpu(base)],
                                 stdout=subprocess.PIPE, text=True)
+        wait_ready(load)  # its window starts warmup_s after its last client connected, as this one
         time.sleep(warmup_s)
         get_json(base + "/api/telemetry/reset", "POST")
         start_us = time.monotonic_ns() // 1000

@@ -14,6 +14,11 @@ with `--latency-udp HOST:PORT` to the loop's tracker UDP port.
 
 `--token` is the server's access token (the bench's admin token, which holds the control lease,
 so its participant trackers may drive the HIP); every client says it in its hello.
+
+The measured window starts `--warmup` seconds after the last client connected, not after the
+process started: on a loaded machine the imports and connections alone took seconds, and a window
+counted from the start held no tracker sample. The process prints `ready` on a line of its own when
+every client is connected (the bench waits for it), and its JSON result last.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import contextlib
 import json
 import math
 import random
+import select
 import socket
 import time
 
@@ -36,24 +42,66 @@ from server.wire import codec
 TOKEN: str | None = None  # --token: this process's clients all use it
 
 
+class Window:
+    """When the run counts: `warmup_s` after the last of `clients` connections is up, for
+    `seconds`; the clients stop `STOP_AFTER_S` after it. Until then every bound is infinite."""
+
+    STOP_AFTER_S = 0.2
+
+    def __init__(self, clients: int, warmup_s: float, seconds: float):
+        self._waiting, self._warmup_s, self._seconds = clients, warmup_s, seconds
+        self.start = self.end = self.stop = math.inf
+        self.ready = asyncio.Event()
+        if clients == 0:
+            self._open()
+
+    async def connected(self) -> None:
+        """One client's connection is up; returns once every client's is."""
+        self._waiting -= 1
+        if self._waiting == 0:
+            self._open()
+        await self.ready.wait()
+
+    def _open(self) -> None:
+        self.start = time.monotonic() + self._warmup_s
+        self.end = self.start + self._seconds
+        self.stop = self.end + self.STOP_AFTER_S
+        print("ready", flush=True)
+        self.ready.set()
+
+
+READY_TIMEOUT_S = 120.0  # a hung load generator; a loaded machine took seconds, never minutes
+
+
+def wait_ready(proc, timeout_s: float = READY_TIMEOUT_S) -> None:
+    """Until the load generator `proc` (a Popen with text stdout) printed `ready`: every client is
+    connected and its warm-up has begun. A generator that exits or hangs first is an error."""
+    ready, _, _ = select.select([proc.stdout], [], [], timeout_s)
+    line = proc.stdout.readline() if ready else ""
+    if line.strip() != "ready":
+        proc.kill()
+        raise RuntimeError(f"the load generator did not get its clients connected within {timeout_s:.0f} s"
+                           f" (exit code {proc.poll()}, said {line.strip()!r})")
+
+
 def hello(role: str, client: str) -> dict:
     """The hello of a bench client, with the access token when there is one (protocol v1.3)."""
     return {"type": "hello", "v": 1, "role": role, "client": client, **({"token": TOKEN} if TOKEN else {})}
 
 
-async def viewer(url: str, counts: list[int], index: int, window: tuple[float, float], stop: float,
-                 fmt: str = "msgpack") -> None:
+async def viewer(url: str, counts: list[int], index: int, window: Window, fmt: str = "msgpack") -> None:
     """An observer that decodes every frame, in msgpack or JSON (`viestac bench roundtrip --format`)."""
     decode = msgpack.unpackb if fmt == "msgpack" else json.loads
     async with websockets.connect(url, subprotocols=[f"viestac.v1.{fmt}"], compression=None, max_size=1 << 20) as ws:
         await ws.send(codec.encode(hello("observer", "bench-viewer"), fmt))
-        while time.monotonic() < stop:
+        await window.connected()
+        while time.monotonic() < window.stop:
             try:
-                data = await asyncio.wait_for(ws.recv(), timeout=max(0.05, stop - time.monotonic()))
+                data = await asyncio.wait_for(ws.recv(), timeout=max(0.05, window.stop - time.monotonic()))
             except asyncio.TimeoutError:
                 break
             now = time.monotonic()
-            if window[0] <= now < window[1] and decode(data).get("type") == "state":
+            if window.start <= now < window.end and decode(data).get("type") == "state":
                 counts[index] += 1
 
 
@@ -74,13 +122,14 @@ async def participant(url: str, client: str):
             reader.cancel()
 
 
-async def tracker(url: str, rate_hz: float, phase: float, sent: list[int], stop: float) -> None:
+async def tracker(url: str, rate_hz: float, phase: float, sent: list[int], window: Window) -> None:
     async with participant(url, "bench-tracker") as ws:
+        await window.connected()
         period = 1.0 / rate_hz
         next_t = time.monotonic()
         seq = 0
         radius = 0.6 + 0.06 - 0.003  # 3 mm inside the dilated dome: in contact
-        while next_t < stop:
+        while next_t < window.stop:
             angle = math.radians(80.0 * math.sin(2 * math.pi * 0.25 * next_t + phase))
             pos = [0.0, -radius * math.sin(angle), radius * math.cos(angle)]
             await ws.send(msgpack.packb({"type": "tracker", "seq": seq, "t": time.monotonic() * 1e3, "pos": pos}))
@@ -100,7 +149,7 @@ LATENCY_EVERY = (8, 12)   # samples between switches: 66-100 ms at 120 Hz
 LATENCY_SWITCH_HZ = LATENCY_RATE_HZ / (sum(LATENCY_EVERY) / 2)  # 12 switches per second on average
 
 
-async def latency_tracker(url: str, rate_hz: float, switches: list[list], stop: float, seed: int = 8,
+async def latency_tracker(url: str, rate_hz: float, switches: list[list], window: Window, seed: int = 8,
                           udp: tuple[str, int] | None = None) -> None:
     """Alternate between in contact and well above the dome; record [send t_us, seq, in_contact] of
     each switching message. Between switches the same position is resent at rate_hz, like a real
@@ -120,12 +169,13 @@ async def latency_tracker(url: str, rate_hz: float, switches: list[list], stop: 
 
             async def send(data: bytes) -> None:
                 sock.sendto(data, udp)
+        await window.connected()
         period = 1.0 / rate_hz
         next_t = time.monotonic()
         seq = 0
         in_contact = False
         left = rng.randint(*LATENCY_EVERY)  # samples until the next switch
-        while next_t < stop:
+        while next_t < window.stop:
             left -= 1
             switch = left == 0
             if switch:
@@ -146,16 +196,14 @@ async def main_async(url: str, viewers: int, trackers: int, warmup_s: float, sec
                      token: str | None = None) -> dict:
     global TOKEN
     TOKEN = token
-    start = time.monotonic()
-    window = (start + warmup_s, start + warmup_s + seconds)
-    stop = window[1] + 0.2
+    window = Window(viewers + trackers + (1 if latency else 0), warmup_s, seconds)
     counts = [0] * viewers
     sent = [0]
-    tasks = [viewer(url, counts, i, window, stop, fmt) for i in range(viewers)]
-    tasks += [tracker(url, 120.0, i * 1.3, sent, stop) for i in range(trackers)]
+    tasks = [viewer(url, counts, i, window, fmt) for i in range(viewers)]
+    tasks += [tracker(url, 120.0, i * 1.3, sent, window) for i in range(trackers)]
     switches: list[list] = []
     if latency:
-        tasks.append(latency_tracker(url, LATENCY_RATE_HZ, switches, stop, udp=latency_udp))
+        tasks.append(latency_tracker(url, LATENCY_RATE_HZ, switches, window, udp=latency_udp))
     await asyncio.gather(*tasks)
     rates = [c / seconds for c in counts]
     result = {"viewers": viewers, "frames_received_per_client_hz": {

@@ -21,6 +21,7 @@ import psutil
 
 from server.bench.floor import run_floor
 from server.bench.kernel_trace import LoopWakeTrace, summarize
+from server.bench.load import wait_ready
 from server.bench.quantiles import tail
 from server.launcher import admin_token, get_json, start_server, stop_server
 
@@ -97,6 +98,7 @@ def run_loop_bench(seconds: float = 10.0, viewers: int = 8, trackers: int = 2, w
                                  "--trackers", str(trackers), "--warmup", str(warmup_s), "--seconds", str(seconds),
                                  *token_option(base), *off_loop_cpu(base, cpus)],
                                 stdout=subprocess.PIPE, text=True)
+        wait_ready(load)  # its window starts warmup_s after its last client connected, as this one
         time.sleep(warmup_s)
         if kernel_trace:
             buffer_kb = int(min(256 * 1024, 8192 + 400 * seconds))  # the whole window up to ~10 min

@@ -75,4 +75,5 @@ def test_a_secret_that_starts_with_a_dash_reaches_the_load_generator_as_its_toke
                            "--trackers", "0", "--seconds", "0.1", "--warmup", "0", *option],
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr  # a separate "-Ab_c" argument was a usage error (exit 2)
-    assert json.loads(proc.stdout)["viewers"] == 0
+    ready, result = proc.stdout.splitlines()  # `ready` once every client (none here) is connected, then the result
+    assert ready == "ready" and json.loads(result)["viewers"] == 0

@@ -72,7 +72,9 @@ def test_unplug_and_replug_under_load_leave_the_loop_alone(server_with_emulated_
 
         get_json(base + "/api/telemetry/reset", "POST")
         emulator.unplug()
-        took = wait_status(base, "disconnected", 1.0)
+        # an upper bound for a hang, not the detection time (that is `viestac bench faults`' figure,
+        # judged against docs/reliability.md): a loaded machine took longer than 1 s here
+        took = wait_status(base, "disconnected", 5.0)
         time.sleep(1.0)
         emulator.replug()
         wait_status(base, "connected", 3.0)
