@@ -43,6 +43,7 @@ from server.auth import Unauthorized
 from server.auth.identity import Identity
 from server.auth.policy import POLICY, decide
 from server.hub.event_log import EventLog
+from server.ipc.records import Record, TrackerGone
 from server.wire import codec, messages
 from server.wire.codec import WireError
 
@@ -101,7 +102,7 @@ class ServerInfo:
 class ToLoop:
     """A record for the loop's mailbox. `busy`: the error text for the client if the record
     cannot go (full mailbox); None when there is nobody to tell."""
-    record: list
+    record: Record
     busy: str | None = None
 
 
@@ -343,7 +344,7 @@ class Session:
     def disconnected(self) -> list[ToLoop]:
         """The connection is gone: a client whose tracker samples reached the loop leaves the HIP
         (the loop sends it home and clears its driver)."""
-        return [ToLoop(["tracker_gone", self.id])] if self.tracker_count else []
+        return [ToLoop(TrackerGone(self.id))] if self.tracker_count else []
 
     def set_lease(self, frames: Mapping[str, bytes | str]) -> list[ToLoop]:
         """The control lease changed (`frames`: the `lease` message encoded per format). A welcomed
@@ -355,7 +356,7 @@ class Session:
             self._control.append(("lease", self._lease, None))
         if self._driving and self.refusal("tracker") is not None:
             self._driving = False
-            return [ToLoop(["tracker_gone", self.id])]
+            return [ToLoop(TrackerGone(self.id))]
         return []
 
     # ---- what the client is sent -------------------------------------------------------------

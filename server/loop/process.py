@@ -32,6 +32,7 @@ from devices.feed import CUE_HEARTBEAT_MS
 from scenarios import registry
 from server.core.haptics.contact_gate import ContactGate
 from server import ipc
+from server.ipc.records import TO_LOOP, Alive, Cues, Hello, Log, Record, Stop, Trial
 from server.cpu_plan import pin_process
 from server.loop.builder import SwitchBuilder
 from server.loop.clock import Clock, MonotonicClock
@@ -85,7 +86,7 @@ def build_core(config: LoopConfig) -> LoopCore:
     core.params, core.seed = dict(config.scenario_params), config.seed
     core.sim.tick, core.frames = config.start_tick, config.start_frame
     if config.trial is not None:
-        core.apply(["trial", config.trial], 0)
+        core.apply(Trial(config.trial), 0)
         core.outbox.clear()  # announced with the scene at start
     return core
 
@@ -124,12 +125,12 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
     builder = SwitchBuilder(core)
     builder.warm_up()
     parent = os.getppid()
-    ipc.send_record(sock, ["hello", {"pid": os.getpid(), "rt": rt, "tick_hz": config.tick_hz,
-                                     "state_hz": config.state_hz, "scenario": core.sim.scenario.id,
-                                     "cpu": config.cpu if cpu_warning is None else None}])
+    ipc.send_record(sock, Hello({"pid": os.getpid(), "rt": rt, "tick_hz": config.tick_hz,
+                                 "state_hz": config.state_hz, "scenario": core.sim.scenario.id,
+                                 "cpu": config.cpu if cpu_warning is None else None}))
     for warning in (rt_warning, cpu_warning):
         if warning:
-            ipc.send_record(sock, ["log", "warning", warning])
+            ipc.send_record(sock, Log("warning", warning))
     for record in core.announce():
         ipc.send_record(sock, record)
     # Everything built so far lives for the whole run: keep it out of the collector's sight so
@@ -137,24 +138,24 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
     gc.collect()
     gc.freeze()
     scheduler = DeadlineScheduler(clock, 1_000_000_000 // config.tick_hz)
-    backlog: deque[list] = deque()  # records for the hub not sent yet (its end was full), in order
+    backlog: deque[Record] = deque()  # records for the hub not sent yet (its end was full), in order
     cue_sent_ns = 0  # the last record on the cue channel (the heartbeat below)
     owed = 0  # records the hub rang the doorbell for that this loop has not read yet
     while True:
         start, period = scheduler.wait_next()
         try:
             if doorbell is None:
-                records = ipc.drain(sock)
+                records = ipc.drain(sock, TO_LOOP)
             else:
                 owed += doorbell.rings()
                 records = ()
                 if owed:
                     asked = min(owed, ipc.DRAIN_LIMIT)
-                    records = ipc.drain(sock, asked)
+                    records = ipc.drain(sock, TO_LOOP, asked)
                     owed = owed - asked if len(records) == asked else 0  # fewer: the count was ahead of the socket
         except ipc.PeerClosed:
             return
-        if records and any(record[0] == "stop" for record in records):
+        if records and any(type(record) is Stop for record in records):
             return
         if tracker_port is not None:  # after the mailbox: a UDP sample read now is the newest
             samples = tracker_port.drain(start)
@@ -162,8 +163,9 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
                 records = [*records, *samples]
             if tracker_port.notices:
                 for text in tracker_port.notices:
-                    ipc.send_record(sock, ["log", "warning", text])
+                    ipc.send_record(sock, Log("warning", text))
                 tracker_port.notices.clear()
+        core.resyncs = scheduler.resyncs
         out = core.tick(records, start)
         if out.records or out.faults or backlog:  # announcements, logs, fault / recovered (the hub's health)
             backlog.extend(out.records)
@@ -171,26 +173,23 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
             _send_in_order(sock, backlog)
         if out.cues is not None and cue_sock is not None:  # first: the device command leaves before the frame
             try:
-                record = ["cues", out.tick, clock.now_ns(), out.cues]
-                if out.finger_cues is not None:  # several tools: the other fingers' cues (devices/feed.py)
-                    record.append(out.finger_cues)
-                if not ipc.send_record(cue_sock, record):
+                # with several tools, `fingers` carries the other fingers' cues (devices/feed.py)
+                if not ipc.send_record(cue_sock, Cues(out.tick, clock.now_ns(), out.cues, out.finger_cues)):
                     core.resend_device_cues()  # the feed is behind: try again next tick (latest wins)
             except OSError as exc:  # the device host's end is gone for good: nobody drives the devices now
                 cue_sock = None
-                ipc.send_record(sock, ["log", "error", f"cue channel closed ({exc}); device cues stop"])
+                ipc.send_record(sock, Log("error", f"cue channel closed ({exc}); device cues stop"))
         if cue_sock is not None:  # heartbeat: the device host turns every actuator off when this goes quiet
             if out.cues is not None:
                 cue_sent_ns = start
             elif start - cue_sent_ns >= CUE_HEARTBEAT_MS * 1_000_000:
                 try:
-                    if ipc.send_record(cue_sock, ["alive", out.tick, clock.now_ns()]):
+                    if ipc.send_record(cue_sock, Alive(out.tick, clock.now_ns())):
                         cue_sent_ns = start
                 except OSError:
                     pass  # the next cue send finds the channel gone and says so
         if out.state is not None:
-            out.state["resyncs"] = scheduler.resyncs
-            if backlog or not ipc.send_record(sock, ["state", out.state]):
+            if backlog or not ipc.send_record(sock, out.state):
                 core.unsent(out.state)  # the hub is behind: its rows and events ride with the next one
         core.record_sample(period, clock.now_ns() - start, out.state is not None)
         if core.pending_switch is not None or builder.busy:
@@ -208,7 +207,7 @@ def _send_in_order(sock: socket.socket, backlog: deque) -> None:
         lost = len(backlog) - MAX_BACKLOG
         for _ in range(lost):
             backlog.popleft()
-        backlog.append(["log", "error", f"the hub did not read the loop's records: {lost} dropped"])
+        backlog.append(Log("error", f"the hub did not read the loop's records: {lost} dropped"))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -20,6 +20,7 @@ from typing import Callable
 
 from scenarios import registry
 from server.hub.control import ScenarioControl
+from server.ipc.records import Record, RecordEvery, ScenarioAnnounce
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
 from server.simulate.virtual_device import VirtualDevice
@@ -38,9 +39,9 @@ class VirtualHub:
         self.core.params, self.core.seed = registry.check_scenario_params(spec, params or {}), seed
         self.control = ScenarioControl(self._send, lambda: {n: d.profile for n, d in self.devices.items()})
         self.control.scenario_cls = spec.factory
-        self.listeners: list[Callable[[list], None]] = []
+        self.listeners: list[Callable[[Record], None]] = []
         self.scenario_state: dict | None = None
-        self.last_state: dict | None = None
+        self.last_state: dict | None = None  # the client view of the last state record
         self.record_every = 0
         self.last_error: str | None = None  # why the last failed tick failed (the listeners got it as a log record)
         self._emit_all(self.core.announce())
@@ -64,7 +65,7 @@ class VirtualHub:
 
     def set_recording(self, every_n_ticks: int) -> None:
         self.record_every = every_n_ticks
-        self._send(["record", every_n_ticks])
+        self._send(RecordEvery(every_n_ticks))
 
     # -- what the participant does ---------------------------------------------------------------
     def set_hip(self, position) -> None:
@@ -101,14 +102,14 @@ class VirtualHub:
             for device in devices:
                 device.run_until(t_end)
             if out.state is not None:
-                self.last_state = out.state
-                self._emit(["state", out.state])
+                self.last_state = out.state.view
+                self._emit(out.state)
 
     def advance_s(self, seconds: float) -> None:
         self.advance(max(1, round(seconds * self.tick_hz)))
 
     # -- plumbing ------------------------------------------------------------------------------
-    def _send(self, record: list) -> bool:
+    def _send(self, record: Record) -> bool:
         """A record for the loop, applied between ticks as the loop process applies its mailbox."""
         self.core.apply(record, self.core.sim.tick * TICK_NS)
         records, self.core.outbox = self.core.outbox, []
@@ -119,10 +120,10 @@ class VirtualHub:
         for record in records:
             self._emit(record)
 
-    def _emit(self, record: list) -> None:
-        if record[0] == "scenario":
-            self.scenario_state = record[1]
-            self.control.announced(record[1])
+    def _emit(self, record: Record) -> None:
+        if type(record) is ScenarioAnnounce:
+            self.scenario_state = record.info
+            self.control.announced(record.info)
         for listener in self.listeners:
             listener(record)
 

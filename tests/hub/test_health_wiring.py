@@ -20,6 +20,8 @@ from server.hub.session import ServerInfo, Session
 from server.wire import codec
 from server.wire.check import check_message
 from tests.hub.access_fakes import gate, with_token
+from server.ipc.records import Fault, Recovered, ScenarioAnnounce
+from tests.ipc import loop_state
 
 RIG = {"fingertac": profile_by_model("fingertac"), "ferrovibe": profile_by_model("ferrovibe")}
 FERRO_GONE = {"fingertac": "connected", "ferrovibe": "disconnected"}
@@ -124,7 +126,7 @@ def test_the_hub_turns_records_and_reports_into_health_and_tells_each_client():
         hub.health.startup_grace_s = 0.0  # the loop "started" a moment ago: count its overruns at once
         hub.send_to_loop = lambda record: True
         hub.device_profiles = RIG
-        hub.on_loop_record(["scenario", {"id": "contact-angle-v1", "params": {}, "seed": 0, "trial": None}])
+        hub.on_loop_record(ScenarioAnnounce({"id": "contact-angle-v1", "params": {}, "seed": 0, "trial": None}))
         session = Session(1, "json", ServerInfo("t", 1000, 60.0), 0, gate=gate()[0])
         hub.on_child_start("loop")
         hub.on_child_start("device_host")
@@ -138,7 +140,7 @@ def test_the_hub_turns_records_and_reports_into_health_and_tells_each_client():
         Conn.session = session
         hub.connections[1] = Conn
         hub.on_device_report({"refusals": [], "status": {"fingertac": "connected", "ferrovibe": "connected"}})
-        hub.on_loop_record(["state", state_record()])
+        hub.on_loop_record(loop_state(state_record()))
         assert hub.check_health().status == "ok" and taken(session)[-1]["status"] == "ok"
 
         hub.on_device_report({"refusals": [], "status": {"fingertac": "connected", "ferrovibe": "disconnected"}})
@@ -150,10 +152,10 @@ def test_the_hub_turns_records_and_reports_into_health_and_tells_each_client():
         hub.check_health()
         assert taken(session) == [], "nothing new: no message"
 
-        hub.on_loop_record(["fault", {"failures": 1, "tick": 9, "error": "OverflowError: x"}])
+        hub.on_loop_record(Fault.from_array(["fault", {"failures": 1, "tick": 9, "error": "OverflowError: x"}]))
         assert [r["code"] for r in taken(session)[-1]["reasons"]] == ["tick_failures", "device_missing"]
-        hub.on_loop_record(["recovered", {"tick": 10, "failures": 1}])
-        hub.on_loop_record(["state", state_record(failures=1, periods=(1000, 2000, 2000, 2500))])
+        hub.on_loop_record(Recovered.from_array(["recovered", {"tick": 10, "failures": 1}]))
+        hub.on_loop_record(loop_state(state_record(failures=1, periods=(1000, 2000, 2000, 2500))))
         hub.check_health()  # state records are judged by the periodic check (Hub.watch_health)
         assert [r["code"] for r in taken(session)[-1]["reasons"]] == ["device_missing", "overruns"]
 

@@ -16,10 +16,11 @@ HERE = Path(__file__).parent
 OUT = HERE / "ipc_records.json"
 
 
-def _core_records() -> dict[str, list]:
+def _core_records() -> dict:
     """Records of a deterministic LoopCore run: the announcements and state records (drawn, not
     drawn, several tools with point rows, a failed tick's fault and recovery)."""
     from scenarios.contact_angle import ContactAngle
+    from server.ipc.records import Input, RecordEvery, TrackerSample
     from server.loop.core import LoopCore
     from server.loop.simulation import Simulation
 
@@ -28,28 +29,31 @@ def _core_records() -> dict[str, list]:
     scene, scenario = core.announce()
     out["loop_scene"], out["loop_scenario"] = scene, scenario
     now = 5_000_000_000
-    core.apply(["tracker", 3, 1, 10.0, [0.01, 0.12, 0.03], None, now], now)
-    core.apply(["record", 1], now)
+    core.apply(TrackerSample(3, 1, 10.0, [0.01, 0.12, 0.03], None, now), now)
+    core.apply(RecordEvery(1), now)
     core.record_sample(1_000_100, 20_500, False)
-    out["loop_state_drawn"] = ["state", core.tick((), now).state]
+    out["loop_state_drawn"] = core.tick((), now).state
 
     blind = LoopCore(Simulation(ContactAngle(), seed=1), state_hz=60, drawn=False)
-    blind.apply(["input", 2, "ArrowUp", "down"], now)
+    blind.apply(Input(2, "ArrowUp", "down"), now)
     blind.record_sample(999_000, 18_000, True)
-    out["loop_state_not_drawn"] = ["state", blind.tick((), now).state]
+    out["loop_state_not_drawn"] = blind.tick((), now).state
 
     fingers = LoopCore(Simulation(ContactAngle(), seed=1, rig=("right.thumb.tip",)), state_hz=60)
-    fingers.apply(["record", 1], now)
-    fingers.apply(["tracker", "udp:127.0.0.1:5000", 4, 11.0, [0.0, 0.1, 0.0], None, now, None,
-                   {"right.thumb.tip": [0.02, 0.1, 0.0]}, 80.0], now)
-    state = fingers.tick((), now).state
-    state["resyncs"] = 2  # as the loop process adds it
-    out["loop_state_fingers"] = ["state", state]
+    fingers.apply(RecordEvery(1), now)
+    fingers.apply(TrackerSample("udp:127.0.0.1:5000", 4, 11.0, [0.0, 0.1, 0.0], None, now, None,
+                                {"right.thumb.tip": [0.02, 0.1, 0.0]}, 80.0), now)
+    fingers.resyncs = 2  # as the loop process sets it
+    out["loop_state_fingers"] = fingers.tick((), now).state
     return out
 
 
-def records() -> dict[str, dict]:
+def typed_records() -> dict[str, dict]:
+    """channel name → vector name → the record."""
     from server.core.cues import Tilt, cue_to_wire
+    from server.ipc.records import (Alive, Answer, Calibrate, Capture, Cues, DeviceProfiles, DeviceReport,
+                                    DeviceStatus, FailSafe, Fault, Hello, Input, Log, RecordEvery, Recovered,
+                                    Snapshot, SnapshotRequest, SourcesHealth, Stop, SwitchScenario, TrackerGone, Trial)
     from server.wire import messages
     from server.loop.tracker_udp import parse_datagram
 
@@ -61,47 +65,47 @@ def records() -> dict[str, dict]:
                                            {"right.thumb.tip": (0.02, 0.1, 0.0)}, 50.0).loop_record(4, 2_000_000_000),
         "tracker_udp": parse_datagram(msgpack.packb({"type": "tracker", "seq": 1, "t": 2.5, "pos": [0.1, 0.2, 0.3],
                                                      "ttl": 40}), "udp:127.0.0.1:40000", 3_000_000_000),
-        "input": ["input", 4, "ArrowUp", "down"],
-        "input_value": ["input", 0, "tap_angle", "press"] + [30],
-        "trial": ["trial", {"phase": "main", "params": {"angle_deg": -50.0}, "index": 2}],
-        "trial_end": ["trial", None],
-        "scenario": ["scenario", "stiffness-v1", {"pairs": 3}, 7],
-        "devices": ["devices", {"refusals": ["no tilt device"], "status": {"tilt": "connected"}}],
-        "record": ["record", 4],
-        "tracker_gone": ["tracker_gone", 5],
-        "stop": ["stop"],
+        "input": Input(4, "ArrowUp", "down"),
+        "input_value": Input(0, "tap_angle", "press", 30),
+        "trial": Trial({"phase": "main", "params": {"angle_deg": -50.0}, "index": 2}),
+        "trial_end": Trial(None),
+        "scenario": SwitchScenario("stiffness-v1", {"pairs": 3}, 7),
+        "devices": DeviceReport({"refusals": ["no tilt device"], "status": {"tilt": "connected"}}),
+        "record": RecordEvery(4),
+        "tracker_gone": TrackerGone(5),
+        "stop": Stop(),
     }
     loop_to_hub = {
-        "hello": ["hello", {"pid": 1234, "rt": False, "tick_hz": 1000, "state_hz": 60.0, "scenario": "contact-angle",
-                            "cpu": None}],
-        "fault": ["fault", {"failures": 1, "tick": 10, "error": "ZeroDivisionError: division by zero"}],
-        "recovered": ["recovered", {"tick": 11, "failures": 1}],
-        "fail_safe": ["fail_safe"],
-        "log": ["log", "warning", "tracker samples from 1 ignored"],
+        "hello": Hello({"pid": 1234, "rt": False, "tick_hz": 1000, "state_hz": 60.0, "scenario": "contact-angle",
+                        "cpu": None}),
+        "fault": Fault(1, 10, "ZeroDivisionError: division by zero"),
+        "recovered": Recovered(11, 1),
+        "fail_safe": FailSafe(),
+        "log": Log("warning", "tracker samples from 1 ignored"),
         **_core_records(),
     }
     cue_channel = {
-        "cues": ["cues", 12, 999_000, [cue]],
-        "cues_off": ["cues", 13, 1_000_000, []],
-        "cues_fingers": ["cues", 14, 1_001_000, [cue], {"right.thumb.tip": [], "right.index.tip": [cue]}],
-        "alive": ["alive", 15, 1_002_000],
+        "cues": Cues(12, 999_000, [cue]),
+        "cues_off": Cues(13, 1_000_000, []),
+        "cues_fingers": Cues(14, 1_001_000, [cue], {"right.thumb.tip": [], "right.index.tip": [cue]}),
+        "alive": Alive(15, 1_002_000),
     }
     device_control = {
-        "snapshot_request": ["snapshot", 1, 0],
-        "stop": ["stop"],
-        "hello": ["hello", {"pid": 4321}],
-        "report": ["report", {"refusals": [], "status": {"tilt": "connected"}}],
-        "profiles": ["profiles", {"tilt": {"model": "tilt-v1", "shows": ["tilt"]}}],
-        "snapshot": ["snapshot", 1, {"devices": {}, "feed": {"records": 0}}],
+        "snapshot_request": SnapshotRequest(1, 0),
+        "stop": Stop(),
+        "hello": Hello({"pid": 4321}),
+        "report": DeviceStatus({"refusals": [], "status": {"tilt": "connected"}}),
+        "profiles": DeviceProfiles({"tilt": {"model": "tilt-v1", "shows": ["tilt"]}}),
+        "snapshot": Snapshot(1, {"devices": {}, "feed": {"records": 0}}),
     }
     tracker_control = {
-        "calibrate": ["calibrate", 2, "leap", {"units": "mm", "scale": 0.001}],
-        "calibrate_default": ["calibrate", 3, "leap", None],
-        "capture": ["capture", 4, "leap", 1.5],
-        "stop": ["stop"],
-        "hello": ["hello", {"pid": 999, "rt": True}],
-        "health": ["health", [{"name": "leap", "kind": "leap", "status": "ok", "reasons": []}]],
-        "answer": ["answer", 2, {"ok": True, "calibration": {"units": "mm"}}],
+        "calibrate": Calibrate(2, "leap", {"units": "mm", "scale": 0.001}),
+        "calibrate_default": Calibrate(3, "leap", None),
+        "capture": Capture(4, "leap", 1.5),
+        "stop": Stop(),
+        "hello": Hello({"pid": 999, "rt": True}),
+        "health": SourcesHealth([{"name": "leap", "kind": "leap", "status": "ok", "reasons": []}]),
+        "answer": Answer(2, {"ok": True, "calibration": {"units": "mm"}}),
     }
     channels = {"hub_to_loop": hub_to_loop, "loop_to_hub": loop_to_hub, "cue_channel": cue_channel,
                 "hub_to_device_host": {k: device_control[k] for k in ("snapshot_request", "stop")},
@@ -109,9 +113,15 @@ def records() -> dict[str, dict]:
                 "hub_to_tracker_host": {k: tracker_control[k] for k in ("calibrate", "calibrate_default", "capture",
                                                                          "stop")},
                 "tracker_host_to_hub": {k: tracker_control[k] for k in ("hello", "health", "answer")}}
-    vectors = {channel: {name: msgpack.packb(record, use_bin_type=True).hex() for name, record in named.items()}
-               for channel, named in channels.items()}
-    vectors["ws_state"] = _ws_states(loop_to_hub)
+    return channels
+
+
+def records() -> dict[str, dict]:
+    """channel name → vector name → the record's bytes (hex), and the /ws state messages."""
+    typed = typed_records()
+    vectors = {channel: {name: msgpack.packb(record.to_array(), use_bin_type=True).hex()
+                         for name, record in named.items()} for channel, named in typed.items()}
+    vectors["ws_state"] = _ws_states(typed["loop_to_hub"])
     return vectors
 
 
@@ -126,7 +136,7 @@ def _ws_states(loop_to_hub: dict) -> dict[str, str]:
 
     out = {}
     for name in ("loop_state_drawn", "loop_state_fingers"):
-        message = messages.state_message(loop_to_hub[name][1], TELEMETRY)
+        message = messages.state_message(loop_to_hub[name].view, TELEMETRY)
         for fmt in codec.FORMATS:
             data = codec.encode(message, fmt)
             out[f"{name}.{fmt}"] = (data.encode() if isinstance(data, str) else data).hex()
