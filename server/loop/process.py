@@ -9,7 +9,7 @@ clear warning, reported in telemetry as `rt: false`.
 It owns the clock, the deadline scheduler and the sockets; the tick itself (records in, the
 simulation step, fail-safe, what goes out) is LoopCore.tick (core.py). No serial port, no socket
 to a client, no thread (the device drivers live in the device host process). It talks only through
-non-blocking sockets (ipc.py): the mailbox to the hub, and the cue channel that carries a tick's
+non-blocking sockets (server/ipc): the mailbox to the hub, and the cue channel that carries a tick's
 changed cues to the device host's feed thread before the tick's state record leaves. It also reads the
 tracker UDP port (tracker_udp.py, bound by the hub) at the start of every tick. It exits when the
 hub goes away.
