@@ -44,6 +44,8 @@ from server.hub.health import HOST_DOWN, Health, HealthReport
 from server.hub.owner import Owner
 from server.hub.session import CLOSED, Close, Command, Gate, ParticipantAnswer, ServerInfo, Session, ToLoop
 from server.hub.telemetry import LoopTelemetry
+from server.ipc.records import (DeviceReport, FailSafe, Fault, Hello, Log, Malformed, Record, RecordEvery,
+                                Recovered, ScenarioAnnounce, SceneAnnounce, State)
 from server.wire import codec, messages
 
 log = logging.getLogger("viestac.hub")
@@ -51,7 +53,6 @@ log = logging.getLogger("viestac.hub")
 SLICE = 8
 HEALTH_EVERY_S = 0.025  # a fault shows in health within 100 ms: 50 ms stall rule + this + a poll
 FLUSH_BEFORE_CLOSE_S = 2.0
-_NO_TRACKING = {"lost": []}  # a state record without `tracking` (an older loop)
 MAX_CONNECTIONS_PER_TOKEN = 256  # 64 viewers of a bench run, with room; a leaked token cannot open thousands
 
 
@@ -106,7 +107,7 @@ class Hub:
         self.scenario_cls = None
         self.on_scenario = lambda state: None  # wired by the app: a restarted loop resumes this
         self.record_every = 0  # trajectory sampling asked of the loop (experiment recorder); 0 = off
-        self.undelivered: deque[list] = deque(maxlen=1024)  # records for the loop that must not be lost (retried)
+        self.undelivered: deque[Record] = deque(maxlen=1024)  # records for the loop that must not be lost (retried)
         self.listeners: list = []  # called with every loop record after the hub handled it (the recorder)
         # participants' answers (wired by the app to the experiment engine; worker thread): None when
         # recorded, else (error code, message) for the client
@@ -160,36 +161,40 @@ class Hub:
         return None
 
     # ---- records from the loop process -------------------------------------------------
-    def on_loop_record(self, record: list) -> None:
+    def on_loop_record(self, record: Record) -> None:
         self.owner.check()
-        kind = record[0]
-        if kind == "state":
-            self._on_state(record[1])
-        elif kind == "fault":  # a tick failed (LoopCore; at most once per 100 failing ticks)
-            self.health.fault(time.monotonic(), record[1].get("failures", 0), record[1].get("error", ""))
-            self.check_health()
-        elif kind == "recovered":
-            self.health.recovered(time.monotonic(), record[1].get("failures"))
-            self.check_health()
-        elif kind == "scene":
-            self._on_scene(record[1], record[2])
-        elif kind == "hello":
-            self.loop_info = record[1]
-            self.control.loop_restarted()
-            self.telemetry.rt = bool(record[1].get("rt"))
-            if self._device_report is not None:  # a (re)started loop learns the refusals again
-                self.send_to_loop(["devices", self._device_report])
-            if self.record_every:
-                self.send_to_loop(["record", self.record_every])
-        elif kind == "scenario":
-            self.scenario_state = record[1]
-            self.control.announced(record[1])
-            self._update_needs()
-            self.on_scenario(record[1])
-        elif kind == "log":
-            level = logging.ERROR if record[1] == "error" else logging.WARNING
-            log.log(level, "loop: %s", record[2])
-            self.log_records.append({"t": time.time(), "level": record[1], "text": record[2]})
+        match record:
+            case State():
+                self._on_state(record)
+            case Fault(failures, _, error):  # a tick failed (LoopCore; at most once per 100 failing ticks)
+                self.health.fault(time.monotonic(), failures, error)
+                self.check_health()
+            case Recovered(_, failures):
+                self.health.recovered(time.monotonic(), failures)
+                self.check_health()
+            case SceneAnnounce(scene, scene_hash):
+                self._on_scene(scene, scene_hash)
+            case Hello(info):
+                self.loop_info = info
+                self.control.loop_restarted()
+                self.telemetry.rt = bool(info.get("rt"))
+                if self._device_report is not None:  # a (re)started loop learns the refusals again
+                    self.send_to_loop(DeviceReport(self._device_report))
+                if self.record_every:
+                    self.send_to_loop(RecordEvery(self.record_every))
+            case ScenarioAnnounce(info):
+                self.scenario_state = info
+                self.control.announced(info)
+                self._update_needs()
+                self.on_scenario(info)
+            case Log(level, text):
+                log.log(logging.ERROR if level == "error" else logging.WARNING, "loop: %s", text)
+                self.log_records.append({"t": time.time(), "level": level, "text": text})
+            case FailSafe():
+                pass  # the recorder notes it (listeners); the fault record tells health
+            case Malformed(error):
+                log.error("a bad record from the loop: %s", error)
+                return
         for listener in self.listeners:
             listener(record)
 
@@ -197,7 +202,7 @@ class Hub:
         """Ask the loop for trajectory rows every Nth tick (0: none); kept across loop restarts."""
         self.owner.check()
         self.record_every = every_n_ticks
-        self.send_to_loop(["record", every_n_ticks])
+        self.send_to_loop(RecordEvery(every_n_ticks))
 
     def _on_scene(self, scene: dict, scene_hash: str) -> None:
         self.scene, self.scene_hash = scene, scene_hash
@@ -226,26 +231,28 @@ class Hub:
             self.check_health()
         if report != self._device_report:
             self._device_report = report
-            self.send_to_loop(["devices", report])
+            record = DeviceReport(report)
+            self.send_to_loop(record)
             for listener in self.listeners:
-                listener(["devices", report])
+                listener(record)
 
-    def _on_state(self, rec: dict) -> None:
+    def _on_state(self, state: State) -> None:
         # The devices got this tick's cues already: the loop sent them to the device host's feed.
-        overruns = self.telemetry.add(rec["samples"])
+        timing, view = state.timing, state.view
+        overruns = self.telemetry.add(timing.samples)
         now = time.monotonic()
-        self.health.state(now, rec.get("failures", 0), overruns)
-        lost = (rec.get("tracking") or _NO_TRACKING)["lost"]
+        self.health.state(now, timing.failures, overruns)
+        lost = view["tracking"]["lost"]
         if lost or self._tracking_lost:  # a tracker source stopped, or it has just come back
-            tools = [t["name"] for t in rec.get("tools", ()) if t.get("lost")]
+            tools = [t["name"] for t in view["tools"] if t.get("lost")]
             self._tracking_lost = bool(lost)
             if self.health.tracking(lost, tools, now):
                 self.check_health()
-        self.telemetry.resyncs = rec.get("resyncs", 0)
-        if rec["trackers"]:
-            self.tracker_applied.extend(rec["trackers"])
+        self.telemetry.resyncs = timing.resyncs or 0
+        if state.recorded.trackers:
+            self.tracker_applied.extend(state.recorded.trackers)
         self.states_received += 1
-        message = messages.state_message(rec, self.telemetry_summary())  # names the scene the loop simulated
+        message = messages.state_message(view, self.telemetry_summary())  # names the scene the loop simulated
         self.last_state = message
         self._frames_events = self.event_log.add(message["events"])  # a client that misses it still gets these
         formats = {c.session.fmt for c in self.connections.values() if c.session.welcomed}
