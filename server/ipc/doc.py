@@ -27,6 +27,8 @@ def _one_line(text: str) -> str:
 
 
 def _array(cls: type[Record]) -> str:
+    if cls.SHAPE is not None:
+        return f"`{cls.SHAPE}`"
     names = list(cls.FIELDS)
     if cls.TAIL:
         names[-cls.TAIL:] = [f"({', '.join(names[-cls.TAIL:])})"]

@@ -72,6 +72,7 @@ class Record:
     TAG: ClassVar[str]
     TAIL: ClassVar[int] = 0
     FIELDS: ClassVar[tuple[str, ...]] = ()
+    SHAPE: ClassVar[str | None] = None  # the array as the docs show it, for a record with its own to_array
 
     def to_array(self) -> list:
         values = [getattr(self, name) for name in self.FIELDS]
@@ -209,6 +210,7 @@ class Fault(Record):
     failures: int = doc("ticks failed since the loop started")
     tick: int = doc("the failed tick")
     error: str = doc("the exception, at most 300 characters")
+    SHAPE = '["fault", {"failures", "tick", "error"}]'
 
     def to_array(self) -> list:
         return ["fault", {"failures": self.failures, "tick": self.tick, "error": self.error}]
@@ -224,6 +226,7 @@ class Recovered(Record):
     """The first good tick after failing ones."""
     tick: int = doc("the tick")
     failures: int = doc("ticks failed since the loop started")
+    SHAPE = '["recovered", {"tick", "failures"}]'
 
     def to_array(self) -> list:
         return ["recovered", {"tick": self.tick, "failures": self.failures}]
@@ -275,6 +278,8 @@ class State(Record):
                              "`[client_id, seq, t_ms, recv_ns, applied_ns]`), `finished` (trial ends), "
                              "`point_rows` (several tracked points)")
     timing: Timing = doc("`samples` (int64 rows: period_ns, cost_ns, published), `failures`, `resyncs`")
+    SHAPE = ('["state", {view…, "samples", "trackers", "trajectory", "finished", ("point_rows"), ("failures"), '
+             '("resyncs")}]')
 
     @property
     def tick(self) -> int:

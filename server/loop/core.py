@@ -110,7 +110,7 @@ class LoopCore:
         if not 0 < state_hz <= sim.tick_hz:
             raise ValueError("state_hz must be in (0, tick_hz]")
         # False: no client draws this run's state (the simulated study's virtual hub): a state
-        # record carries only what the hub's recorder and a synthetic participant read (_state_record).
+        # record carries only what the hub's recorder and a synthetic participant read (StateView.undrawn).
         self.drawn = drawn
         sim.drawn = drawn
         self.sim = sim
