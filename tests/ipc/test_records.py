@@ -11,6 +11,7 @@ import pytest
 from server import ipc
 from server.ipc.records import (CHANNELS, CUES, FROM_DEVICE_HOST, FROM_LOOP, FROM_TRACKER_HOST, TO_DEVICE_HOST, TO_LOOP,
                                 TO_TRACKER_HOST, BadRecord, Cues, Input, Malformed, Stop, TrackerSample)
+from tests.ipc import sent
 from tests.vectors import make_ipc_vectors
 
 VECTORS = json.loads((Path(__file__).parents[1] / "vectors" / "ipc_records.json").read_text())["channels"]
@@ -89,3 +90,15 @@ def test_records_are_frozen_and_slotted():
     with pytest.raises(AttributeError):
         record.tick = 3
     assert not hasattr(record, "__dict__")
+
+
+def test_the_loop_reports_a_bad_record_from_the_hub_and_ticks_on():
+    from scenarios.contact_angle import ContactAngle
+    from server.loop.core import LoopCore
+    from server.loop.simulation import Simulation
+
+    core = LoopCore(Simulation(ContactAngle()))
+    out = core.tick([Malformed("hub → loop: unknown record 'teleport'"), Input(1, "space", "press")], 0)
+    (log,) = [sent(r) for r in out.records]
+    assert log[:2] == ["log", "error"] and "unknown record 'teleport'" in log[2]
+    assert out.state is not None and [e["key"] for e in out.state.view["events"]] == ["space"], "the next record applies"
