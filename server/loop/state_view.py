@@ -41,8 +41,18 @@ class StateView:
         `telemetry` (the hub adds them)."""
         out = r.output
         tool = sim.tools[0]
-        hip, proxy = self._rounded(self.hip, r.hip), self._rounded(self.proxy, r.proxy)
-        force = self._rounded(self.force, r.force, 6)
+        kept = self.hip  # inline, not a helper call each: this runs at every publish
+        if kept.source is not r.hip:
+            kept.source, kept.form = r.hip, rounded(r.hip)
+        hip = kept.form
+        kept = self.proxy
+        if kept.source is not r.proxy:
+            kept.source, kept.form = r.proxy, rounded(r.proxy)
+        proxy = kept.form
+        kept = self.force
+        if kept.source is not r.force:
+            kept.source, kept.form = r.force, rounded(r.force, 6)
+        force = kept.form
         contacts = self.contacts
         if contacts.source is not r.contacts:
             contacts.source = r.contacts
@@ -79,12 +89,6 @@ class StateView:
         participant read, none of the picture."""
         return {"frame": frame, "tick": r.tick, "t": now_ns / 1e9, "scene": sim.scene.hash,
                 "cues": self.wire_cues(r.output.cues), "hud": r.output.hud, "events": sim.events}
-
-    @staticmethod
-    def _rounded(kept: _Kept, v, digits: int = 9) -> list[float]:
-        if kept.source is not v:
-            kept.source, kept.form = v, rounded(v, digits)
-        return kept.form
 
     def _objects(self, moved: Mapping[str, Any]) -> list[list]:
         """`objects` of the state: [id, pos, quat] of each moved object, rounded once per pose."""
