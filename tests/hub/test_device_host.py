@@ -9,6 +9,7 @@ import os
 import signal
 import time
 
+import msgpack
 import pytest
 
 from devices.emulator import Emulator
@@ -56,7 +57,7 @@ def test_cues_from_the_loop_end_reach_the_device_and_stopping_turns_it_off(emula
             assert profiles and profiles[-1]["ferro"].model == "ferrovibe"
             assert ipc.send_record(host.loop_end, Cues(1, time.monotonic_ns(), [TILT]))  # as the loop does
             await until(lambda: shows(emulator, 100, 9000), 3.0, "the tilt never reached the device")
-            assert host._send(["bogus"]) and host._send(["submit", [{"kind": "nonsense"}]])  # logged, survived
+            assert host._sock.send(msgpack.packb(["bogus"])) and host._sock.send(msgpack.packb(["submit", [{"kind": "nonsense"}]]))  # logged, survived
             snapshot = await host.snapshot(writes=8)
             device = snapshot["devices"][0]
             assert device["name"] == "ferro" and device["status"] == "connected" and device["writes"]
