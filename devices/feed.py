@@ -1,9 +1,8 @@
 """DeviceFeed: the loop's cue records → the DeviceManager, on a thread of its own.
 
-The loop sends a `["cues", tick, sent_ns, [cue, ...]]` record on the cue channel (server/ipc.py)
-in every tick whose cues differ from what the devices were last given, before that tick's state
-record; with several tools (fingers) a fifth item `{point name: [cue, ...]}` carries every other
-tool's cues, and each device gets its own finger's (devices/manager.py). Without it, a device on
+The loop sends a `Cues` record (server/ipc/records.py) on the cue channel in every tick whose
+cues differ from what the devices were last given, before that tick's state record; with several
+tools (fingers) its `fingers` carry every other tool's cues, and each device gets its own finger's (devices/manager.py). Without it, a device on
 another finger gets nothing: a fail-safe `[]` turns every device off. The feed runs in the device host process (devices/host_process.py), never on the hub's
 event loop: with 64 viewers that loop is busy sending the same tick's frame to every viewer right
 when a cue changes (docs/performance.md "Tracker → device latency"). The thread sleeps in `recv`,
@@ -12,7 +11,7 @@ the DeviceManager with `write_now`: it writes a device's first frame itself only
 budget allows and the port's output queue is empty, so the write cannot block, and leaves the
 rest to the device's writer thread; a dead or slow device cannot hold the feed up.
 
-Fail safe (docs/devices.md "Faults"): the loop also sends `["alive", tick, sent_ns]` whenever it
+Fail safe (docs/devices.md "Faults"): the loop also sends an `Alive` record whenever it
 sent nothing on the channel for CUE_HEARTBEAT_MS, so a channel that stays quiet for
 `quiet_ms` (CUE_QUIET_MS) means the loop died or stalls: the feed turns every actuator off
 itself, without waiting for anyone to notice the dead process, and re-applies the last cue set
@@ -29,20 +28,15 @@ import threading
 import time
 from collections import deque
 
-import msgpack
-
 from server.core.cues import cue_from_wire
 from devices.realtime import fifo_this_thread
 from server import ipc
+from server.ipc.records import CUES, Alive, Cues, Record
 
 log = logging.getLogger("viestac.devices")
 
 CUE_HEARTBEAT_MS = 10  # the loop sends "alive" when it sent nothing on the cue channel for this long
 CUE_QUIET_MS = 30      # nothing at all for this long: every actuator off (3 heartbeats missed)
-
-
-def _is_finger_cues(value) -> bool:
-    return isinstance(value, dict) and all(isinstance(k, str) and isinstance(v, list) for k, v in value.items())
 
 
 class DeviceFeed:
@@ -66,37 +60,34 @@ class DeviceFeed:
         self.thread: threading.Thread | None = None
         self.on_closed = None  # called on the feed thread when the cue channel breaks for good
 
-    def handle(self, record: list, received_ns: int | None = None) -> None:
-        """One record (cues or alive): decode and hand the cues to the devices; ValueError names
-        what is wrong. `received_ns` (time.monotonic_ns) restarts the quiet timer and keeps the hop
+    def handle(self, record: Record, received_ns: int | None = None) -> None:
+        """One record (Cues or Alive): hand the cues to the devices; ValueError names what is
+        wrong. `received_ns` (time.monotonic_ns) restarts the quiet timer and keeps the hop
         from the loop's send to the hand-over (info()); without it the record still counts as a
         sign of life at the current time."""
         now_ns = time.monotonic_ns() if received_ns is None else received_ns
-        if isinstance(record, list) and len(record) == 3 and record[0] == "alive" and isinstance(record[1], int) \
-                and isinstance(record[2], int):
+        if type(record) is Alive:
             self.alive += 1
-            self.last_tick = record[1]
+            self.last_tick = record.tick
             self._last_rx_ns = now_ns
             if self.quiet and not self.stopped:  # the loop is back (or never died, only stalled)
                 self.quiet = False
                 self._submit()
             return
-        if not (isinstance(record, list) and len(record) in (4, 5) and record[0] == "cues"
-                and isinstance(record[3], list) and isinstance(record[2], int)
-                and (len(record) == 4 or _is_finger_cues(record[4]))):
+        if type(record) is not Cues:
             raise ValueError(f"not a cue record: {record!r:.120}")
-        cues = tuple(cue_from_wire(c) for c in record[3])
-        fingers = {name: tuple(cue_from_wire(c) for c in given) for name, given in record[4].items()} \
-            if len(record) == 5 else {}
+        cues = tuple(cue_from_wire(c) for c in record.cues)
+        fingers = {name: tuple(cue_from_wire(c) for c in given) for name, given in record.fingers.items()} \
+            if record.fingers is not None else {}
         self._last_rx_ns = now_ns
         if self.stopped:
             return
         self.cues, self.finger_cues, self.quiet = cues, fingers, False
         self._submit()
         self.records += 1
-        self.last_tick = record[1]
+        self.last_tick = record.tick
         if received_ns is not None:
-            self.delays_ns.append((received_ns - record[2], time.monotonic_ns() - record[2]))
+            self.delays_ns.append((received_ns - record.sent_ns, time.monotonic_ns() - record.sent_ns))
 
     def _submit(self) -> None:
         if self.finger_cues:  # several fingers: each device gets its own (devices/manager.py)
@@ -158,7 +149,7 @@ class DeviceFeed:
                     break  # nobody can send any more
                 received_ns = time.monotonic_ns()
                 try:
-                    self.handle(msgpack.unpackb(data, raw=False), received_ns)
+                    self.handle(ipc.unpack(data, CUES), received_ns)
                 except Exception:  # noqa: BLE001 - one bad record must not stop the devices' feed
                     self.bad_records += 1
                     if self.bad_records <= 10 or self.bad_records % 1000 == 0:

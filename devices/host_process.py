@@ -9,11 +9,9 @@ feed, which blocks in `recv` on the cue channel the loop process writes to direc
 
 Started by the hub (server/hub/device_host.py) as
 `python -m devices.host_process --control-fd C --cues-fd Q`, with the pickled device configs on
-stdin. Control records (msgpack arrays on a SEQPACKET socket):
-  hub → here: ["snapshot", request_id, writes], ["stop"]
-  here → hub: ["hello", {"pid"}], ["report", {"refusals", "status"}],
-              ["profiles", {name: profile table}], ["snapshot", request_id, snapshot]
-A closed control socket (the hub died) is a stop. Stopping turns every actuator off first; so does
+stdin. Control records on a SEQPACKET socket: server/ipc/records.py TO_DEVICE_HOST (snapshot,
+stop) and FROM_DEVICE_HOST (hello, report, profiles, snapshot); docs/architecture.md "The mailbox"
+has their tables. A closed control socket (the hub died) is a stop. Stopping turns every actuator off first; so does
 a cue channel that breaks (nobody can drive the devices any more) or goes quiet (devices/feed.py).
 `--cue-quiet-ms` sets the feed's quiet time (default devices.feed.CUE_QUIET_MS).
 """
@@ -28,11 +26,11 @@ import socket
 import sys
 import threading
 
-import msgpack
-
 from devices.feed import CUE_QUIET_MS, DeviceFeed
 from devices.manager import DeviceManager
 from server import ipc
+from server.ipc.records import (TO_DEVICE_HOST, DeviceProfiles, DeviceStatus, Hello, Record, Snapshot,
+                                SnapshotRequest, Stop)
 
 log = logging.getLogger("viestac.devices")
 
@@ -54,10 +52,10 @@ class DeviceHost:
         self._profiles: dict | None = None
         manager.listeners.append(self._changed)
 
-    def send(self, record: list) -> None:
+    def send(self, record: Record) -> None:
         with self._send_lock:
             try:
-                self.control.sendall(msgpack.packb(record, use_bin_type=True))
+                self.control.sendall(ipc.pack(record))
             except OSError:
                 pass  # the hub is gone; the control thread sees it and stops
 
@@ -67,11 +65,11 @@ class DeviceHost:
             report = self.manager.report()
             if report != self._report:
                 self._report = report
-                self.send(["report", report])
+                self.send(DeviceStatus(report))
             profiles = {name: d.profile.to_table() for name, d in self.manager.devices.items()}
             if profiles != self._profiles:
                 self._profiles = profiles
-                self.send(["profiles", profiles])
+                self.send(DeviceProfiles(profiles))
 
     def all_off(self) -> None:
         """Every actuator off for good: later cue records are dropped."""
@@ -81,7 +79,7 @@ class DeviceHost:
     def run(self, cues: socket.socket) -> None:
         self.manager.start()
         self.feed.attach(cues)
-        self.send(["hello", {"pid": os.getpid()}])
+        self.send(Hello({"pid": os.getpid()}))
         self._changed()
         try:
             self._serve_control()
@@ -99,14 +97,11 @@ class DeviceHost:
             if not data:
                 return
             try:
-                record = msgpack.unpackb(data, raw=False)
-                kind = record[0]
-                if kind == "stop":
-                    return
-                if kind == "snapshot":
-                    self.send(["snapshot", record[1], {**self.manager.snapshot(int(record[2])), "feed": self.feed.info()}])
-                else:
-                    raise ValueError(f"unknown control record {kind!r}")
+                match ipc.unpack(data, TO_DEVICE_HOST):
+                    case Stop():
+                        return
+                    case SnapshotRequest(request, writes):
+                        self.send(Snapshot(request, {**self.manager.snapshot(int(writes)), "feed": self.feed.info()}))
             except Exception:  # noqa: BLE001 - one bad request must not take the devices down
                 log.exception("device host: bad control record %r", data[:80])
 

@@ -23,6 +23,7 @@ import json
 import math
 from pathlib import Path
 
+from server.ipc.records import TrackerSample
 from server.core.cues import cue_to_wire
 from scenarios import registry
 from scenarios.free import FreeExploration
@@ -130,7 +131,7 @@ def make_simulation(scene_arg: str, tick_hz: int = 1000, tools: tuple[str, ...] 
     return Simulation(registry.create(scene_arg), tick_hz=tick_hz, rig=tools)
 
 
-def _tracker_record(index: int, sample: tuple, now_ns: int) -> list:
+def _tracker_record(index: int, sample: tuple, now_ns: int) -> TrackerSample:
     """A sample as the live loop's tracker record: the primary point as `pos` (else the first
     point, named), every other point in `points`."""
     if isinstance(sample[1], dict):
@@ -139,7 +140,7 @@ def _tracker_record(index: int, sample: tuple, now_ns: int) -> list:
         pos = points.pop(point)
         return Tracker(index, sample[0] * 1000.0, pos, None, None if point == PRIMARY_POINT else point,
                        points or None).loop_record(SOURCE, now_ns)
-    return ["tracker", SOURCE, index, sample[0] * 1000.0, list(sample[1:]), None, now_ns]
+    return TrackerSample(SOURCE, index, sample[0] * 1000.0, list(sample[1:]), None, now_ns)
 
 
 def render(sim: Simulation, samples, out_path: str | Path) -> int:

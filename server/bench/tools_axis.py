@@ -23,9 +23,10 @@ import gc
 import math
 import time
 
-import msgpack
 import numpy as np
 
+from server import ipc
+from server.ipc.records import TrackerSample
 from server.core.points import PRIMARY_POINT
 from server.core.tool import DEFAULT_PROXY_RADIUS
 from server.loop.process import LoopConfig, build_core
@@ -50,11 +51,11 @@ def fingertip(k: int, tick: int) -> tuple[float, float, float]:
             DOME * math.cos(polar))
 
 
-def sample(n: int, tick: int, seq: int) -> list:
+def sample(n: int, tick: int, seq: int) -> TrackerSample:
     """The loop's tracker record for one sample of n fingertips (server/loop/core.py apply)."""
     pos = fingertip(0, tick)
     points = {FINGERTIPS[k]: fingertip(k, tick) for k in range(1, n)}
-    return ["tracker", "hand", seq, tick, list(pos), None, tick * 1_000_000, PRIMARY_POINT, points or None, None]
+    return TrackerSample("hand", seq, tick, list(pos), None, tick * 1_000_000, PRIMARY_POINT, points or None, None)
 
 
 def _quantiles(costs_ns: list[int]) -> dict:
@@ -77,7 +78,7 @@ def time_tools(n: int, every: int, ticks: int) -> dict:
             t0 = clock()
             out = core.tick(records, i * 1_000_000)
             if out.state is not None:
-                msgpack.packb(["state", out.state], use_bin_type=True)
+                ipc.pack(out.state)
             t1 = clock()
             core.record_sample(1_000_000, t1 - t0, out.state is not None)
             if i >= WARM_UP:

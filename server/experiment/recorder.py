@@ -27,6 +27,7 @@ import threading
 from dataclasses import dataclass, field
 
 from server.experiment.store import Store
+from server.ipc.records import DeviceReport, FailSafe, Hello, Log, Record, ScenarioAnnounce, State
 
 TRACKER_LOSS_TICKS = 250  # no tracker sample applied for this long (at 1 kHz: 0.25 s) → tracker_lost
 # The loop's own tracker-loss events (a source whose samples' ttl passed, and its return:
@@ -84,26 +85,26 @@ class Recorder:
         return done
 
     # -- records from the loop (hub listener) -------------------------------------------------
-    def on_record(self, record: list) -> None:
-        kind = record[0]
-        if kind == "hello":
-            self._hello(record[1].get("pid"))
+    def on_record(self, record: Record) -> None:
+        if type(record) is Hello:
+            self._hello(record.info.get("pid"))
         a = self.active
         if a is None or a.interrupted is not None:
             return
         with self._lock:
-            if kind == "scenario":
-                trial = record[1].get("trial")
-                announced = (None, 0) if trial is None else (trial["phase"], trial["index"])
-                if a.first_tick is None and announced == (a.phase, a.index if a.phase else 0):
-                    a.first_tick = int(record[1].get("tick", 0))
-            elif kind == "state" and a.first_tick is not None:
-                self._state(a, record[1])
-            elif kind == "devices":
-                a.events.append((a.session_id, a.trial_id, a.attempt, None, "devices", record[1]))
-            elif kind in ("fail_safe", "log"):
-                a.events.append((a.session_id, a.trial_id, a.attempt, None, "loop",
-                                 {"kind": kind, "detail": record[1:]}))
+            match record:
+                case ScenarioAnnounce(info):
+                    trial = info.get("trial")
+                    announced = (None, 0) if trial is None else (trial["phase"], trial["index"])
+                    if a.first_tick is None and announced == (a.phase, a.index if a.phase else 0):
+                        a.first_tick = int(info.get("tick", 0))
+                case State() if a.first_tick is not None:
+                    self._state(a, record)
+                case DeviceReport(report):
+                    a.events.append((a.session_id, a.trial_id, a.attempt, None, "devices", report))
+                case FailSafe() | Log():  # stored as the record's fields, in order (docs/data.md)
+                    a.events.append((a.session_id, a.trial_id, a.attempt, None, "loop",
+                                     {"kind": record.TAG, "detail": record.to_array()[1:]}))
 
     def _hello(self, pid: int | None) -> None:
         """A loop process started; if it replaces one, the recorded trial (if any) is interrupted."""
@@ -113,30 +114,32 @@ class Recorder:
             if restarted and a is not None and a.interrupted is None:
                 a.interrupted = "loop restart"
 
-    def _state(self, a: Active, rec: dict) -> None:
+    def _state(self, a: Active, state: State) -> None:
         first = a.first_tick
-        tick = rec["tick"]
-        rows = rec.get("trajectory", ())
+        view, recorded = state.view, state.recorded
+        tick = view["tick"]
+        rows = recorded.trajectory
         if tick < first:  # ticks went back: not expected (see the module doc); counted, never silent
             a.dropped_records += 1
             a.dropped_samples += len(rows)
             return
         a.samples.extend(row for row in rows if row[0] >= first)
-        a.point_rows.extend(row for row in rec.get("point_rows", ()) if row[0] >= first)
+        a.point_rows.extend(row for row in recorded.point_rows if row[0] >= first)
         a.last_tick = tick
-        if rec["cues"] != a.last_cues:
-            a.cues.append((tick, rec["cues"]))
-            a.last_cues = rec["cues"]
-        for event in rec.get("events") or ():
+        cues = view["cues"]
+        if cues != a.last_cues:
+            a.cues.append((tick, cues))
+            a.last_cues = cues
+        for event in view["events"] or ():
             if event.get("tick", tick) < first:
                 continue
             name = event.get("name")
             kind = "input" if name == "input" else "tracker" if name in LOOP_TRACKER_EVENTS else "scenario"
             a.events.append((a.session_id, a.trial_id, a.attempt, event.get("tick"), kind, event))
-        for done in rec.get("finished") or ():
+        for done in recorded.finished or ():
             if done["tick"] >= first:
                 a.metrics = dict(done["metrics"])
-        self._watch_tracker(a, tick, rec.get("trackers") or ())
+        self._watch_tracker(a, tick, recorded.trackers or ())
 
     def _watch_tracker(self, a: Active, tick: int, trackers) -> None:
         if trackers:

@@ -23,6 +23,7 @@ from typing import Callable
 
 from server import ipc
 from server.hub.owner import Owner
+from server.ipc.records import Channel, Malformed, Record
 
 log = logging.getLogger("viestac.hub")
 
@@ -59,6 +60,7 @@ class RestartBackoff:
 
 class ChildProcess:
     what = "child process"  # for the log
+    channel: Channel  # the records the child sends (server/ipc/records.py)
 
     def __init__(self) -> None:
         self.proc: subprocess.Popen | None = None
@@ -79,7 +81,7 @@ class ChildProcess:
         """Start the process with `theirs` (the child's end of the socket) passed to it."""
         raise NotImplementedError
 
-    def _on_record(self, record: list) -> None:
+    def _on_record(self, record: Record) -> None:
         raise NotImplementedError
 
     def _closed(self) -> None:
@@ -103,7 +105,7 @@ class ChildProcess:
             self._watch = asyncio.create_task(self._watchdog())
         self._notify(self.on_start, self.what)
 
-    def _send(self, record: list) -> bool:
+    def _send(self, record: Record) -> bool:
         """One record without blocking; False if it could not go (full, or no child)."""
         self.owner.check()
         if self._sock is None:
@@ -113,14 +115,13 @@ class ChildProcess:
         except OSError:  # the child is gone; it is being started again
             return False
 
-    async def _ask(self, record: list, timeout_s: float, unavailable: type[Exception]) -> dict:
-        """Send `[kind, request id, *rest]` for `record` = `[kind, *rest]` and wait for the child's
-        answer to that id (`_answered`); `unavailable` when it cannot go, times out or the child
-        goes away (`_fail_requests`)."""
+    async def _ask(self, make: Callable[[int], Record], timeout_s: float, unavailable: type[Exception]) -> dict:
+        """Send `make(request id)` and wait for the child's answer to that id (`_answered`);
+        `unavailable` when it cannot go, times out or the child goes away (`_fail_requests`)."""
         request = next(self._ids)
         future = asyncio.get_running_loop().create_future()
         self._requests[request] = future
-        if not self._send([record[0], request, *record[1:]]):
+        if not self._send(make(request)):
             self._requests.pop(request, None)
             raise unavailable(f"the {self.what} is not running (restarting?)")
         try:
@@ -145,17 +146,19 @@ class ChildProcess:
 
     def _readable(self) -> None:
         try:
-            records = ipc.drain(self._sock)
+            records = ipc.drain(self._sock, self.channel)
         except (ipc.PeerClosed, ConnectionResetError):  # reset: it died with records of ours unread
             asyncio.get_running_loop().remove_reader(self._sock.fileno())
             self._died()
             return
         for record in records:
+            if isinstance(record, Malformed):
+                log.error("a bad record from the %s: %s", self.what, record.error)
+                continue
             try:
                 self._on_record(record)
             except Exception:  # noqa: BLE001 - one bad record must not stop the reader
-                log.exception("failed to handle a record of kind %r from the %s",
-                              record[0] if record else None, self.what)
+                log.exception("failed to handle a %s record from the %s", type(record).__name__, self.what)
 
     async def _watchdog(self) -> None:
         while not self._closing:
@@ -209,7 +212,7 @@ class ChildProcess:
             self._sock = None
         self._closed()
 
-    async def _stop(self, stop_record: list, wait_s: float) -> None:
+    async def _stop(self, stop_record: Record, wait_s: float) -> None:
         """Ask the child to stop, wait up to `wait_s`, then kill it; no restart after this."""
         self._closing = True
         for task in (self._watch, self._restart):

@@ -23,6 +23,7 @@ from typing import Any, Callable, Mapping
 from devices.capability import CapabilityReport, check, missing_device_text
 from scenarios import registry
 from server.core.scenario import ParamError, Trial, describe, find_control
+from server.ipc import records
 
 
 class ScenarioRefused(Exception):
@@ -57,7 +58,7 @@ class ScenarioControl:
     name as they are now (for the capability check); `statuses`: each device's connection status
     as last reported (a device not in it counts as connected)."""
 
-    def __init__(self, send: Callable[[list], bool], profiles: Callable[[], Mapping[str, Any]],
+    def __init__(self, send: Callable[[records.Record], bool], profiles: Callable[[], Mapping[str, Any]],
                  statuses: Callable[[], Mapping[str, str]] = dict):
         self.send = send
         self.profiles = profiles
@@ -116,7 +117,7 @@ class ScenarioControl:
                 if value is None:
                     raise ParamError(f"{key!r} needs a value: {control.value.doc}")
                 value = control.value.check(value, key)
-        record = ["input", client_id, key, action] + ([value] if value is not None else [])
+        record = records.Input(client_id, key, action, value)
         if not self.send(record):
             raise BusyError("the loop's input mailbox is full; input dropped")
 
@@ -144,7 +145,7 @@ class ScenarioControl:
         if not report.ok and not force:
             raise ScenarioRefused(report)
         number = next(self._numbers)
-        if not self.send(["scenario", spec.id, checked, seed, number]):
+        if not self.send(records.SwitchScenario(spec.id, checked, seed, number)):
             raise BusyError("the loop's input mailbox is full; try again")
         # the mailbox is ordered: a trial or command sent next is for the new scenario
         self.scenario_cls = spec.factory
@@ -163,7 +164,7 @@ class ScenarioControl:
                 raise ParamError("no scenario is running yet")
             trial = Trial.parse(self.scenario_cls.TRIAL_PARAMS, phase, params, index).to_dict()
             self.require_devices(force=force)
-        if not self.send(["trial", trial]):
+        if not self.send(records.Trial(trial)):
             raise BusyError("the loop's input mailbox is full; try again")
         return trial
 

@@ -23,6 +23,8 @@ from devices.manager import DeviceConfig
 from devices.profiles import DeviceProfile
 from server.hub.child import ChildProcess
 from server import ipc
+from server.ipc.records import (FROM_DEVICE_HOST, DeviceProfiles, DeviceStatus, Hello, Record, Snapshot,
+                                SnapshotRequest, Stop)
 
 SNAPSHOT_TIMEOUT_S = 2.0
 
@@ -33,6 +35,7 @@ class DeviceHostUnavailable(RuntimeError):
 
 class DeviceHost(ChildProcess):
     what = "device host process"
+    channel = FROM_DEVICE_HOST
 
     def __init__(self, configs: list[DeviceConfig], *, on_report: Callable[[dict], None],
                  on_profiles: Callable[[dict], None] = lambda profiles: None, cue_quiet_ms: float = CUE_QUIET_MS):
@@ -54,17 +57,17 @@ class DeviceHost(ChildProcess):
         proc.stdin.close()
         return proc
 
-    def _on_record(self, record: list) -> None:
-        kind = record[0]
-        if kind == "report":
-            self.on_report(record[1])
-        elif kind == "profiles":
-            self.on_profiles({name: DeviceProfile.from_dict(table, where=f"device {name}")
-                              for name, table in record[1].items()})
-        elif kind == "snapshot":
-            self._answered(record[1], record[2])
-        elif kind == "hello":
-            self.info = record[1]
+    def _on_record(self, record: Record) -> None:
+        match record:
+            case DeviceStatus(report):
+                self.on_report(report)
+            case DeviceProfiles(profiles):
+                self.on_profiles({name: DeviceProfile.from_dict(table, where=f"device {name}")
+                                  for name, table in profiles.items()})
+            case Snapshot(request, snapshot):
+                self._answered(request, snapshot)
+            case Hello(info):
+                self.info = info
 
     def _closed(self) -> None:
         """The process is gone: a snapshot it was asked for will never come; say so now, not
@@ -73,10 +76,11 @@ class DeviceHost(ChildProcess):
 
     async def snapshot(self, writes: int = 0) -> dict:
         """The devices as the console shows them (DeviceManager.snapshot plus the feed's info)."""
-        return await self._ask(["snapshot", writes], SNAPSHOT_TIMEOUT_S, DeviceHostUnavailable)
+        return await self._ask(lambda request: SnapshotRequest(request, writes), SNAPSHOT_TIMEOUT_S,
+                               DeviceHostUnavailable)
 
     async def stop(self) -> None:
         """Every actuator off, the ports drained and closed, the process gone."""
-        await self._stop(["stop"], 5.0)
+        await self._stop(Stop(), 5.0)
         self.device_end.close()
         self.loop_end.close()

@@ -25,6 +25,7 @@ from server.hub.health_feed import HealthFeed
 from server.hub.loop_link import LoopLink
 from server.hub.owner import Owner
 from server.hub.session import Command, ParticipantAnswer, ServerInfo, ToLoop
+from server.ipc.records import Record
 
 
 class Hub:
@@ -33,7 +34,7 @@ class Hub:
     `owner`: shared with the supervisor and the device host (the app's)."""
 
     def __init__(self, *, server_name: str, tick_hz: int, state_hz: float, overrun_threshold: int = 10,
-                 send_to_loop: Callable[[list], bool] = lambda record: False, access=None,
+                 send_to_loop: Callable[[Record], bool] = lambda record: False, access=None,
                  owner: Owner | None = None):
         self.owner = owner or Owner("the hub")
         self.fanout = Fanout(self.owner, ServerInfo(server_name, tick_hz, state_hz), access=access,

@@ -15,15 +15,15 @@ from server.hub.fanout import Fanout
 from server.hub.health_feed import HealthFeed
 from server.hub.owner import Owner
 from server.hub.telemetry import LoopTelemetry
+from server.ipc.records import (DeviceReport, FailSafe, Fault, Hello, Log, Malformed, Record, RecordEvery, Recovered,
+                                ScenarioAnnounce, SceneAnnounce, State)
 from server.wire import messages
 
 log = logging.getLogger("viestac.hub")
 
-_NO_TRACKING = {"lost": []}  # a state record without `tracking` (an older loop)
-
 
 class LoopLink:
-    def __init__(self, owner: Owner, send: Callable[[list], bool], *, control: ScenarioControl, fanout: Fanout,
+    def __init__(self, owner: Owner, send: Callable[[Record], bool], *, control: ScenarioControl, fanout: Fanout,
                  health_feed: HealthFeed, tick_hz: int):
         self.owner = owner
         self.send_to_loop = send
@@ -43,57 +43,62 @@ class LoopLink:
         self.tracker_applied: deque[list] = deque(maxlen=4096)  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.log_records: deque[dict] = deque(maxlen=200)
         self.record_every = 0  # trajectory sampling asked of the loop (experiment recorder); 0 = off
-        self.undelivered: deque[list] = deque(maxlen=1024)  # records for the loop that must not be lost (retried)
+        self.undelivered: deque[Record] = deque(maxlen=1024)  # records for the loop that must not be lost (retried)
         self.listeners: list = []  # called with every loop record after the hub handled it (the recorder)
 
     # ---- records from the loop process -------------------------------------------------
-    def on_loop_record(self, record: list) -> None:
+    def on_loop_record(self, record: Record) -> None:
         self.owner.check()
-        kind = record[0]
-        if kind == "state":
-            self._on_state(record[1])
-        elif kind == "fault":  # a tick failed (LoopCore; at most once per 100 failing ticks)
-            self.health.fault(time.monotonic(), record[1].get("failures", 0), record[1].get("error", ""))
-            self.check_health()
-        elif kind == "recovered":
-            self.health.recovered(time.monotonic(), record[1].get("failures"))
-            self.check_health()
-        elif kind == "scene":
-            self.fanout.set_scene(record[1], record[2])
-        elif kind == "hello":
-            self.loop_info = record[1]
-            self.control.loop_restarted()
-            self.telemetry.rt = bool(record[1].get("rt"))
-            if self._device_report is not None:  # a (re)started loop learns the refusals again
-                self.send_to_loop(["devices", self._device_report])
-            if self.record_every:
-                self.send_to_loop(["record", self.record_every])
-        elif kind == "scenario":
-            self.control.announced(record[1])
-            self.health_feed.update_needs()
-        elif kind == "log":
-            level = logging.ERROR if record[1] == "error" else logging.WARNING
-            log.log(level, "loop: %s", record[2])
-            self.log_records.append({"t": time.time(), "level": record[1], "text": record[2]})
+        match record:
+            case State():
+                self._on_state(record)
+            case Fault(failures, _, error):  # a tick failed (LoopCore; at most once per 100 failing ticks)
+                self.health.fault(time.monotonic(), failures, error)
+                self.check_health()
+            case Recovered(_, failures):
+                self.health.recovered(time.monotonic(), failures)
+                self.check_health()
+            case SceneAnnounce(scene, scene_hash):
+                self.fanout.set_scene(scene, scene_hash)
+            case Hello(info):
+                self.loop_info = info
+                self.control.loop_restarted()
+                self.telemetry.rt = bool(info.get("rt"))
+                if self._device_report is not None:  # a (re)started loop learns the refusals again
+                    self.send_to_loop(DeviceReport(self._device_report))
+                if self.record_every:
+                    self.send_to_loop(RecordEvery(self.record_every))
+            case ScenarioAnnounce(info):
+                self.control.announced(info)
+                self.health_feed.update_needs()
+            case Log(level, text):
+                log.log(logging.ERROR if level == "error" else logging.WARNING, "loop: %s", text)
+                self.log_records.append({"t": time.time(), "level": level, "text": text})
+            case FailSafe():
+                pass  # the recorder notes it (listeners); the fault record tells health
+            case Malformed(error):
+                log.error("a bad record from the loop: %s", error)
+                return
         for listener in self.listeners:
             listener(record)
 
-    def _on_state(self, rec: dict) -> None:
+    def _on_state(self, state: State) -> None:
         # The devices got this tick's cues already: the loop sent them to the device host's feed.
-        overruns = self.telemetry.add(rec["samples"])
+        timing, view = state.timing, state.view
+        overruns = self.telemetry.add(timing.samples)
         now = time.monotonic()
-        self.health.state(now, rec.get("failures", 0), overruns)
-        lost = (rec.get("tracking") or _NO_TRACKING)["lost"]
+        self.health.state(now, timing.failures, overruns)
+        lost = view["tracking"]["lost"]
         if lost or self._tracking_lost:  # a tracker source stopped, or it has just come back
-            tools = [t["name"] for t in rec.get("tools", ()) if t.get("lost")]
+            tools = [t["name"] for t in view["tools"] if t.get("lost")]
             self._tracking_lost = bool(lost)
             if self.health.tracking(lost, tools, now):
                 self.check_health()
-        self.telemetry.resyncs = rec.get("resyncs", 0)
-        if rec["trackers"]:
-            self.tracker_applied.extend(rec["trackers"])
+        self.telemetry.resyncs = timing.resyncs or 0
+        if state.recorded.trackers:
+            self.tracker_applied.extend(state.recorded.trackers)
         self.states_received += 1
-        message = messages.state_message(rec, self.telemetry_summary())  # names the scene the loop simulated
+        message = messages.state_message(view, self.telemetry_summary())  # names the scene the loop simulated
         self.last_state = message
         self.fanout.publish_state(message)
 
@@ -109,7 +114,7 @@ class LoopLink:
         """Ask the loop for trajectory rows every Nth tick (0: none); kept across loop restarts."""
         self.owner.check()
         self.record_every = every_n_ticks
-        self.send_to_loop(["record", every_n_ticks])
+        self.send_to_loop(RecordEvery(every_n_ticks))
 
     def retry_undelivered(self) -> None:
         """Records the loop's full mailbox refused and nobody could be told of, in order."""
@@ -126,6 +131,7 @@ class LoopLink:
             self.health_feed.devices_reported(statuses)
         if report != self._device_report:
             self._device_report = report
-            self.send_to_loop(["devices", report])
+            record = DeviceReport(report)
+            self.send_to_loop(record)
             for listener in self.listeners:
-                listener(["devices", report])
+                listener(record)

@@ -1,7 +1,7 @@
 """One thread owns the hub: the event loop's (docs/architecture.md "The hub").
 
 The hub, the loop supervisor and the device host are plain objects without locks; the mailbox
-doorbell in particular is a read-modify-write of a shared counter (server/ipc.py), and a loop
+doorbell in particular is a read-modify-write of a shared counter (server/ipc/__init__.py), and a loop
 restart replaces it. Everything that touches them runs on the thread of the event loop that
 started them: WebSocket serving, the child processes' readers, and REST handlers (`async def`).
 Code on another thread (the experiment engine, which REST runs on worker threads so SQLite never

@@ -41,6 +41,7 @@ from server.hub.event_log import EventLog
 from server.hub.input_budget import (FORBIDDEN_TRACKER_ERROR_EVERY_NS, INPUT_BURST, INPUT_RATE_PER_S,
                                      RATE_LIMITED_ERROR_EVERY_NS, InputBudget)
 from server.hub.outbox import Outbox
+from server.ipc.records import Record, TrackerGone
 from server.wire import codec, messages
 from server.wire.codec import WireError
 
@@ -91,7 +92,7 @@ class ServerInfo:
 class ToLoop:
     """A record for the loop's mailbox. `busy`: the error text for the client if the record
     cannot go (full mailbox); None when there is nobody to tell."""
-    record: list
+    record: Record
     busy: str | None = None
 
 
@@ -289,7 +290,7 @@ class Session:
     def disconnected(self) -> list[ToLoop]:
         """The connection is gone: a client whose tracker samples reached the loop leaves the HIP
         (the loop sends it home and clears its driver)."""
-        return [ToLoop(["tracker_gone", self.id])] if self.tracker_count else []
+        return [ToLoop(TrackerGone(self.id))] if self.tracker_count else []
 
     def set_lease(self, frames: Mapping[str, bytes | str]) -> list[ToLoop]:
         """The control lease changed (`frames`: the `lease` message encoded per format). A welcomed
@@ -300,7 +301,7 @@ class Session:
             self.outbox.latest("lease", self._lease)
         if self._driving and self.refusal("tracker") is not None:
             self._driving = False
-            return [ToLoop(["tracker_gone", self.id])]
+            return [ToLoop(TrackerGone(self.id))]
         return []
 
     # ---- what the client is sent -------------------------------------------------------------

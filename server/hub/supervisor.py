@@ -28,13 +28,15 @@ from typing import Callable
 
 from server.hub.child import ChildProcess
 from server import ipc
+from server.ipc.records import FROM_LOOP, Record, State, Stop
 from server.loop.process import LoopConfig
 
 
 class LoopSupervisor(ChildProcess):
     what = "loop process"
+    channel = FROM_LOOP
 
-    def __init__(self, config: LoopConfig, on_record: Callable[[list], None],
+    def __init__(self, config: LoopConfig, on_record: Callable[[Record], None],
                  resume: Callable[[], dict | None] = lambda: None):
         """`config`: what the first loop runs. `resume()`: what a loop started now runs instead,
         {"id", "params", "seed", "trial"} as the running loop announced it (the trial None when it
@@ -78,10 +80,9 @@ class LoopSupervisor(ChildProcess):
             pass_fds=tuple(passed), cwd=os.getcwd(),
             start_new_session=True)  # Ctrl-C in a terminal stops the hub, which stops the loop in order
 
-    def _on_record(self, record: list) -> None:
-        if record[0] == "state":
-            state = record[1]
-            self._last = (state["tick"], state["frame"], time.monotonic())
+    def _on_record(self, record: Record) -> None:
+        if type(record) is State:
+            self._last = (record.tick, record.frame, time.monotonic())
         self.on_record(record)
 
     def _closed(self) -> None:
@@ -89,19 +90,19 @@ class LoopSupervisor(ChildProcess):
             self._doorbell.close()
             self._doorbell = None
 
-    def _send(self, record: list) -> bool:
+    def _send(self, record: Record) -> bool:
         """Every record to the loop, the stop included, rings the doorbell once: the loop reads
-        as many records as it was rung for (server/ipc.py), so an unrung one is never read."""
+        as many records as it was rung for (server/ipc/__init__.py), so an unrung one is never read."""
         ok = super()._send(record)
         if ok and self._doorbell is not None:
             self._doorbell.ring()  # after the send: when the loop sees the bell, the record is there
         return ok
 
-    def send(self, record: list) -> bool:
+    def send(self, record: Record) -> bool:
         ok = self._send(record)
         if not ok:
             self.dropped_to_loop += 1
         return ok
 
     async def stop(self) -> None:
-        await self._stop(["stop"], 2.0)
+        await self._stop(Stop(), 2.0)

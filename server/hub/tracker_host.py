@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 from server.hub.child import ChildProcess
+from server.ipc.records import FROM_TRACKER_HOST, Answer, Calibrate, Capture, Hello, Record, SourcesHealth, Stop
 from server.tracking.sources import SourceSpec
 
 ANSWER_TIMEOUT_S = 5.0
@@ -27,6 +28,7 @@ class TrackerHostUnavailable(RuntimeError):
 
 class TrackerHost(ChildProcess):
     what = "tracker host process"
+    channel = FROM_TRACKER_HOST
 
     def __init__(self, specs: tuple[SourceSpec, ...], udp_target: str, data_dir: Path):
         super().__init__()
@@ -47,15 +49,15 @@ class TrackerHost(ChildProcess):
         proc.stdin.close()
         return proc
 
-    def _on_record(self, record: list) -> None:
-        kind = record[0]
-        if kind == "health":
-            self.sources = record[1]
-            self.on_sources(self.sources)
-        elif kind == "answer":
-            self._answered(record[1], record[2])
-        elif kind == "hello":
-            self.info = record[1]
+    def _on_record(self, record: Record) -> None:
+        match record:
+            case SourcesHealth(sources):
+                self.sources = sources
+                self.on_sources(self.sources)
+            case Answer(request, result):
+                self._answered(request, result)
+            case Hello(info):
+                self.info = info
 
     def _closed(self) -> None:
         self._fail_requests(TrackerHostUnavailable("the tracker host process exited (restarting)"))
@@ -63,10 +65,12 @@ class TrackerHost(ChildProcess):
         self.on_sources(self.sources)
 
     async def capture(self, source: str, seconds: float) -> dict:
-        return await self._ask(["capture", source, float(seconds)], ANSWER_TIMEOUT_S, TrackerHostUnavailable)
+        return await self._ask(lambda request: Capture(request, source, float(seconds)), ANSWER_TIMEOUT_S,
+                               TrackerHostUnavailable)
 
     async def calibrate(self, source: str, table: dict | None) -> dict:
-        return await self._ask(["calibrate", source, table], ANSWER_TIMEOUT_S, TrackerHostUnavailable)
+        return await self._ask(lambda request: Calibrate(request, source, table), ANSWER_TIMEOUT_S,
+                               TrackerHostUnavailable)
 
     async def stop(self) -> None:
-        await self._stop(["stop"], 3.0)
+        await self._stop(Stop(), 3.0)

@@ -27,6 +27,7 @@ import sys
 import threading
 import traceback
 
+from server.ipc.records import Log
 from server.loop.core import LoopCore, Switch
 from server.loop.simulation import Simulation
 
@@ -83,7 +84,7 @@ class SwitchBuilder:
                 # walks the mesh library's thousands of objects (a 12 ms tick, measured)
                 gc.freeze()
                 if error:
-                    self.core.outbox.append(["log", "warning", f"loop warm-up import failed: {error}"])
+                    self.core.outbox.append(Log("warning", f"loop warm-up import failed: {error}"))
             elif sim is not None:
                 self.core.install(switch, sim)  # False: superseded meanwhile; the latest is built next
             else:

@@ -9,7 +9,7 @@ clear warning, reported in telemetry as `rt: false`.
 It owns the clock, the deadline scheduler and the sockets; the tick itself (records in, the
 simulation step, fail-safe, what goes out) is LoopCore.tick (core.py). No serial port, no socket
 to a client, no thread (the device drivers live in the device host process). It talks only through
-non-blocking sockets (ipc.py): the mailbox to the hub, and the cue channel that carries a tick's
+non-blocking sockets (server/ipc): the mailbox to the hub, and the cue channel that carries a tick's
 changed cues to the device host's feed thread before the tick's state record leaves. It also reads the
 tracker UDP port (tracker_udp.py, bound by the hub) at the start of every tick. It exits when the
 hub goes away.
@@ -33,6 +33,7 @@ from scenarios import registry
 from scenarios.free import ID as FREE_SCENARIO
 from server.core.haptics.contact_gate import BAND, MIN_DWELL_S, ContactGate
 from server import ipc
+from server.ipc.records import TO_LOOP, Alive, Cues, Hello, Log, Record, Stop, Trial
 from server.cpu_plan import pin_process
 from server.loop.builder import SwitchBuilder
 from server.loop.cadence import STATE_HZ
@@ -88,9 +89,9 @@ def build_core(config: LoopConfig) -> LoopCore:
     core = LoopCore(make_sim(scenario, config.seed, scene), state_hz=config.state_hz, make_sim=make_sim,
                     build_off_tick=True)  # switches are built by SwitchBuilder, never inside a tick
     core.params, core.seed = dict(config.scenario_params), config.seed
-    core.sim.tick, core.frames = config.start_tick, config.start_frame
+    core.sim.data.tick, core.frames = config.start_tick, config.start_frame
     if config.trial is not None:
-        core.apply(["trial", config.trial], 0)
+        core.apply(Trial(config.trial), 0)
         core.outbox.clear()  # announced with the scene at start
     return core
 
@@ -129,12 +130,12 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
     builder = SwitchBuilder(core)
     builder.warm_up()
     parent = os.getppid()
-    ipc.send_record(sock, ["hello", {"pid": os.getpid(), "rt": rt, "tick_hz": config.tick_hz,
-                                     "state_hz": config.state_hz, "scenario": core.sim.scenario.id,
-                                     "cpu": config.cpu if cpu_warning is None else None}])
+    ipc.send_record(sock, Hello({"pid": os.getpid(), "rt": rt, "tick_hz": config.tick_hz,
+                                 "state_hz": config.state_hz, "scenario": core.sim.scenario.id,
+                                 "cpu": config.cpu if cpu_warning is None else None}))
     for warning in (rt_warning, cpu_warning):
         if warning:
-            ipc.send_record(sock, ["log", "warning", warning])
+            ipc.send_record(sock, Log("warning", warning))
     for record in core.announce():
         ipc.send_record(sock, record)
     # Everything built so far lives for the whole run: keep it out of the collector's sight so
@@ -142,24 +143,24 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
     gc.collect()
     gc.freeze()
     scheduler = DeadlineScheduler(clock, 1_000_000_000 // config.tick_hz)
-    backlog: deque[list] = deque()  # records for the hub not sent yet (its end was full), in order
+    backlog: deque[Record] = deque()  # records for the hub not sent yet (its end was full), in order
     cue_sent_ns = 0  # the last record on the cue channel (the heartbeat below)
     owed = 0  # records the hub rang the doorbell for that this loop has not read yet
     while True:
         start, period = scheduler.wait_next()
         try:
             if doorbell is None:
-                records = ipc.drain(sock)
+                records = ipc.drain(sock, TO_LOOP)
             else:
                 owed += doorbell.rings()
                 records = ()
                 if owed:
                     asked = min(owed, ipc.DRAIN_LIMIT)
-                    records = ipc.drain(sock, asked)
+                    records = ipc.drain(sock, TO_LOOP, asked)
                     owed = owed - asked if len(records) == asked else 0  # fewer: the count was ahead of the socket
         except ipc.PeerClosed:
             return
-        if records and any(record[0] == "stop" for record in records):
+        if records and any(type(record) is Stop for record in records):
             return
         if tracker_port is not None:  # after the mailbox: a UDP sample read now is the newest
             samples = tracker_port.drain(start)
@@ -167,8 +168,9 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
                 records = [*records, *samples]
             if tracker_port.notices:
                 for text in tracker_port.notices:
-                    ipc.send_record(sock, ["log", "warning", text])
+                    ipc.send_record(sock, Log("warning", text))
                 tracker_port.notices.clear()
+        core.resyncs = scheduler.resyncs
         out = core.tick(records, start)
         if out.records or out.faults or backlog:  # announcements, logs, fault / recovered (the hub's health)
             backlog.extend(out.records)
@@ -176,31 +178,28 @@ def run(sock: socket.socket, config: LoopConfig, clock: Clock | None = None,
             _send_in_order(sock, backlog)
         if out.cues is not None and cue_sock is not None:  # first: the device command leaves before the frame
             try:
-                record = ["cues", out.tick, clock.now_ns(), out.cues]
-                if out.finger_cues is not None:  # several tools: the other fingers' cues (devices/feed.py)
-                    record.append(out.finger_cues)
-                if not ipc.send_record(cue_sock, record):
+                # with several tools, `fingers` carries the other fingers' cues (devices/feed.py)
+                if not ipc.send_record(cue_sock, Cues(out.tick, clock.now_ns(), out.cues, out.finger_cues)):
                     core.resend_device_cues()  # the feed is behind: try again next tick (latest wins)
             except OSError as exc:  # the device host's end is gone for good: nobody drives the devices now
                 cue_sock = None
-                ipc.send_record(sock, ["log", "error", f"cue channel closed ({exc}); device cues stop"])
+                ipc.send_record(sock, Log("error", f"cue channel closed ({exc}); device cues stop"))
         if cue_sock is not None:  # heartbeat: the device host turns every actuator off when this goes quiet
             if out.cues is not None:
                 cue_sent_ns = start
             elif start - cue_sent_ns >= CUE_HEARTBEAT_MS * 1_000_000:
                 try:
-                    if ipc.send_record(cue_sock, ["alive", out.tick, clock.now_ns()]):
+                    if ipc.send_record(cue_sock, Alive(out.tick, clock.now_ns())):
                         cue_sent_ns = start
                 except OSError:
                     pass  # the next cue send finds the channel gone and says so
         if out.state is not None:
-            out.state["resyncs"] = scheduler.resyncs
-            if backlog or not ipc.send_record(sock, ["state", out.state]):
+            if backlog or not ipc.send_record(sock, out.state):
                 core.unsent(out.state)  # the hub is behind: its rows and events ride with the next one
         core.record_sample(period, clock.now_ns() - start, out.state is not None)
         if core.pending_switch is not None or builder.busy:
             builder.between_ticks()  # off the tick: install a built switch, build the next
-        if core.sim.tick % 1000 == 0 and os.getppid() != parent:
+        if core.sim.data.tick % 1000 == 0 and os.getppid() != parent:
             return  # the hub died without closing the mailbox
 
 
@@ -213,7 +212,7 @@ def _send_in_order(sock: socket.socket, backlog: deque) -> None:
         lost = len(backlog) - MAX_BACKLOG
         for _ in range(lost):
             backlog.popleft()
-        backlog.append(["log", "error", f"the hub did not read the loop's records: {lost} dropped"])
+        backlog.append(Log("error", f"the hub did not read the loop's records: {lost} dropped"))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass
-from operator import attrgetter
 from typing import Any
 
 from server.core.frozen import quick_init
@@ -78,15 +77,6 @@ def _gate_like(gate: ContactGate | None) -> ContactGate | None:
     return None if gate is None else ContactGate(gate.band, gate.min_on_s, gate.min_off_s)
 
 
-def _data_field(name: str, settable: bool = False) -> property:
-    """`sim.<name>` is `sim.data.<name>`, for the readers that still reach the data through the
-    simulation (below). A property read costs ~50-100 ns more than `sim.data.<name>`: the tick
-    itself reads the data directly."""
-    def put(sim: Simulation, value: Any) -> None:
-        setattr(sim.data, name, value)
-    return property(attrgetter(f"data.{name}"), put if settable else None, doc=f"sim.data.{name}")
-
-
 class Simulation:
     def __init__(self, scenario: Scenario, *, tick_hz: int = 1000, gate: ContactGate | None = None,
                  seed: int = 0, scene: Scene | None = None, rig: tuple[str, ...] = ()):
@@ -104,22 +94,6 @@ class Simulation:
                       for i, name in enumerate(names))
         self.data = SimData(tools, {b.id: b for b in self.scene.bodies()})
         scenario.reset(seed)
-
-    # The data's fields where LoopCore's records (server/loop/core.py), the loop process and the
-    # virtual hub still read them as sim.<name>; once those read sim.data.<name>, these go.
-    tick = _data_field("tick", settable=True)
-    cues = _data_field("cues", settable=True)
-    refusals = _data_field("refusals", settable=True)
-    events = _data_field("events", settable=True)
-    finished = _data_field("finished", settable=True)
-    trial = _data_field("trial")
-    tools = _data_field("tools")
-    tool_by_name = _data_field("tool_by_name")
-    points = _data_field("points")
-    lost_sources = _data_field("lost_sources")
-    moved = _data_field("moved")
-    visibility = _data_field("visibility")
-    scales = _data_field("scales")
 
     @property
     def tool(self) -> Tool:

@@ -29,6 +29,7 @@ import ipaddress
 import select
 import socket
 
+from server.ipc.records import TrackerSample
 from server.wire import codec, messages
 from server.wire.codec import WireError
 
@@ -37,9 +38,9 @@ MAX_DATAGRAM_BYTES = 16384  # one point: ~60-120 bytes; two hands' 54 points as 
 NOTICE_EVERY = 1000        # after the first bad datagram, one log line per this many
 
 
-def parse_datagram(data: bytes, source: str, recv_ns: int) -> list:
-    """One datagram → the loop's tracker record ["tracker", source, seq, t_ms, pos, quat, recv_ns]
-    (+ [point, points, ttl_ms] for a v1.4 sample that has any of them); WireError (code, message) when it is not a valid tracker message."""
+def parse_datagram(data: bytes, source: str, recv_ns: int) -> TrackerSample:
+    """One datagram → the loop's tracker record (server/ipc/records.py TrackerSample); WireError
+    (code, message) when it is not a valid tracker message."""
     fmt = "json" if data[:1] == b"{" else "msgpack"
     if fmt == "json":
         try:
@@ -72,7 +73,7 @@ class TrackerPort:
         self._ready = select.epoll()
         self._ready.register(sock.fileno(), select.EPOLLIN)
 
-    def drain(self, now_ns: int) -> list[list]:
+    def drain(self, now_ns: int) -> list[TrackerSample]:
         if not self._ready.poll(0):
             return []
         records = []

@@ -21,6 +21,7 @@ from typing import Callable
 from scenarios import registry
 from server.hub.control import ScenarioControl
 from server.loop.cadence import STATE_HZ
+from server.ipc.records import Record, RecordEvery, ScenarioAnnounce
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
 from server.simulate.virtual_device import VirtualDevice
@@ -39,8 +40,8 @@ class VirtualHub:
         self.core.params, self.core.seed = registry.check_scenario_params(spec, params or {}), seed
         # which scenario runs: the hub's one owner of it (it hears the announcements in _emit)
         self.control = ScenarioControl(self._send, lambda: {n: d.profile for n, d in self.devices.items()})
-        self.listeners: list[Callable[[list], None]] = []
-        self.last_state: dict | None = None
+        self.listeners: list[Callable[[Record], None]] = []
+        self.last_state: dict | None = None  # the client view of the last state record
         self.record_every = 0
         self.last_error: str | None = None  # why the last failed tick failed (the listeners got it as a log record)
         self._emit_all(self.core.announce())
@@ -68,7 +69,7 @@ class VirtualHub:
 
     def set_recording(self, every_n_ticks: int) -> None:
         self.record_every = every_n_ticks
-        self._send(["record", every_n_ticks])
+        self._send(RecordEvery(every_n_ticks))
 
     # -- what the participant does ---------------------------------------------------------------
     def set_hip(self, position) -> None:
@@ -80,17 +81,17 @@ class VirtualHub:
 
     @property
     def tick(self) -> int:
-        return self.core.sim.tick
+        return self.core.sim.data.tick
 
     @property
     def t_s(self) -> float:
-        return self.core.sim.tick / self.tick_hz
+        return self.core.sim.data.tick / self.tick_hz
 
     def advance(self, ticks: int = 1) -> None:
         """Run `ticks` loop ticks; the devices follow to the end of each tick."""
         core, devices, tick_hz = self.core, tuple(self.devices.values()), self.tick_hz
         for _ in range(ticks):
-            out = core.tick((), core.sim.tick * TICK_NS)
+            out = core.tick((), core.sim.data.tick * TICK_NS)
             if out.records:
                 self._emit_all(out.records)
             if out.error is not None:
@@ -105,16 +106,16 @@ class VirtualHub:
             for device in devices:
                 device.run_until(t_end)
             if out.state is not None:
-                self.last_state = out.state
-                self._emit(["state", out.state])
+                self.last_state = out.state.view
+                self._emit(out.state)
 
     def advance_s(self, seconds: float) -> None:
         self.advance(max(1, round(seconds * self.tick_hz)))
 
     # -- plumbing ------------------------------------------------------------------------------
-    def _send(self, record: list) -> bool:
+    def _send(self, record: Record) -> bool:
         """A record for the loop, applied between ticks as the loop process applies its mailbox."""
-        self.core.apply(record, self.core.sim.tick * TICK_NS)
+        self.core.apply(record, self.core.sim.data.tick * TICK_NS)
         records, self.core.outbox = self.core.outbox, []
         self._emit_all(records)
         return True
@@ -123,9 +124,9 @@ class VirtualHub:
         for record in records:
             self._emit(record)
 
-    def _emit(self, record: list) -> None:
-        if record[0] == "scenario":
-            self.control.announced(record[1])
+    def _emit(self, record: Record) -> None:
+        if type(record) is ScenarioAnnounce:
+            self.control.announced(record.info)
         for listener in self.listeners:
             listener(record)
 

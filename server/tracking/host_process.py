@@ -8,11 +8,9 @@ port, from one UDP socket per source (so the loop tells the sources apart, and a
 stops is released by its `ttl` in the loop itself, whatever this process does). The hub's event
 loop is never on this path.
 
-Control records (msgpack arrays on a SEQPACKET socket):
-  hub → here: ["calibrate", id, source, calibration table | null (back to the default)],
-              ["capture", id, source, seconds], ["stop"]
-  here → hub: ["hello", {"pid"}], ["health", [source health, ...]] every HEALTH_EVERY_S,
-              ["answer", id, {"ok": bool, ...}]
+Control records on a SEQPACKET socket: server/ipc/records.py TO_TRACKER_HOST (calibrate, capture,
+stop) and FROM_TRACKER_HOST (hello, health every HEALTH_EVERY_S, answer); docs/architecture.md
+"The mailbox" has their tables.
 """
 
 from __future__ import annotations
@@ -32,6 +30,8 @@ import msgpack
 
 from devices.realtime import fifo_this_thread
 from server import ipc
+from server.ipc.records import (TO_TRACKER_HOST, Answer, Calibrate, Capture, Hello, Malformed, Record, SourcesHealth,
+                                Stop)
 from server.tracking import sources, store
 from server.tracking.calibration import Calibration
 from server.tracking.health import SourceHealth
@@ -116,7 +116,7 @@ class TrackerHost:
         self.sources = {s.name: Source(s, store.load(data_dir, s.name, s.kind), target) for s in specs}
         self.stopped = asyncio.Event()
 
-    def _send(self, record: list) -> None:
+    def _send(self, record: Record) -> None:
         try:
             ipc.send_record(self.control, record)
         except OSError:
@@ -135,45 +135,50 @@ class TrackerHost:
 
     def _on_control(self) -> None:
         try:
-            records = ipc.drain(self.control)
+            records = ipc.drain(self.control, TO_TRACKER_HOST)
         except ipc.PeerClosed:
             self.stopped.set()
             return
         for record in records:
             self._handle(record)
 
-    def _handle(self, record: list) -> None:
-        kind = record[0]
-        if kind == "stop":
-            self.stopped.set()
+    def _handle(self, record: Record | Malformed) -> None:
+        match record:
+            case Stop():
+                self.stopped.set()
+            case Malformed(error):
+                log.error("tracker host: bad control record: %s", error)
+            case Capture(request, name, seconds) if name not in self.sources:
+                self._send(Answer(request, {"ok": False, "error": f"no tracker source {name!r}"}))
+            case Calibrate(request, name, _) if name not in self.sources:
+                self._send(Answer(request, {"ok": False, "error": f"no tracker source {name!r}"}))
+            case Capture(request, name, seconds):
+                self._send(Answer(request, self.sources[name].capture(float(seconds))))
+            case Calibrate(request, name, table):
+                self._calibrate(request, self.sources[name], table)
+
+    def _calibrate(self, request: int, src: Source, table: dict | None) -> None:
+        name = src.spec.name
+        try:
+            if table is None:
+                store.remove(self.data_dir, name)
+                calibration = store.default_for(src.spec.kind)
+            else:
+                calibration = Calibration.from_dict(table)
+                store.save(self.data_dir, name, calibration)
+        except (ValueError, KeyError, TypeError, OSError) as exc:
+            self._send(Answer(request, {"ok": False, "error": str(exc)}))
             return
-        request, name = record[1], record[2]
-        src = self.sources.get(name)
-        if src is None:
-            self._send(["answer", request, {"ok": False, "error": f"no tracker source {name!r}"}])
-        elif kind == "capture":
-            self._send(["answer", request, src.capture(float(record[3]))])
-        elif kind == "calibrate":
-            try:
-                if record[3] is None:
-                    store.remove(self.data_dir, name)
-                    calibration = store.default_for(src.spec.kind)
-                else:
-                    calibration = Calibration.from_dict(record[3])
-                    store.save(self.data_dir, name, calibration)
-            except (ValueError, KeyError, TypeError, OSError) as exc:
-                self._send(["answer", request, {"ok": False, "error": str(exc)}])
-                return
-            src.pipeline.set_calibration(calibration)
-            self._send(["answer", request, {"ok": True, "calibration": calibration.to_dict()}])
+        src.pipeline.set_calibration(calibration)
+        self._send(Answer(request, {"ok": True, "calibration": calibration.to_dict()}))
 
     async def run(self) -> None:
         loop = asyncio.get_running_loop()
         loop.add_reader(self.control.fileno(), self._on_control)
-        self._send(["hello", {"pid": os.getpid(), "rt": self.rt}])
+        self._send(Hello({"pid": os.getpid(), "rt": self.rt}))
         tasks = [asyncio.create_task(self._guard(src)) for src in self.sources.values()]
         while not self.stopped.is_set():
-            self._send(["health", self.health()])
+            self._send(SourcesHealth(self.health()))
             try:
                 await asyncio.wait_for(self.stopped.wait(), HEALTH_EVERY_S)
             except asyncio.TimeoutError:

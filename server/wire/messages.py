@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
+from server.ipc.records import TrackerSample
 from server.wire.check import check_message
 from server.wire.codec import WireError
 from server.wire.schema import (ANSWER, CLIENT_MESSAGE_NAMES, HELLO, INPUT, INPUT_ACTIONS, PROTOCOL_MINOR,
@@ -67,15 +68,11 @@ class Tracker:
             msg["ttl"] = self.ttl_ms
         return msg
 
-    def loop_record(self, source: int | str, recv_ns: int) -> list:
-        """The loop's tracker record (server/ipc.py): ["tracker", source, seq, t_ms, pos, quat,
-        recv_ns], plus [point, points, ttl_ms] when the sample has any of them (v1.4)."""
-        record = ["tracker", source, self.seq, self.t_ms, list(self.pos),
-                  list(self.quat) if self.quat else None, recv_ns]
-        if self.point is not None or self.points or self.ttl_ms is not None:
-            record += [self.point, {name: list(p) for name, p in self.points.items()} if self.points else None,
-                       self.ttl_ms]
-        return record
+    def loop_record(self, source: int | str, recv_ns: int) -> TrackerSample:
+        """The loop's tracker record (server/ipc/records.py)."""
+        return TrackerSample(source, self.seq, self.t_ms, list(self.pos), list(self.quat) if self.quat else None,
+                             recv_ns, self.point,
+                             {name: list(p) for name, p in self.points.items()} if self.points else None, self.ttl_ms)
 
 
 @dataclass(frozen=True)
@@ -141,13 +138,7 @@ def scene_message(scene: dict, scene_hash: str) -> dict:
     return {"type": "scene", "v": SCENE_FORMAT_VERSION, "hash": scene_hash, "scene": scene}
 
 
-# What an absent optional state field is on the wire: the loop's record carries them all, these
-# keep a record without one (an older loop) well-formed.
-_STATE_EMPTY: dict[str, Any] = {"visible": dict, "events": list, "scales": dict, "stiffness": dict,
-                                "haptic": dict, "driver": lambda: None, "tools": list, "points": dict,
-                                "tracking": lambda: {"lost": []}}
-assert set(_STATE_EMPTY) == {f.name for f in STATE.fields if not f.required}
-_STATE_FIELDS = tuple(f.name for f in STATE.fields[1:])
+_STATE_FIELDS = tuple(f.name for f in STATE.fields[1:])  # after `type`
 # Events per state frame on the wire: all of them normally (a few a second); a flood (many
 # clients' inputs, a runaway scenario) keeps the newest, dropping `input` events first, so no
 # client can grow every viewer's frames without bound. The recorder reads the loop's record, which
@@ -171,22 +162,15 @@ def wire_events(events: list) -> list:
     return kept[len(kept) - MAX_WIRE_EVENTS:]
 
 
-def state_message(record: Mapping[str, Any], telemetry: dict) -> dict:
-    """The wire `state` for a loop state record: the declared fields in their order, taken from
-    the record (loop-internal keys such as `samples` stay behind), plus `type` and `telemetry`.
-    KeyError naming the field when the record lacks a required one."""
+def state_message(view: Mapping[str, Any], telemetry: dict) -> dict:
+    """The wire `state` for the client view of a loop state record (server/ipc/records.py
+    State.view: every declared field but `type` and `telemetry`, in their order): `type` first,
+    `telemetry` in its place, the events capped (wire_events). KeyError naming a field the view
+    lacks."""
     msg: dict[str, Any] = {"type": "state"}
     for name in _STATE_FIELDS:
-        if name == "telemetry":
-            msg[name] = telemetry
-        elif name == "events" and name in record:
-            msg[name] = wire_events(record[name])
-        elif name in record:
-            msg[name] = record[name]
-        elif name in _STATE_EMPTY:
-            msg[name] = _STATE_EMPTY[name]()
-        else:
-            raise KeyError(f"the loop's state record has no {name!r}, a required state field")
+        msg[name] = telemetry if name == "telemetry" else view[name]
+    msg["events"] = wire_events(msg["events"])
     return msg
 
 

@@ -39,7 +39,7 @@ def test_the_quick_bench_writes_every_count_and_method_with_free_and_contact_tic
 def test_the_tools_axis_puts_every_fingertip_in_contact_and_moves_them():
     from server.bench.tools_axis import FINGERTIPS, fingertip, sample, time_tools
 
-    assert len(set(FINGERTIPS)) == 10 and sample(3, 5, 1)[8].keys() == set(FINGERTIPS[1:3])
+    assert len(set(FINGERTIPS)) == 10 and sample(3, 5, 1).points.keys() == set(FINGERTIPS[1:3])
     assert fingertip(0, 0) != fingertip(0, 100) and fingertip(0, 0) != fingertip(1, 0)
     row = time_tools(3, 1, 50)
     assert row["all_in_contact"] and row["states_per_tick"] == 1.0  # the primary's cue changes every tick

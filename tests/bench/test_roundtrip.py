@@ -13,6 +13,8 @@ from server.bench.roundtrip import BAND_MS, TAG_PERIOD, match_samples, sample_po
 from server.bench.roundtrip_bench import phase_plan, run_roundtrip_bench
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
+from server.ipc.records import TrackerSample
+from tests.ipc import state_map
 
 MS = 1_000_000  # ns
 
@@ -26,9 +28,9 @@ def _drive(where: str, first: int, count: int, ticks_per_sample: int = 17):
     now = 0
     for k in range(first, first + count):
         pos = sample_position(where, k)
-        core.apply(["tracker", 1, k, 0.0, list(pos), None, now], now)
+        core.apply(TrackerSample(1, k, 0.0, list(pos), None, now), now)
         result, record = core.step(now)
-        yield k, pos, record, result
+        yield k, pos, state_map(record), result
         for _ in range(ticks_per_sample - 1):
             now += tick_ns
             core.step(now)

@@ -9,6 +9,7 @@ import msgpack
 
 from devices.host_process import DeviceHost
 from server import ipc
+from server.ipc.records import Cues
 
 TILT = {"kind": "tilt", "direction_deg": 90.0, "magnitude_pct": 100.0}
 
@@ -47,7 +48,7 @@ def test_a_broken_cue_channel_turns_everything_off_and_keeps_it_off():
     host = DeviceHost(manager, control, cue_quiet_ms=60_000)
     runner = threading.Thread(target=host.run, args=(feed_end,), daemon=True)
     runner.start()
-    assert ipc.send_record(loop_end, ["cues", 1, time.monotonic_ns(), [TILT]])
+    assert ipc.send_record(loop_end, Cues(1, time.monotonic_ns(), [TILT]))
     wait_for(lambda: ("submit", ("tilt",)) in manager.calls)
     loop_end.close()  # the cue channel breaks: nobody drives the devices any more
     wait_for(lambda: manager.calls[-1] == ("submit", ()))

@@ -8,6 +8,7 @@ from server.experiment.engine import Experiment
 from server.experiment.store import Store
 from tests.experiment.test_recorder import row, state
 from tests.experiment.test_store import clock
+from server.ipc.records import ScenarioAnnounce, State
 
 STUDIES = Path(__file__).resolve().parents[2] / "studies"
 
@@ -35,14 +36,14 @@ class RacingHub:
             self.last_state = {"tick": self.last_state["tick"] + 40}
             return None
         trial = None if phase is None else {"phase": phase, "params": params or {}, "index": index}
-        self.publish(["scenario", {"trial": trial, "tick": 100}])
+        self.publish(ScenarioAnnounce({"trial": trial, "tick": 100}))
         for tick in range(100, 160, 10):
             self.publish(state(tick, trajectory=[row(tick)]))
         return trial
 
     def publish(self, record):
-        if record[0] == "state":
-            self.last_state = record[1]
+        if type(record) is State:
+            self.last_state = record.view
         for listener in self.listeners:
             listener(record)
 

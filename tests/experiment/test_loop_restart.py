@@ -6,16 +6,17 @@ silently; export never shows a negative duration."""
 from server.experiment.export import _duration
 from server.experiment.recorder import Recorder
 from tests.experiment.test_recorder import recording, row, state  # noqa: F401 - the fixture
+from server.ipc.records import Hello, ScenarioAnnounce
 
 MAIN = {"phase": "main", "params": {}, "index": 0}
 
 
 def test_a_new_loops_hello_interrupts_the_recorded_trial_and_keeps_its_rows(recording):  # noqa: F811
     store, recorder, trial = recording
-    recorder.on_record(["hello", {"pid": 100}])  # the loop that runs the trial
-    recorder.on_record(["scenario", {"trial": MAIN, "tick": 10}])
+    recorder.on_record(Hello({"pid": 100}))  # the loop that runs the trial
+    recorder.on_record(ScenarioAnnounce({"trial": MAIN, "tick": 10}))
     recorder.on_record(state(12, trajectory=[row(10), row(12)]))
-    recorder.on_record(["hello", {"pid": 101}])  # a restarted loop
+    recorder.on_record(Hello({"pid": 101}))  # a restarted loop
     recorder.on_record(state(9000, trajectory=[row(9000)]))  # the new loop's: not this attempt's
     active = recorder.active
     assert active.interrupted == "loop restart" and active.last_tick == 12
@@ -31,13 +32,13 @@ def test_a_new_loops_hello_interrupts_the_recorded_trial_and_keeps_its_rows(reco
 
 def test_the_first_hello_interrupts_nothing(recording):  # noqa: F811
     _, recorder, _ = recording
-    recorder.on_record(["hello", {"pid": 100}])
+    recorder.on_record(Hello({"pid": 100}))
     assert recorder.active.interrupted is None
 
 
 def test_a_state_of_a_tick_before_the_trial_is_counted_and_said(recording):  # noqa: F811
     store, recorder, trial = recording
-    recorder.on_record(["scenario", {"trial": MAIN, "tick": 500}])
+    recorder.on_record(ScenarioAnnounce({"trial": MAIN, "tick": 500}))
     recorder.on_record(state(510, trajectory=[row(505), row(510)]))
     recorder.on_record(state(3, trajectory=[row(1), row(3)]))  # ticks went back: must not vanish
     recorder.end()
@@ -58,6 +59,6 @@ def test_recorder_without_trial_ignores_hello(tmp_path):
     from server.experiment.store import Store
     from tests.experiment.test_store import clock
     recorder = Recorder(Store(tmp_path / "db.sqlite", clock()))
-    recorder.on_record(["hello", {"pid": 1}])
-    recorder.on_record(["hello", {"pid": 2}])
+    recorder.on_record(Hello({"pid": 1}))
+    recorder.on_record(Hello({"pid": 2}))
     assert recorder.active is None and recorder.loop_pid == 2

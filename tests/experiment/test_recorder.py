@@ -8,11 +8,12 @@ from server.experiment.recorder import TRACKER_LOSS_TICKS, Recorder
 from server.experiment.store import Store
 from tests.experiment.cue_rows import cue_rows
 from tests.experiment.test_store import clock, open_session
+from server.ipc.records import ScenarioAnnounce, State
 
 
 def state(tick, cues=(), events=(), trajectory=(), trackers=((1, 0, 0.0, 0, 0),), finished=()):
-    return ["state", {"tick": tick, "cues": list(cues), "events": list(events), "trajectory": list(trajectory),
-                      "trackers": [list(t) for t in trackers], "finished": list(finished)}]
+    return State.from_array(["state", {"tick": tick, "cues": list(cues), "events": list(events), "trajectory": list(trajectory),
+                      "trackers": [list(t) for t in trackers], "finished": list(finished)}])
 
 
 def row(tick):
@@ -34,8 +35,8 @@ def test_rows_count_from_the_tick_the_trial_took_effect(recording):
     store, recorder, trial = recording
     vib = {"kind": "vibration", "intensity_pct": 100.0}
     recorder.on_record(state(5, [vib], trajectory=[row(5)]))  # before any announcement: not this trial's
-    recorder.on_record(["scenario", {"trial": None, "tick": 8}])  # a scenario switch, not the trial
-    recorder.on_record(["scenario", {"trial": {"phase": "main", "params": {}, "index": 0}, "tick": 10}])
+    recorder.on_record(ScenarioAnnounce({"trial": None, "tick": 8}))  # a scenario switch, not the trial
+    recorder.on_record(ScenarioAnnounce({"trial": {"phase": "main", "params": {}, "index": 0}, "tick": 10}))
     recorder.on_record(state(17, [vib], trajectory=[row(9), row(10), row(15)]))
     recorder.on_record(state(34, [vib], events=[{"tick": 30, "name": "tap"}]))  # same cues: no new row
     recorder.on_record(state(51, [], events=[{"tick": 50, "name": "trial_done", "completion_s": 1.5, "t": 0.05}],
@@ -52,7 +53,7 @@ def test_rows_count_from_the_tick_the_trial_took_effect(recording):
 
 def test_tracker_loss_and_return_are_events(recording):
     store, recorder, trial = recording
-    recorder.on_record(["scenario", {"trial": {"phase": "main", "params": {}, "index": 0}, "tick": 0}])
+    recorder.on_record(ScenarioAnnounce({"trial": {"phase": "main", "params": {}, "index": 0}, "tick": 0}))
     recorder.on_record(state(100))
     recorder.on_record(state(100 + TRACKER_LOSS_TICKS, trackers=()))  # not yet: exactly the limit
     recorder.on_record(state(101 + TRACKER_LOSS_TICKS, trackers=()))

@@ -13,6 +13,7 @@ from scenarios.contact_angle import ContactAngle
 from server.core.workspace import WORKSPACE_HALF_EXTENT_M
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
+from server.ipc.records import TrackerSample
 
 MS = 1_000_000
 DOME_R = 0.66  # dome radius 0.6 plus the proxy radius 0.06
@@ -31,12 +32,12 @@ def test_any_finite_positions_never_wedge_the_core(hostile, sane, ticks_each):
     for pos in hostile:
         for _ in range(ticks_each):
             t = core.sim.data.tick
-            out = core.tick([["tracker", 1, seq, 0.0, list(pos), None, t * MS]], t * MS)
+            out = core.tick([TrackerSample(1, seq, 0.0, list(pos), None, t * MS)], t * MS)
             seq += 1
             if out.result is not None:
                 assert all(math.isfinite(v) and abs(v) <= WORKSPACE_HALF_EXTENT_M + 1 for v in out.result.proxy)
     t = core.sim.data.tick
-    core.tick([["tracker", 1, seq, 0.0, list(sane), None, t * MS]], t * MS)
+    core.tick([TrackerSample(1, seq, 0.0, list(sane), None, t * MS)], t * MS)
     for _ in range(3):
         t = core.sim.data.tick
         out = core.tick((), t * MS)

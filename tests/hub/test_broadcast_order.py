@@ -11,6 +11,8 @@ import msgpack
 from server.hub.hub import Hub
 from tests.hub.access_fakes import FakeAccess
 from tests.hub.test_hub_shell import FakeSocket, settle, state_record
+from server.ipc.records import SceneAnnounce
+from tests.ipc import loop_state
 
 
 class OrderedSocket(FakeSocket):
@@ -38,9 +40,9 @@ def test_a_broadcast_sends_to_participants_and_operators_before_the_observers_wh
             serving.append(asyncio.create_task(hub.fanout.serve(ws)))
             ws.send({"type": "hello", "v": 1, "role": role, "client": "t"})
             await settle()
-        hub.link.on_loop_record(["scene", {"name": "a"}, "aaaa"])
+        hub.link.on_loop_record(SceneAnnounce({"name": "a"}, "aaaa"))
         await settle()
-        hub.link.on_loop_record(["state", state_record(1, "aaaa")])
+        hub.link.on_loop_record(loop_state(state_record(1, "aaaa")))
         for _ in range(10):
             await settle()
         for ws in sockets:

@@ -13,6 +13,7 @@ import time
 
 from server.hub import child
 from server.hub.child import ChildProcess, RestartBackoff
+from server.ipc.records import FROM_DEVICE_HOST, Stop
 
 
 def test_backoff_first_death_is_immediate_repeats_double_and_a_healthy_run_resets():
@@ -38,6 +39,7 @@ def test_backoff_first_death_is_immediate_repeats_double_and_a_healthy_run_reset
 class Sleeper(ChildProcess):
     """A child that only holds its end of the socket."""
     what = "test child"
+    channel = FROM_DEVICE_HOST  # it sends nothing
 
     def _spawn(self, theirs):
         return subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"], pass_fds=(theirs.fileno(),))
@@ -73,7 +75,7 @@ def test_a_killed_child_is_restarted_at_once_and_the_hooks_are_called(monkeypatc
                 else:
                     assert start_event[2] - killed >= child.BACKOFF_FIRST_S, "a second death in a row waits"
         finally:
-            await c._stop(["stop"], 0.1)
+            await c._stop(Stop(), 0.1)
         assert not c.alive
 
     asyncio.run(go())

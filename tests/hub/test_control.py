@@ -8,6 +8,7 @@ from scenarios.contact_angle import ContactAngle
 from scenarios.registry import UnknownScenario
 from server.core.scenario import ParamError
 from server.hub.control import BusyError, ScenarioControl, ScenarioRefused
+from server.ipc.records import Input, SwitchScenario, Trial
 
 
 def control(profiles=("ferrovibe",), accept=True):
@@ -21,7 +22,7 @@ def control(profiles=("ferrovibe",), accept=True):
 def test_commands_are_checked_for_role_and_value_before_they_are_sent():
     ctl, sent = control()
     ctl.command("tap_angle", "press", 30, role="operator", client_id=4)
-    assert sent == [["input", 4, "tap_angle", "press", 30.0]], "the value in its declared form"
+    assert sent == [Input(4, "tap_angle", "press", 30.0)], "the value in its declared form"
     with pytest.raises(PermissionError, match="experimenter command"):
         ctl.command("tap_angle", "press", 30, role="participant")
     with pytest.raises(ParamError, match="needs a value"):
@@ -33,7 +34,7 @@ def test_commands_are_checked_for_role_and_value_before_they_are_sent():
     with pytest.raises(ParamError, match="no command 'x' that takes a value"):
         ctl.command("x", "press", 1)
     ctl.command("x", "down", role="participant")  # an undeclared key passes (keyboards send every key)
-    assert sent[1:] == [["input", 0, "x", "down"]]
+    assert sent[1:] == [Input(0, "x", "down")]
 
 
 def test_a_full_mailbox_is_busy_and_changes_nothing():
@@ -57,9 +58,9 @@ def test_switches_check_the_name_the_parameters_and_the_devices():
         ctl.switch_scenario("contact-angle")  # tilt: the FingerTac shows no macro roughness
     assert not refused.value.report.ok and sent == []
     forced = ctl.switch_scenario("contact-angle", {"magnitude_pct": 50}, seed=3, force=True)
-    assert sent == [["scenario", "contact-angle-v1", forced["params"], 3, 1]] and forced["params"]["magnitude_pct"] == 50.0
+    assert sent == [SwitchScenario("contact-angle-v1", forced["params"], 3, 1)] and forced["params"]["magnitude_pct"] == 50.0
     info = ctl.switch_scenario("stiffness", {"middle_level": 4}, seed=1)
-    assert info["capability"]["ok"] and sent[-1] == ["scenario", "stiffness-v1", {"middle_level": 4, "labels": True}, 1, 2]
+    assert info["capability"]["ok"] and sent[-1] == SwitchScenario("stiffness-v1", {"middle_level": 4, "labels": True}, 1, 2)
     with pytest.raises(ParamError, match="mode"):  # trials are checked against the new scenario at once
         ctl.set_trial("main", {"angle_deg": 10})
 
@@ -69,8 +70,8 @@ def test_trials_are_parsed_against_the_running_scenario():
     assert ctl.set_trial("main", {"angle_deg": -50}, 2) == {"phase": "main", "index": 2,
                                                             "params": {"angle_deg": -50.0, "time_limit_s": 30.0}}
     assert ctl.set_trial(None) is None
-    assert sent == [["trial", {"phase": "main", "index": 2, "params": {"angle_deg": -50.0, "time_limit_s": 30.0}}],
-                    ["trial", None]]
+    assert sent == [Trial({"phase": "main", "index": 2, "params": {"angle_deg": -50.0, "time_limit_s": 30.0}}),
+                    Trial(None)]
     with pytest.raises(ParamError, match="phase"):
         ctl.set_trial("warmup", {"angle_deg": 0})
     ctl.scenario_cls = None

@@ -9,6 +9,7 @@ import os
 import signal
 import time
 
+import msgpack
 import pytest
 
 from devices.emulator import Emulator
@@ -17,6 +18,7 @@ from devices.ports import PortSpec
 from devices.profiles import profile_by_model
 from server.hub.device_host import DeviceHost
 from server import ipc
+from server.ipc.records import Cues
 
 TILT = {"kind": "tilt", "direction_deg": 90.0, "magnitude_pct": 100.0}
 
@@ -53,9 +55,9 @@ def test_cues_from_the_loop_end_reach_the_device_and_stopping_turns_it_off(emula
         try:
             await until(lambda: reports and reports[-1]["status"] == {"ferro": "connected"}, 5.0, "never connected")
             assert profiles and profiles[-1]["ferro"].model == "ferrovibe"
-            assert ipc.send_record(host.loop_end, ["cues", 1, time.monotonic_ns(), [TILT]])  # as the loop does
+            assert ipc.send_record(host.loop_end, Cues(1, time.monotonic_ns(), [TILT]))  # as the loop does
             await until(lambda: shows(emulator, 100, 9000), 3.0, "the tilt never reached the device")
-            assert host._send(["bogus"]) and host._send(["submit", [{"kind": "nonsense"}]])  # logged, survived
+            assert host._sock.send(msgpack.packb(["bogus"])) and host._sock.send(msgpack.packb(["submit", [{"kind": "nonsense"}]]))  # logged, survived
             snapshot = await host.snapshot(writes=8)
             device = snapshot["devices"][0]
             assert device["name"] == "ferro" and device["status"] == "connected" and device["writes"]
@@ -67,7 +69,7 @@ def test_cues_from_the_loop_end_reach_the_device_and_stopping_turns_it_off(emula
             await until(lambda: host.restarts == 1 and host.alive and host.info["pid"] == host.proc.pid, 10.0,
                         "the device host was not restarted")
             await until(lambda: reports[-1]["status"] == {"ferro": "connected"}, 5.0, "no reconnect after restart")
-            assert ipc.send_record(host.loop_end, ["cues", 2, time.monotonic_ns(), [{**TILT, "direction_deg": 180.0}]])
+            assert ipc.send_record(host.loop_end, Cues(2, time.monotonic_ns(), [{**TILT, "direction_deg": 180.0}]))
             await until(lambda: shows(emulator, 100, 18000), 3.0, "cues did not flow after the restart")
         finally:
             await host.stop()

@@ -20,6 +20,8 @@ from server.hub.session import ServerInfo, Session
 from server.wire import codec
 from server.wire.check import check_message
 from tests.hub.access_fakes import gate, with_token
+from server.ipc.records import Fault, Recovered, ScenarioAnnounce
+from tests.ipc import loop_state
 
 RIG = {"fingertac": profile_by_model("fingertac"), "ferrovibe": profile_by_model("ferrovibe")}
 FERRO_GONE = {"fingertac": "connected", "ferrovibe": "disconnected"}
@@ -123,7 +125,7 @@ def test_the_hub_turns_records_and_reports_into_health_and_tells_each_client():
         hub = Hub(server_name="test", tick_hz=1000, state_hz=60, overrun_threshold=2, send_to_loop=lambda record: True)
         hub.health_feed.health.startup_grace_s = 0.0  # the loop "started" a moment ago: count its overruns at once
         hub.health_feed.device_profiles = RIG
-        hub.link.on_loop_record(["scenario", {"id": "contact-angle-v1", "params": {}, "seed": 0, "trial": None}])
+        hub.link.on_loop_record(ScenarioAnnounce({"id": "contact-angle-v1", "params": {}, "seed": 0, "trial": None}))
         session = Session(1, "json", ServerInfo("t", 1000, 60.0), 0, gate=gate()[0])
         hub.health_feed.on_child_start("loop")
         hub.health_feed.on_child_start("device_host")
@@ -137,7 +139,7 @@ def test_the_hub_turns_records_and_reports_into_health_and_tells_each_client():
         Conn.session = session
         hub.fanout.connections[1] = Conn
         hub.link.on_device_report({"refusals": [], "status": {"fingertac": "connected", "ferrovibe": "connected"}})
-        hub.link.on_loop_record(["state", state_record()])
+        hub.link.on_loop_record(loop_state(state_record()))
         assert hub.health_feed.check_health().status == "ok" and taken(session)[-1]["status"] == "ok"
 
         hub.link.on_device_report({"refusals": [], "status": {"fingertac": "connected", "ferrovibe": "disconnected"}})
@@ -149,10 +151,10 @@ def test_the_hub_turns_records_and_reports_into_health_and_tells_each_client():
         hub.health_feed.check_health()
         assert taken(session) == [], "nothing new: no message"
 
-        hub.link.on_loop_record(["fault", {"failures": 1, "tick": 9, "error": "OverflowError: x"}])
+        hub.link.on_loop_record(Fault.from_array(["fault", {"failures": 1, "tick": 9, "error": "OverflowError: x"}]))
         assert [r["code"] for r in taken(session)[-1]["reasons"]] == ["tick_failures", "device_missing"]
-        hub.link.on_loop_record(["recovered", {"tick": 10, "failures": 1}])
-        hub.link.on_loop_record(["state", state_record(failures=1, periods=(1000, 2000, 2000, 2500))])
+        hub.link.on_loop_record(Recovered.from_array(["recovered", {"tick": 10, "failures": 1}]))
+        hub.link.on_loop_record(loop_state(state_record(failures=1, periods=(1000, 2000, 2000, 2500))))
         hub.health_feed.check_health()  # state records are judged by the periodic check (HealthFeed.watch_health)
         assert [r["code"] for r in taken(session)[-1]["reasons"]] == ["device_missing", "overruns"]
 

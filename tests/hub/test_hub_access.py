@@ -12,6 +12,7 @@ from server.hub import fanout as fanout_module
 from server.hub.hub import Hub
 from tests.hub.access_fakes import EXP_A, SECRET
 from tests.hub.test_hub_shell import FakeSocket, new_hub, settle
+from tests.ipc import sent
 
 TRACKER = {"type": "tracker", "seq": 1, "t": 0, "pos": [0, 0, 1]}
 
@@ -39,7 +40,7 @@ def test_the_lease_reaches_every_client_and_a_driver_that_loses_it_leaves_the_hi
         watcher.send({"type": "hello", "v": 1, "role": "observer", "client": "t"})
         driver.send(TRACKER)
         await settle()
-        assert [r[0] for r in to_loop] == ["tracker"]
+        assert [r[0] for r in map(sent, to_loop)] == ["tracker"]
         assert [len(ws.leases) for ws in (driver, watcher)] == [1, 1]  # after the welcome
         assert driver.leases[0]["holder"]["role"] == "admin"
         # the holder releases it from a REST worker thread: the change lands on the event loop
@@ -47,11 +48,11 @@ def test_the_lease_reaches_every_client_and_a_driver_that_loses_it_leaves_the_hi
         worker.start()
         worker.join()
         await settle()
-        assert [r[0] for r in to_loop] == ["tracker", "tracker_gone"]
+        assert [r[0] for r in map(sent, to_loop)] == ["tracker", "tracker_gone"]
         assert driver.leases[-1]["holder"] is None and watcher.leases[-1]["holder"] is None
         driver.send(TRACKER)
         await settle()
-        assert driver.got[-1]["code"] == "forbidden" and [r[0] for r in to_loop] == ["tracker", "tracker_gone"]
+        assert driver.got[-1]["code"] == "forbidden" and [r[0] for r in map(sent, to_loop)] == ["tracker", "tracker_gone"]
         for ws in (driver, watcher):
             ws.leave()
         await asyncio.gather(*serving)
@@ -73,7 +74,7 @@ def test_experimenter_commands_need_the_lease(monkeypatch):
         assert other.got[-1]["code"] == "forbidden" and "lease" in other.got[-1]["message"] and to_loop == []
         holder.send({"type": "input", "key": "tap_angle", "action": "press"})
         await settle()
-        assert [r[:3] for r in to_loop] == [["input", 1, "tap_angle"]]
+        assert [r[:3] for r in map(sent, to_loop)] == [["input", 1, "tap_angle"]]
         for ws in (holder, other):
             ws.leave()
         await asyncio.gather(*serving)

@@ -6,6 +6,8 @@ import asyncio
 from devices.encoder import Refusal
 from devices.manager import unshown_refusals
 from server.hub.hub import Hub
+from server.ipc.records import DeviceReport, Hello
+from tests.ipc import sent
 
 
 def test_reports_reach_the_loop_once_per_change_and_a_restarted_loop_learns_them_again():
@@ -16,12 +18,12 @@ def test_reports_reach_the_loop_once_per_change_and_a_restarted_loop_learns_them
         refusing = {"refusals": ["tac refuses tilt"], "status": {"tac": "connected"}}
         for report in ({"refusals": [], "status": {"tac": "connected"}}, refusing, refusing):
             hub.link.on_device_report(report)
-        reports = [r[1] for r in to_loop if r[0] == "devices"]
+        reports = [r[1] for r in map(sent, to_loop) if r[0] == "devices"]
         assert [r["refusals"] for r in reports] == [[], ["tac refuses tilt"]]
-        assert heard == [["devices", r] for r in reports]
+        assert heard == [DeviceReport(r) for r in reports]
         to_loop.clear()
-        hub.link.on_loop_record(["hello", {"pid": 1, "rt": True}])  # a restarted loop learns the refusals again
-        assert to_loop == [["devices", refusing]]
+        hub.link.on_loop_record(Hello({"pid": 1, "rt": True}))  # a restarted loop learns the refusals again
+        assert to_loop == [DeviceReport(refusing)]
 
     asyncio.run(go())
 

@@ -8,6 +8,7 @@ from server.hub.hub import Hub
 from server.hub.session import ServerInfo, Session
 from server.wire import codec
 from tests.hub.access_fakes import gate, with_token
+from tests.ipc import loop_state
 
 
 def record(tick: int, events: list) -> dict:
@@ -39,17 +40,17 @@ def test_records_the_hub_never_offered_on_their_own_still_give_their_events():
             return [m for m in out if m["type"] == "state"]
 
         tap, release, go_ = ({"tick": t, "t": t / 1000, "name": n} for t, n in ((2, "tap"), (3, "release"), (5, "go")))
-        hub.link.on_loop_record(["state", record(1, [])])
+        hub.link.on_loop_record(loop_state(record(1, [])))
         await asyncio.sleep(0)  # the broadcast runs: every client is offered frame 1
         assert [[m["tick"] for m in taken(s)] for s in sessions] == [[1], [1]]
         for tick, events in ((2, [tap]), (3, [release]), (4, []), (5, [go_])):
-            hub.link.on_loop_record(["state", record(tick, events)])  # faster than the hub broadcasts
+            hub.link.on_loop_record(loop_state(record(tick, events)))  # faster than the hub broadcasts
         await asyncio.sleep(0)
         for session in sessions:
             got = taken(session)
             assert [m["tick"] for m in got] == [5], "only the newest frame is offered"
             assert got[0]["events"] == [tap, release, go_]
-        hub.link.on_loop_record(["state", record(6, [])])
+        hub.link.on_loop_record(loop_state(record(6, [])))
         await asyncio.sleep(0)
         assert [[m["events"] for m in taken(s)] for s in sessions] == [[[]], [[]]], "each event once"
 

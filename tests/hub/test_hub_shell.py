@@ -11,6 +11,9 @@ import msgpack
 
 from server.hub.hub import Hub
 from tests.hub.access_fakes import FakeAccess, with_token
+from server.ipc.records import SceneAnnounce, TrackerGone
+from tests.ipc import loop_state
+from tests.ipc import sent
 
 
 class FakeSocket:
@@ -88,11 +91,11 @@ def test_trackers_reach_the_loop_and_their_client_leaving_is_announced():
         driver.send({"type": "tracker", "seq": 3, "t": 1.0, "pos": [0, 0.1, 0.2]})
         await settle()
         driver_id = driver.got[0]["client_id"]
-        assert [r[:3] for r in to_loop] == [["tracker", driver_id, 3]]
+        assert [r[:3] for r in map(sent, to_loop)] == [["tracker", driver_id, 3]]
         watcher.leave()
         driver.leave()
         await asyncio.gather(*serving)
-        assert to_loop[1:] == [["tracker_gone", driver_id]]  # the observer sent no samples: nothing for it
+        assert to_loop[1:] == [TrackerGone(driver_id)]  # the observer sent no samples: nothing for it
         assert hub.fanout.clients() == []
 
     asyncio.run(go())
@@ -113,10 +116,10 @@ def test_tracker_gone_refused_by_a_full_mailbox_is_retried_until_it_arrives():
         driver.leave()
         await serving
         hub.link.retry_undelivered()
-        assert [r[0] for r in to_loop] == ["tracker"] and list(hub.link.undelivered) == [["tracker_gone", driver_id]]
+        assert [r[0] for r in map(sent, to_loop)] == ["tracker"] and list(hub.link.undelivered) == [TrackerGone(driver_id)]
         accept[0] = True
         hub.link.retry_undelivered()
-        assert to_loop[-1] == ["tracker_gone", driver_id] and not hub.link.undelivered
+        assert to_loop[-1] == TrackerGone(driver_id) and not hub.link.undelivered
 
     asyncio.run(go())
 
@@ -157,14 +160,14 @@ def test_a_state_of_the_old_scene_read_together_with_the_new_scene_is_not_sent_a
         hub, _ = new_hub()
         sockets = [FakeSocket(("msgpack", "json")[i % 2]) for i in range(10)]  # more than one slice
         serving = [asyncio.create_task(hub.fanout.serve(ws)) for ws in sockets]
-        hub.link.on_loop_record(["scene", {"name": "a"}, "aaaa"])
+        hub.link.on_loop_record(SceneAnnounce({"name": "a"}, "aaaa"))
         for ws in sockets:
             ws.send({"type": "hello", "v": 1, "role": "observer", "client": "t"})
         await settle()
-        hub.link.on_loop_record(["state", state_record(1, "aaaa")])
-        hub.link.on_loop_record(["scene", {"name": "b"}, "bbbb"])  # in the same reader callback
+        hub.link.on_loop_record(loop_state(state_record(1, "aaaa")))
+        hub.link.on_loop_record(SceneAnnounce({"name": "b"}, "bbbb"))  # in the same reader callback
         await settle()
-        hub.link.on_loop_record(["state", state_record(2, "bbbb")])
+        hub.link.on_loop_record(loop_state(state_record(2, "bbbb")))
         await settle()
         for ws in sockets:
             seen = [(m["type"], m.get("hash") or m.get("scene")) for m in ws.got]

@@ -12,6 +12,8 @@ import time
 
 from server.hub.supervisor import LoopSupervisor
 from server.loop.process import LoopConfig
+from server.ipc.records import Input
+from tests.ipc import sent
 
 
 async def _until(done, timeout_s: float = 20.0) -> None:
@@ -26,7 +28,7 @@ def test_a_stopped_loop_reads_the_stop_and_exits_by_itself():
         records: list[list] = []
         supervisor = LoopSupervisor(LoopConfig(realtime=False), records.append)
         supervisor.start()
-        await _until(lambda: any(r[0] == "state" for r in records))
+        await _until(lambda: any(r[0] == "state" for r in map(sent, records)))
         await supervisor.stop()
         return supervisor.proc.returncode
 
@@ -41,14 +43,14 @@ def test_a_loop_killed_with_records_unread_is_restarted_without_an_error_in_the_
         supervisor = LoopSupervisor(LoopConfig(realtime=False), records.append)
         supervisor.start()
         try:
-            await _until(lambda: any(r[0] == "state" for r in records))
+            await _until(lambda: any(r[0] == "state" for r in map(sent, records)))
             first = supervisor.proc.pid
             os.kill(first, signal.SIGSTOP)  # it reads nothing more ...
             for _ in range(20):
-                assert supervisor.send(["input", 1, "space", "press"])
+                assert supervisor.send(Input(1, "space", "press"))
             os.kill(first, signal.SIGKILL)  # ... and dies with our records in its end of the socket
             await _until(lambda: supervisor.proc.pid != first and any(
-                r[0] == "hello" and r[1]["pid"] == supervisor.proc.pid for r in records))
+                r[0] == "hello" and r[1]["pid"] == supervisor.proc.pid for r in map(sent, records)))
         finally:
             await supervisor.stop()
         return errors

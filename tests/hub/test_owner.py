@@ -12,6 +12,7 @@ from server.hub.hub import Hub
 from server.hub.owner import HubForWorkers, Owner, WrongThread
 from server.hub.supervisor import LoopSupervisor
 from server.loop.process import LoopConfig
+from server.ipc.records import Log, RecordEvery
 
 
 def test_unbound_owner_lets_anyone_in():
@@ -50,8 +51,8 @@ def test_the_hub_and_the_supervisor_refuse_other_threads():
         hub.link.set_recording(0)  # fine here (no loop process: the record is dropped)
 
         def worker():
-            for call in (lambda: hub.link.set_recording(5), lambda: supervisor.send(["record", 5]),
-                         lambda: hub.link.on_loop_record(["log", "warning", "x"])):
+            for call in (lambda: hub.link.set_recording(5), lambda: supervisor.send(RecordEvery(5)),
+                         lambda: hub.link.on_loop_record(Log("warning", "x"))):
                 with pytest.raises(WrongThread):
                     call()
             HubForWorkers(hub, hub.owner).set_recording(5)  # the engine's way in

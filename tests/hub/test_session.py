@@ -16,6 +16,7 @@ from server.hub.outbox import MAX_PENDING_ERRORS, Close
 from server.hub.session import Command, ServerInfo, Session, ToLoop
 from server.wire import codec
 from tests.hub.access_fakes import ADMIN, ADMIN_SECRET, gate
+from server.ipc.records import TrackerGone, TrackerSample
 
 INVALID = json.loads((Path(__file__).parents[1] / "vectors" / "invalid.json").read_text())["frames"]
 SERVER = ServerInfo("viestac/test", 1000, 60.0)
@@ -115,14 +116,14 @@ def test_every_bad_frame_gets_exactly_one_error_and_the_session_goes_on():
         s.receive(data, T0 + 2)
         assert [m["code"] for m in sent(s)] == [code]
     assert s.errors == len(INVALID) + 3 and not s.closing
-    assert s.receive(tracker(3), T0 + 3)[0].record[2] == 3  # still serving
+    assert s.receive(tracker(3), T0 + 3)[0].record.seq == 3  # still serving
 
 
 def test_a_participant_tracker_becomes_a_loop_record_with_the_receive_time():
     s = new()
     s.receive(hello(), T0)
     events = s.receive(frame({"type": "tracker", "seq": 4, "t": 9.0, "pos": [1, 2, 3], "quat": [1, 0, 0, 0]}), T0 + 77)
-    assert events == [ToLoop(["tracker", 7, 4, 9.0, [1.0, 2.0, 3.0], [1.0, 0.0, 0.0, 0.0], T0 + 77],
+    assert events == [ToLoop(TrackerSample(7, 4, 9.0, [1.0, 2.0, 3.0], [1.0, 0.0, 0.0, 0.0], T0 + 77),
                              busy="the loop's input mailbox is full; tracker sample dropped")]
     assert s.tracker_count == 1 and s.last_tracker == {"seq": 4, "t": 9.0, "pos": [1.0, 2.0, 3.0]}
     s.reply_error("busy", events[0].busy)  # what the hub does when the mailbox is full
@@ -164,7 +165,7 @@ def test_disconnect_tells_the_loop_only_about_clients_that_sent_trackers():
     driver.receive(hello(), T0)
     driver.receive(tracker(), T0 + 1)
     assert watcher.disconnected() == []
-    assert driver.disconnected() == [ToLoop(["tracker_gone", 7])]
+    assert driver.disconnected() == [ToLoop(TrackerGone(7))]
 
 
 # ---- what is sent, in which order ---------------------------------------------------------------

@@ -17,6 +17,7 @@ from server.hub.session import HELLO_TIMEOUT_NS, Command, Gate, ParticipantAnswe
 from server.wire import codec, messages
 from server.wire.schema import CLIENT_MESSAGE_NAMES
 from tests.hub.access_fakes import (ADMIN, EXP_A, EXP_B, OBSERVER, PART_1, PART_2, SECRET, Clock, gate)
+from server.ipc.records import TrackerGone
 
 SERVER = ServerInfo("viestac/test", 1000, 60.0)
 T0 = 5_000_000_000
@@ -266,7 +267,7 @@ def test_a_driver_that_loses_the_lease_leaves_the_hip_once():
     assert len(s.receive(frame(TRACKER), T0 + 1)) == 1
     assert s.set_lease(lease_frames(lease)) == []  # still the holder: nothing changes
     lease.release(EXP_A)
-    assert s.set_lease(lease_frames(lease)) == [ToLoop(["tracker_gone", 7])]
+    assert s.set_lease(lease_frames(lease)) == [ToLoop(TrackerGone(7))]
     assert watcher.set_lease(lease_frames(lease)) == []
     assert s.set_lease(lease_frames(lease)) == []  # once
     assert s.receive(frame(TRACKER), T0 + 2) == []  # and its samples are refused now
@@ -277,7 +278,7 @@ def test_a_participant_of_a_session_that_is_no_longer_open_leaves_the_hip():
     s, _ = connect(PART_1, "participant", lease)
     assert len(s.receive(frame(TRACKER), T0 + 1)) == 1
     lease.open_session(EXP_B, "s-2")
-    assert s.set_lease(lease_frames(lease)) == [ToLoop(["tracker_gone", 7])]
+    assert s.set_lease(lease_frames(lease)) == [ToLoop(TrackerGone(7))]
     other, _ = connect(PART_2, "participant", lease)
     assert len(other.receive(frame(TRACKER), T0 + 2)) == 1
 

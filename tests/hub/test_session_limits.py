@@ -88,7 +88,8 @@ def test_a_flood_of_events_is_bounded_on_the_wire_and_kept_whole_for_the_recorde
     events.insert(2500, {"tick": 2500, "t": 2.5, "name": "trial_done"})
     record = {"frame": 1, "tick": 1, "t": 0.0, "scene": "aaaa", "hip": [0, 0, 0], "proxy": [0, 0, 0],
               "force": [0, 0, 0], "contact": False, "contacts": [], "objects": [], "cues": [], "hud": "",
-              "values": {}, "events": events}
+              "values": {}, "events": events, "visible": {}, "scales": {}, "stiffness": {}, "haptic": {},
+              "driver": None, "tools": [], "points": {}, "tracking": {"lost": []}}
     before = list(events)
     wire = messages.state_message(record, {})["events"]
     assert len(wire) == messages.MAX_WIRE_EVENTS
@@ -171,4 +172,4 @@ def test_a_position_outside_the_workspace_is_refused_and_never_reaches_the_loop(
     assert s.receive(msgpack.packb({"type": "tracker", "seq": 1, "t": 0, "pos": pos}), T0) == []
     assert [m["code"] for m in drain(s)] == ["out_of_range"]
     inside = s.receive(msgpack.packb({"type": "tracker", "seq": 2, "t": 0, "pos": [0.1, 0.1, 0.5]}), T0)
-    assert isinstance(inside[0], ToLoop) and inside[0].record[4] == [0.1, 0.1, 0.5]
+    assert isinstance(inside[0], ToLoop) and inside[0].record.pos == [0.1, 0.1, 0.5]

@@ -9,6 +9,7 @@ import pytest
 
 from server.hub.session import ToLoop
 from tests.hub.test_session import T0, frame, hello, new, sent
+from server.ipc.records import TrackerSample
 
 HAND = {"type": "tracker", "seq": 5, "t": 10.0, "pos": [0, 0.1, 0.6], "point": "right.index.tip",
         "points": {"right.thumb.tip": [0, 0.2, 0.6], "right.wrist": [0, 0.1, 0.9]}, "ttl": 33.3}
@@ -19,8 +20,7 @@ def test_a_hand_sample_becomes_a_loop_record_with_its_points_and_ttl(fmt):
     s = new(fmt)
     s.receive(hello(fmt=fmt), T0)
     events = s.receive(frame(HAND, fmt), T0 + 9)
-    assert events == [ToLoop(["tracker", 7, 5, 10.0, [0.0, 0.1, 0.6], None, T0 + 9, "right.index.tip",
-                              {"right.thumb.tip": [0.0, 0.2, 0.6], "right.wrist": [0.0, 0.1, 0.9]}, 33.3],
+    assert events == [ToLoop(TrackerSample(7, 5, 10.0, [0.0, 0.1, 0.6], None, T0 + 9, "right.index.tip", {"right.thumb.tip": [0.0, 0.2, 0.6], "right.wrist": [0.0, 0.1, 0.9]}, 33.3),
                              busy="the loop's input mailbox is full; tracker sample dropped")]
 
 

@@ -5,6 +5,7 @@ building off the tick as the loop process does."""
 from devices.profiles import profile_by_model
 from scenarios import registry
 from server.hub.control import ScenarioControl
+from server.ipc.records import ScenarioAnnounce
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
 
@@ -16,7 +17,7 @@ def rig():
     core = LoopCore(Simulation(registry.create("stiffness", middle_level=5), tick_hz=1000, seed=0),
                     build_off_tick=True)
     core.params = {"middle_level": 5, "labels": True}
-    mailbox: list[list] = []
+    mailbox: list = []
     ctl = ScenarioControl(lambda record: mailbox.append(record) or True, lambda: PROFILES)
     heard = list(core.announce())
     return core, ctl, mailbox, heard
@@ -30,8 +31,8 @@ def deliver(core, ctl, mailbox, heard):
     heard.extend(core.outbox)
     core.outbox = []
     for record in heard:
-        if record[0] == "scenario":
-            ctl.announced(record[1])
+        if isinstance(record, ScenarioAnnounce):
+            ctl.announced(record.info)
     heard.clear()
 
 

@@ -11,6 +11,7 @@ from server.hub.tracker_health import TRACKER_CODES
 from server.wire import codec
 from tests.hub.test_health import ticking
 from tests.hub.test_health_wiring import state_record
+from tests.ipc import loop_state
 
 LEAP_ID = "udp:127.0.0.1:40001"
 
@@ -90,21 +91,21 @@ def test_the_hub_turns_the_tracker_hosts_reports_and_the_loops_tracking_into_hea
         hub = Hub(server_name="test", tick_hz=1000, state_hz=60, send_to_loop=lambda record: True)
         hub.health_feed.on_child_start("loop")
         hub.health_feed.on_child_start("device_host")
-        hub.link.on_loop_record(["state", state_record()])
+        hub.link.on_loop_record(loop_state(state_record()))
         assert hub.health_feed.check_health().status == "ok"
         hub.health_feed.on_tracker_sources([leap("ok")])
         assert hub.health_feed.check_health().status == "ok"
         lost = dict(state_record(), tracking={"lost": [LEAP_ID]},
                     tools=[{"name": "right.index.tip", "hip": [0, 0, 0], "proxy": [0, 0, 0], "contact": False,
                             "lost": True}])
-        hub.link.on_loop_record(["state", lost])
+        hub.link.on_loop_record(loop_state(lost))
         report = hub.health_feed.check_health()
         assert report.codes == {"tracker_lost"} and "right.index.tip" in report.reasons[0]["message"]
         assert codec.decode(hub.fanout.health_frames["json"], "json")["reasons"][0]["code"] == "tracker_lost"
         hub.health_feed.on_tracker_sources([leap("lost")])
         assert [r["code"] for r in hub.health_feed.check_health().reasons] == ["tracker_lost"]
         back = dict(state_record(), tracking={"lost": []}, tools=[])
-        hub.link.on_loop_record(["state", back])
+        hub.link.on_loop_record(loop_state(back))
         hub.health_feed.on_tracker_sources([leap("ok")])
         assert hub.health_feed.check_health().status == "ok"
 

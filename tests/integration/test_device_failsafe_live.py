@@ -33,6 +33,7 @@ from devices.protocol import WATCHDOG_MS
 from devices.rig import emulator_command
 from server import ipc
 from tests.live_server import get_json, start_server, stop_server
+from server.ipc.records import Cues
 
 ROOT = Path(__file__).resolve().parents[2]
 IN_CONTACT = [0.0, -(0.66 - 0.003) * math.sin(math.radians(30)), (0.66 - 0.003) * math.cos(math.radians(30))]
@@ -151,8 +152,8 @@ def test_a_killed_device_host_leaves_the_device_flat_by_its_own_watchdog(tmp_pat
         proc.stdin.close()
         theirs.close()
         wait_for(lambda: emulator.core.counters()["frames_ok"] > 3, 10.0, "the host never talked to the device")
-        assert ipc.send_record(loop_end, ["cues", 1, time.monotonic_ns(), [
-            {"kind": "tilt", "direction_deg": 315.0, "magnitude_pct": 100.0}]])
+        assert ipc.send_record(loop_end, Cues(1, time.monotonic_ns(), [
+            {"kind": "tilt", "direction_deg": 315.0, "magnitude_pct": 100.0}]))
         wait_for(lambda: any(e.magnitude == 100 for e in emulator.snapshot_edges()), 3.0, "no tilt")
         time.sleep(0.3)  # idle: only keepalives feed the watchdog now
         killed_us = time.monotonic_ns() // 1000

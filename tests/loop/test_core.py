@@ -6,8 +6,16 @@ from scenarios.contact_angle import ContactAngle
 from server.core.records import TRAJECTORY_COLUMNS
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
+from server.ipc.records import DeviceReport, Input, RecordEvery, ScenarioAnnounce, SwitchScenario, TrackerSample, Trial
+from tests.ipc import sent, state_map
 
 MS = 1_000_000
+
+
+def step(core, now_ns):
+    """LoopCore.step, with the state record as the map it goes on the socket as."""
+    result, state = core.step(now_ns)
+    return result, state_map(state)
 
 
 def _dome(angle_inset=0.003):
@@ -21,7 +29,7 @@ def make_core(state_hz=60.0):
 
 def test_cadence_is_exactly_state_hz_without_changes():
     core = make_core()
-    published = [t for t in range(3000) if core.step(t * MS)[1] is not None]
+    published = [t for t in range(3000) if step(core, t * MS)[1] is not None]
     assert len(published) == 180  # 3 s at 60 Hz
     gaps = {b - a for a, b in zip(published, published[1:])}
     assert gaps <= {16, 17}
@@ -30,9 +38,9 @@ def test_cadence_is_exactly_state_hz_without_changes():
 def test_cue_change_publishes_in_the_same_tick_as_the_device_command():
     core = make_core()
     for t in range(100):
-        core.step(t * MS)
-    core.apply(["tracker", 1, 0, 0.0, _dome(), None, 100 * MS], 100 * MS)
-    result, state = core.step(100 * MS)
+        step(core, t * MS)
+    core.apply(TrackerSample(1, 0, 0.0, _dome(), None, 100 * MS), 100 * MS)
+    result, state = step(core, 100 * MS)
     assert result.cues_changed and state is not None, "the picture must leave with the cue"
     assert state["cues"] == [{"kind": "tilt", "direction_deg": 0.0, "magnitude_pct": 100.0}]
     assert state["trackers"] == [[1, 0, 0.0, 100 * MS, 100 * MS]]
@@ -40,8 +48,8 @@ def test_cue_change_publishes_in_the_same_tick_as_the_device_command():
 
 def test_hip_holds_latest_sample_between_tracker_messages():
     core = make_core()
-    core.apply(["tracker", 1, 0, 0.0, [0.3, 0.2, 1.2], None, 0], 0)
-    hips = {tuple(core.step(t * MS)[0].hip) for t in range(20)}
+    core.apply(TrackerSample(1, 0, 0.0, [0.3, 0.2, 1.2], None, 0), 0)
+    hips = {tuple(step(core, t * MS)[0].hip) for t in range(20)}
     assert hips == {(0.3, 0.2, 1.2)}
 
 
@@ -49,7 +57,7 @@ def test_samples_ride_with_state_records_and_are_msgpack_safe():
     core = make_core()
     state = None
     for t in range(40):
-        _, rec = core.step(t * MS)
+        _, rec = step(core, t * MS)
         core.record_sample(MS, 20_000)
         state = rec or state
     assert state is not None
@@ -59,12 +67,12 @@ def test_samples_ride_with_state_records_and_are_msgpack_safe():
 
 def test_leaving_contact_stops_the_tilt_after_the_minimum_on_time():
     core = make_core()
-    core.apply(["tracker", 1, 0, 0.0, _dome(), None, 0], 0)
+    core.apply(TrackerSample(1, 0, 0.0, _dome(), None, 0), 0)
     cue_records = []
     for t in range(200):
         if t == 10:  # leave after 10 ms: the gate keeps contact for its 30 ms minimum on-time
-            core.apply(["tracker", 1, 1, 0.0, [0.0, 0.0, 1.2], None, t * MS], t * MS)
-        _, state = core.step(t * MS)
+            core.apply(TrackerSample(1, 1, 0.0, [0.0, 0.0, 1.2], None, t * MS), t * MS)
+        _, state = step(core, t * MS)
         if state is not None and state["cues"] != (cue_records[-1][1] if cue_records else None):
             cue_records.append((t, state["cues"]))
     assert [cues for _, cues in cue_records] == [[{"kind": "tilt", "direction_deg": 0.0, "magnitude_pct": 100.0}], []]
@@ -73,9 +81,9 @@ def test_leaving_contact_stops_the_tilt_after_the_minimum_on_time():
 
 def test_device_refusals_reach_the_scenario_and_its_hud():
     core = make_core()
-    core.apply(["devices", {"refusals": ["tac (fingertac) cannot show the tilt cue"]}], 0)
-    core.apply(["tracker", 1, 0, 0.0, _dome(), None, 0], 0)
-    _, state = core.step(0)
+    core.apply(DeviceReport({"refusals": ["tac (fingertac) cannot show the tilt cue"]}), 0)
+    core.apply(TrackerSample(1, 0, 0.0, _dome(), None, 0), 0)
+    _, state = step(core, 0)
     assert core.sim.data.refusals == ("tac (fingertac) cannot show the tilt cue",)
     assert "cannot show the tilt cue" in state["hud"]
 
@@ -138,24 +146,25 @@ def test_the_doorbell_count_survives_the_counter_wrapping():
 def test_scenario_switch_announces_the_new_scene_and_keeps_the_tick():
     core = make_core()
     for t in range(10):
-        core.step(t * MS)
-    core.apply(["scenario", "stiffness", {"middle_level": 3}, 5], 10 * MS)
+        step(core, t * MS)
+    core.apply(SwitchScenario("stiffness", {"middle_level": 3}, 5), 10 * MS)
     scene, scenario = core.outbox
+    scene = sent(scene)
     assert scene[0] == "scene" and scene[1]["name"] == "stiffness" and scene[2] == core.sim.scene.hash
-    assert scenario == ["scenario", {"id": "stiffness-v1", "params": {"middle_level": 3}, "seed": 5, "trial": None,
-                                     "tick": 10}]
-    result, _ = core.step(10 * MS)
+    assert scenario == ScenarioAnnounce({"id": "stiffness-v1", "params": {"middle_level": 3}, "seed": 5, "trial": None,
+                                     "tick": 10})
+    result, _ = step(core, 10 * MS)
     assert result.tick == 10, "the tick counter continues across scenarios"
 
 
 def test_trial_record_reaches_the_scenario_and_is_announced():
     core = make_core()
-    core.apply(["trial", {"phase": "main", "params": {"angle_deg": -50}, "index": 1}], 0)
-    assert core.outbox[-1][1]["trial"] == {"phase": "main", "params": {"angle_deg": -50.0, "time_limit_s": 30.0},
+    core.apply(Trial({"phase": "main", "params": {"angle_deg": -50}, "index": 1}), 0)
+    assert core.outbox[-1].info["trial"] == {"phase": "main", "params": {"angle_deg": -50.0, "time_limit_s": 30.0},
                                            "index": 1}
     state = None
     for t in range(40):
-        _, rec = core.step(t * MS)
+        _, rec = step(core, t * MS)
         state = rec or state
     assert state["visible"] == {"angle_scale": False}, "main trials hide the angle scale"
     assert state["values"]["angle_deg"] == -50.0 and state["cues"][0]["direction_deg"] == 50.0
@@ -163,27 +172,27 @@ def test_trial_record_reaches_the_scenario_and_is_announced():
 
 def test_events_ride_with_the_next_state_record_stamped_with_their_tick():
     core = make_core()
-    core.apply(["input", 1, "tap_angle", "press", 30.0], 0)
-    _, first = core.step(0)  # a publish is due in tick 0 anyway (first cadence slot)
+    core.apply(Input(1, "tap_angle", "press", 30.0), 0)
+    _, first = step(core, 0)  # a publish is due in tick 0 anyway (first cadence slot)
     pressed, tap = first["events"]
     assert (pressed["name"], pressed["tick"], pressed["key"], pressed["value"], pressed["client"]) == \
         ("input", 0, "tap_angle", 30.0, 1), "every key and command is recorded with its tick and sender"
     assert (tap["name"], tap["tick"], tap["angle_deg"]) == ("tap", 0, 30.0)
-    later = [rec for t in range(1, 40) if (rec := core.step(t * MS)[1]) is not None]
+    later = [rec for t in range(1, 40) if (rec := step(core, t * MS)[1]) is not None]
     assert all(rec["events"] == [] for rec in later), "each event is published once"
 
 
 def test_trajectory_rows_ride_with_the_state_records_when_asked():
     core = make_core()
-    rows = [row for t in range(30) if (rec := core.step(t * MS)[1]) is not None for row in rec["trajectory"]]
+    rows = [row for t in range(30) if (rec := step(core, t * MS)[1]) is not None for row in rec["trajectory"]]
     assert rows == [], "nothing recorded unless an experiment asks"
-    core.apply(["record", 10], 30 * MS)
-    recs = [r for t in range(30, 130) if (r := core.step(t * MS)[1]) is not None]
+    core.apply(RecordEvery(10), 30 * MS)
+    recs = [r for t in range(30, 130) if (r := step(core, t * MS)[1]) is not None]
     rows = [row for rec in recs for row in rec["trajectory"]] + core.trajectory  # + what waits for the next record
     assert [row[0] for row in rows] == list(range(30, 130, 10)), "every 10th tick, none lost between records"
     assert len(rows[0]) == len(TRAJECTORY_COLUMNS) and rows[0][8] is None, "no carried object here"
-    core.apply(["record", 0], 130 * MS)
-    assert all(r["trajectory"] == [] for t in range(130, 200) if (r := core.step(t * MS)[1]) is not None)
+    core.apply(RecordEvery(0), 130 * MS)
+    assert all(r["trajectory"] == [] for t in range(130, 200) if (r := step(core, t * MS)[1]) is not None)
 
 
 def test_device_cues_leave_once_per_change_across_scenario_switches_and_fail_safe():
@@ -192,7 +201,7 @@ def test_device_cues_leave_once_per_change_across_scenario_switches_and_fail_saf
     sent = []
 
     def tick(t):
-        result, _ = core.step(t * MS)
+        result, _ = step(core, t * MS)
         sent.append((t, core.device_cues(result)))
 
     tick(0)
@@ -200,18 +209,18 @@ def test_device_cues_leave_once_per_change_across_scenario_switches_and_fail_saf
     for t in range(1, 5):
         tick(t)
     assert all(cues is None for _, cues in sent[1:]), "nothing changed: nothing to send"
-    core.apply(["tracker", 1, 0, 0.0, _dome(), None, 5 * MS], 5 * MS)
+    core.apply(TrackerSample(1, 0, 0.0, _dome(), None, 5 * MS), 5 * MS)
     tick(5)
     tick(6)
     assert sent[-2:] == [(5, tilt), (6, None)]
     # A switch builds a new simulation whose first tick has no previous cues to differ from;
     # the devices still show the tilt, so "off" must go out.
-    core.apply(["scenario", "stiffness", {}, 0], 7 * MS)
+    core.apply(SwitchScenario("stiffness", {}, 0), 7 * MS)
     tick(7)
     assert sent[-1] == (7, [])
     assert core.fail_safe_cues() is None, "already off: nothing to send"
-    core.apply(["scenario", "contact-angle", {}, 0], 8 * MS)
-    core.apply(["tracker", 1, 1, 0.0, _dome(), None, 8 * MS], 8 * MS)
+    core.apply(SwitchScenario("contact-angle", {}, 0), 8 * MS)
+    core.apply(TrackerSample(1, 1, 0.0, _dome(), None, 8 * MS), 8 * MS)
     tick(8)
     assert sent[-1] == (8, tilt)
     assert core.fail_safe_cues() == [] and core.fail_safe_cues() is None

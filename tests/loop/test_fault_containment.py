@@ -8,13 +8,15 @@ from server.loop import core as core_module
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
 from tests.loop.test_tick import Flaky
+from server.ipc.records import TrackerSample
+from tests.ipc import sent, state_map
 
 MS = 1_000_000
 DOME_TOP = (0.0, 0.0, 0.66)  # the dome is 0.6 high, the proxy 0.06 in radius
 
 
 def tracker(seq, pos, client=1):
-    return ["tracker", client, seq, float(seq), list(pos), None, seq * MS]
+    return TrackerSample(client, seq, float(seq), list(pos), None, seq * MS)
 
 
 def run(core, records_by_tick, ticks):
@@ -22,7 +24,7 @@ def run(core, records_by_tick, ticks):
     for _ in range(ticks):
         t = core.sim.data.tick
         out = core.tick(records_by_tick.get(t, ()), t * MS)
-        outs.append({"tick": out.tick, "error": out.error, "faults": list(out.faults), "state": out.state,
+        outs.append({"tick": out.tick, "error": out.error, "faults": [sent(f) for f in out.faults], "state": state_map(out.state),
                      "proxy": out.result.proxy if out.result else None})
     return outs
 

@@ -12,6 +12,8 @@ import time
 
 from server import ipc
 from server.loop.process import LoopConfig
+from server.ipc.records import FROM_LOOP, Input, Stop, SwitchScenario
+from tests.ipc import sent as array_of
 
 
 def start_loop(config: LoopConfig, doorbell: ipc.Doorbell | None = None) -> tuple[subprocess.Popen, socket.socket]:
@@ -30,7 +32,7 @@ def records_until(sock: socket.socket, done, timeout_s: float = 20.0) -> list[li
     while not done(seen):
         assert time.monotonic() < deadline, f"timed out; last records: {[r[0] for r in seen[-10:]]}"
         try:
-            seen.extend(ipc.drain(sock))
+            seen.extend(map(array_of, ipc.drain(sock, FROM_LOOP)))
         except ipc.PeerClosed:
             raise AssertionError("the loop process exited") from None
         time.sleep(0.002)
@@ -38,7 +40,7 @@ def records_until(sock: socket.socket, done, timeout_s: float = 20.0) -> list[li
 
 
 def stop(proc: subprocess.Popen, sock: socket.socket) -> None:
-    ipc.send_record(sock, ["stop"])
+    ipc.send_record(sock, Stop())
     try:
         proc.wait(5)
     except subprocess.TimeoutExpired:
@@ -52,8 +54,8 @@ def test_a_switch_is_installed_in_a_later_tick_than_the_one_that_received_it():
     try:
         records_until(sock, lambda seen: any(r[0] == "state" for r in seen))
         # The key rides in the same mailbox drain: its event names the tick that applied the switch record.
-        assert ipc.send_record(sock, ["scenario", "positioning", {}, 0])
-        assert ipc.send_record(sock, ["input", 1, "space", "press"])
+        assert ipc.send_record(sock, SwitchScenario("positioning", {}, 0))
+        assert ipc.send_record(sock, Input(1, "space", "press"))
         seen = records_until(sock, lambda seen: any(r[0] == "scenario" for r in seen))
         key_tick = next(e["tick"] for r in seen if r[0] == "state" for e in r[1]["events"] if e["name"] == "input")
         scene_at = next(i for i, r in enumerate(seen) if r[0] == "scene")
@@ -104,27 +106,27 @@ def test_a_loop_with_a_doorbell_reads_what_it_was_rung_for_and_loses_nothing():
     proc, sock = start_loop(LoopConfig(realtime=False), bell)
     try:
         seen = records_until(sock, lambda seen: any(r[0] == "state" for r in seen))
-        assert ipc.send_record(sock, ["input", 1, "unrung", "press"])  # in the socket, not rung for: waits
+        assert ipc.send_record(sock, Input(1, "unrung", "press"))  # in the socket, not rung for: waits
         seen = records_until(sock, lambda seen: sum(r[0] == "state" for r in seen) >= 6)
         assert input_ticks(seen, "unrung") == []
         bell.ring()
-        assert ipc.send_record(sock, ["input", 1, "rung", "press"])
+        assert ipc.send_record(sock, Input(1, "rung", "press"))
         bell.ring()
         seen = records_until(sock, lambda seen: input_ticks(seen, "rung"))
         assert input_ticks(seen, "unrung") == input_ticks(seen, "rung")  # both in the tick after the rings
         bell.ring()  # a count ahead of the socket (as a new loop reading an old count): one empty drain
         seen = records_until(sock, lambda seen: sum(r[0] == "state" for r in seen) >= 3)
-        assert ipc.send_record(sock, ["input", 1, "after", "press"])
+        assert ipc.send_record(sock, Input(1, "after", "press"))
         bell.ring()
         records_until(sock, lambda seen: input_ticks(seen, "after"))
         # more than one drain takes: the rest waits for the next tick, none is lost, in order
         sent, before = 0, []
         while sent < ipc.DRAIN_LIMIT + 200:
-            if ipc.send_record(sock, ["input", 1, "flood", "press", sent]):
+            if ipc.send_record(sock, Input(1, "flood", "press", sent)):
                 bell.ring()
                 sent += 1
             else:
-                before.extend(ipc.drain(sock))  # the loop's records fill our end meanwhile: read them
+                before.extend(map(array_of, ipc.drain(sock, FROM_LOOP)))  # the loop's records fill our end meanwhile: read them
         seen = before + records_until(sock, lambda s: len(input_ticks(before + s, "flood")) >= sent)
         values = [e["value"] for r in seen if r[0] == "state" for e in r[1]["events"] if e.get("key") == "flood"]
         assert values == list(range(sent)) and len(set(input_ticks(seen, "flood"))) >= 2

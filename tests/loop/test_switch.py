@@ -5,6 +5,8 @@ running scenario, trials wait for the new one, the latest switch wins."""
 from scenarios.contact_angle import ContactAngle
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation
+from server.ipc.records import Input, SwitchScenario, Trial
+from tests.ipc import sent, state_map
 
 MS = 1_000_000
 TRIAL = {"phase": "main", "params": {"mode": "production", "level": 7, "start_level": 2}, "index": 5}
@@ -27,15 +29,15 @@ def off_tick_core():
 def test_tick_never_builds_a_switch_it_only_records_it():
     core, make = off_tick_core()
     core.tick((), 0)
-    out = core.tick([["scenario", "stiffness", {"middle_level": 3}, 4], ["input", 1, "space", "press"]], MS)
+    out = core.tick([SwitchScenario("stiffness", {"middle_level": 3}, 4), Input(1, "space", "press")], MS)
     assert make.built == [], "no scenario was built inside the tick"
     assert core.pending_switch is not None and core.pending_switch.name == "stiffness"
-    assert core.sim.scenario.id == "contact-angle-v1" and out.state["scene"] == core.sim.scene.hash
-    assert not [r for r in out.records if r[0] in ("scene", "scenario")], "nothing announced before it is installed"
-    assert [e["key"] for e in out.state["events"] if e["name"] == "input"] == ["space"], \
+    assert core.sim.scenario.id == "contact-angle-v1" and state_map(out.state)["scene"] == core.sim.scene.hash
+    assert not [r for r in list(map(sent, out.records)) if r[0] in ("scene", "scenario")], "nothing announced before it is installed"
+    assert [e["key"] for e in state_map(out.state)["events"] if e["name"] == "input"] == ["space"], \
         "a key during the build goes to the running scenario"
     for t in range(2, 5):
-        assert core.tick((), t * MS).state["scene"] == out.state["scene"]
+        assert state_map(core.tick((), t * MS).state)["scene"] == state_map(out.state)["scene"]
     assert make.built == []
 
     switch = core.pending_switch
@@ -43,29 +45,29 @@ def test_tick_never_builds_a_switch_it_only_records_it():
     assert make.built == ["stiffness-v1"] and core.sim.scenario.id == "contact-angle-v1", "building installs nothing"
     assert core.install(switch, sim) and core.pending_switch is None
     out = core.tick((), 5 * MS)
-    assert [r[0] for r in out.records] == ["scene", "scenario"], "announced with the first tick after the install"
-    assert out.records[1][1]["id"] == "stiffness-v1" and out.records[1][1]["tick"] == 5
-    assert out.state["scene"] == out.records[0][2] and out.tick == 5, "the tick counter goes on"
+    assert [r[0] for r in list(map(sent, out.records))] == ["scene", "scenario"], "announced with the first tick after the install"
+    assert list(map(sent, out.records))[1][1]["id"] == "stiffness-v1" and list(map(sent, out.records))[1][1]["tick"] == 5
+    assert state_map(out.state)["scene"] == list(map(sent, out.records))[0][2] and out.tick == 5, "the tick counter goes on"
 
 
 def test_a_trial_sent_after_a_switch_waits_for_the_new_scenario():
     core, _ = off_tick_core()
-    core.tick([["scenario", "stiffness", {}, 0], ["trial", TRIAL]], 0)
+    core.tick([SwitchScenario("stiffness", {}, 0), Trial(TRIAL)], 0)
     assert core.sim.data.trial is None, "the trial is for the scenario being built, not the running one"
     switch = core.pending_switch
     core.install(switch, core.build(switch))
     assert core.sim.scenario.id == "stiffness-v1" and core.sim.data.trial is not None and core.sim.data.trial.index == 5
-    scenarios = [r[1] for r in core.outbox if r[0] == "scenario"]
+    scenarios = [r[1] for r in list(map(sent, core.outbox)) if r[0] == "scenario"]
     assert scenarios[-1]["trial"]["index"] == 5, "the trial is announced right after the new scenario"
 
 
 def test_a_second_switch_during_the_build_wins_and_the_first_is_discarded():
     core, make = off_tick_core()
-    core.tick([["scenario", "stiffness", {}, 0], ["trial", TRIAL]], 0)
+    core.tick([SwitchScenario("stiffness", {}, 0), Trial(TRIAL)], 0)
     first = core.pending_switch
     built_first = core.build(first)  # the first build runs while the second switch arrives
-    out = core.tick([["scenario", "texture", {}, 2]], MS)
-    assert any(r[:2] == ["log", "warning"] and "superseded" in r[2] for r in out.records)
+    out = core.tick([SwitchScenario("texture", {}, 2)], MS)
+    assert any(r[:2] == ["log", "warning"] and "superseded" in r[2] for r in list(map(sent, out.records)))
     assert not core.install(first, built_first), "a superseded build is not installed"
     assert core.sim.scenario.id == "contact-angle-v1"
     second = core.pending_switch
@@ -76,10 +78,10 @@ def test_a_second_switch_during_the_build_wins_and_the_first_is_discarded():
 
 def test_a_failed_build_is_reported_and_the_running_scenario_goes_on():
     core, _ = off_tick_core()
-    out = core.tick([["scenario", "no-such-scenario", {}, 0]], 0)
-    assert core.pending_switch is None and any("no-such-scenario" in r[2] for r in out.records if r[0] == "log"), \
+    out = core.tick([SwitchScenario("no-such-scenario", {}, 0)], 0)
+    assert core.pending_switch is None and any("no-such-scenario" in r[2] for r in list(map(sent, out.records)) if r[0] == "log"), \
         "an unknown name is refused at once"
-    core.tick([["scenario", "stiffness", {"middle_level": "bad"}, 0], ["trial", TRIAL]], MS)
+    core.tick([SwitchScenario("stiffness", {"middle_level": "bad"}, 0), Trial(TRIAL)], MS)
     switch = core.pending_switch
     try:
         core.build(switch)
@@ -87,17 +89,17 @@ def test_a_failed_build_is_reported_and_the_running_scenario_goes_on():
         core.abandon(switch, repr(exc))
     out = core.tick((), 2 * MS)
     assert core.pending_switch is None and core.sim.scenario.id == "contact-angle-v1"
-    texts = [r[2] for r in out.records if r[0] == "log"]
+    texts = [r[2] for r in list(map(sent, out.records)) if r[0] == "log"]
     assert any("record scenario failed" in t for t in texts) and any("trial record" in t for t in texts)
-    announced = [r[1] for r in out.records if r[0] == "scenario"]
+    announced = [r[1] for r in list(map(sent, out.records)) if r[0] == "scenario"]
     assert [(a["id"], a["failed"]) for a in announced] == [("contact-angle-v1", "stiffness")], \
         "the hub hears that the switch it sent will not come, and what runs instead"
 
 
 def test_without_build_off_tick_apply_builds_and_installs_at_once():
     core = LoopCore(Simulation(ContactAngle()))
-    core.apply(["scenario", "stiffness", {}, 0], 0)
-    core.apply(["trial", TRIAL], 0)
+    core.apply(SwitchScenario("stiffness", {}, 0), 0)
+    core.apply(Trial(TRIAL), 0)
     assert core.pending_switch is None and core.sim.scenario.id == "stiffness-v1" and core.sim.data.trial.index == 5
 
 
@@ -115,7 +117,7 @@ def test_the_builder_warms_up_off_the_calling_thread_then_builds_the_pending_swi
     core, make = off_tick_core()
     builder = builder_module.SwitchBuilder(core)
     builder.warm_up(("colorsys",))
-    core.tick([["scenario", "stiffness", {}, 0]], MS)
+    core.tick([SwitchScenario("stiffness", {}, 0)], MS)
     assert builder.busy and imported == [], "nothing is imported before between_ticks"
     deadline = time.monotonic() + 10
     while core.sim.scenario.id != "stiffness-v1" and time.monotonic() < deadline:

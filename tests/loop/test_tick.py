@@ -11,6 +11,8 @@ from server.core.tool import DEFAULT_PROXY_RADIUS, DRIVER_QUIET_S
 from server.loop.core import LoopCore
 from server.loop.simulation import Simulation, home_position
 from tests.experiment.test_recorder import recording  # noqa: F401 - the fixture
+from server.ipc.records import Input, Log, RecordEvery, SwitchScenario, TrackerGone, TrackerSample, Trial
+from tests.ipc import sent, state_map
 
 MS = 1_000_000
 TILT = [{"kind": "tilt", "direction_deg": 0.0, "magnitude_pct": 100.0}]
@@ -44,7 +46,7 @@ class Finishing(ContactAngle):
 
 
 def tracker(client, seq, pos, now=0):
-    return ["tracker", client, seq, float(seq), list(pos), None, now]
+    return TrackerSample(client, seq, float(seq), list(pos), None, now)
 
 
 def run(core, ticks, records_at=None):
@@ -53,8 +55,8 @@ def run(core, ticks, records_at=None):
     for _ in range(ticks):
         t = core.sim.data.tick
         out = core.tick((records_at or {}).get(t, ()), t * MS)
-        seen.append({"tick": out.tick, "cues": out.cues, "records": list(out.records), "state": out.state,
-                     "failed": out.result is None, "error": out.error})
+        seen.append({"tick": out.tick, "cues": out.cues, "records": [sent(r) for r in out.records],
+                     "state": state_map(out.state), "failed": out.result is None, "error": out.error})
     return seen
 
 
@@ -100,17 +102,17 @@ def test_cues_that_could_not_be_handed_over_go_again_next_tick():
 def test_a_switch_announces_scene_and_scenario_and_turns_the_old_cue_off():
     core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
     run(core, 2, {0: [tracker(1, 0, DOME_TOP)]})
-    out = core.tick([["scenario", "stiffness", {}, 3]], 2 * MS)
-    assert [r[0] for r in out.records] == ["scene", "scenario"]
-    assert out.records[0][2] == core.sim.scene.hash and out.records[1][1]["id"] == "stiffness-v1"
+    out = core.tick([SwitchScenario("stiffness", {}, 3)], 2 * MS)
+    assert [r[0] for r in map(sent, out.records)] == ["scene", "scenario"]
+    assert sent(out.records[0])[2] == core.sim.scene.hash and sent(out.records[1])[1]["id"] == "stiffness-v1"
     assert out.tick == 2 and out.cues == [], "the devices still showed the tilt: off goes out"
-    assert out.state["scene"] == out.records[0][2], "the state names the scene it was simulated in"
+    assert state_map(out.state)["scene"] == sent(out.records[0])[2], "the state names the scene it was simulated in"
 
 
 def test_a_bad_record_is_reported_and_the_tick_goes_on():
     core = LoopCore(Simulation(ContactAngle()))
-    out = core.tick([["scenario", "no-such-scenario", {}, 0], tracker(1, 0, DOME_TOP)], 0)
-    (level, text), = [r[1:] for r in out.records]
+    out = core.tick([SwitchScenario("no-such-scenario", {}, 0), tracker(1, 0, DOME_TOP)], 0)
+    (level, text), = [r[1:] for r in map(sent, out.records)]
     assert level == "error" and "record scenario failed" in text and "no-such-scenario" in text
     assert out.result is not None and out.cues == TILT, "the records after it still apply"
 
@@ -121,10 +123,10 @@ def test_one_source_drives_the_hip_others_are_ignored_and_counted():
     core = LoopCore(Simulation(ContactAngle()))
     out = core.tick([tracker(1, 0, FREE), tracker("udp:10.0.0.2:5000", 0, DOME_TOP)], 0)
     assert out.result.hip == tuple(FREE), "the first source drives; the second is ignored"
-    assert out.state["driver"] == [1, 0]
-    assert [row[0] for row in out.state["trackers"]] == [1], "only applied samples are rows"
-    assert out.records == [["log", "warning", "tracker samples from udp:10.0.0.2:5000 ignored: 1 drives the HIP "
-                                              "(1 ignored so far)"]]
+    assert state_map(out.state)["driver"] == [1, 0]
+    assert [row[0] for row in state_map(out.state)["trackers"]] == [1], "only applied samples are rows"
+    assert out.records == [Log("warning", "tracker samples from udp:10.0.0.2:5000 ignored: 1 drives the HIP "
+                                              "(1 ignored so far)")]
     seen = run(core, 40, {t: [tracker("udp:10.0.0.2:5000", t, DOME_TOP)] for t in range(1, 40)})
     assert all(s["cues"] is None for s in seen) and core.sim.tool.ignored == {"udp:10.0.0.2:5000": 40}
     assert all(s["records"] == [] for s in seen), "one log line, not one per sample"
@@ -141,7 +143,7 @@ def test_a_quiet_driver_loses_the_hip_after_driver_quiet_s():
     out = core.tick([tracker(2, 0, DOME_TOP)], (quiet - 1) * MS)
     assert out.result.hip == tuple(FREE), "silent for less than DRIVER_QUIET_S: still the driver's"
     out = core.tick([tracker(2, 1, DOME_TOP)], quiet * MS)
-    assert out.result.hip == tuple(DOME_TOP) and out.state is not None and out.state["driver"] == [2, 1]
+    assert out.result.hip == tuple(DOME_TOP) and out.state is not None and state_map(out.state)["driver"] == [2, 1]
     out = core.tick([tracker(1, 1, FREE)], (quiet + 1) * MS)
     assert out.result.hip == tuple(DOME_TOP), "the old driver is now the other source"
 
@@ -150,27 +152,27 @@ def test_when_the_driver_leaves_the_hip_goes_home_and_the_contact_cue_stops():
     core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
     home = home_position(core.sim.scene)
     run(core, 5, {0: [tracker(7, 0, DOME_TOP)]})
-    out = core.tick([["tracker_gone", 8]], 5 * MS)
-    assert out.result.hip == tuple(DOME_TOP) and out.state["driver"] == [7, 0], "someone else left: nothing changes"
-    seen = run(core, 60, {6: [["tracker_gone", 7]]})
+    out = core.tick([TrackerGone(8)], 5 * MS)
+    assert out.result.hip == tuple(DOME_TOP) and state_map(out.state)["driver"] == [7, 0], "someone else left: nothing changes"
+    seen = run(core, 60, {6: [TrackerGone(7)]})
     assert seen[0]["state"]["hip"] == pytest.approx(list(home)) and seen[0]["state"]["driver"] is None
     assert [s["cues"] for s in seen if s["cues"] is not None] == [[]], "free space: the tilt stops (after the gate)"
     out = core.tick([tracker(9, 0, DOME_TOP)], 66 * MS)
-    assert out.state["driver"] == [9, 0] and out.cues == TILT, "the next source drives at once"
+    assert state_map(out.state)["driver"] == [9, 0] and out.cues == TILT, "the next source drives at once"
 
 
 def test_the_driver_stays_across_a_scenario_switch():
     core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
     core.tick([tracker(1, 4, FREE)], 0)
-    out = core.tick([["scenario", "stiffness", {}, 0], tracker(2, 0, DOME_TOP)], MS)
-    assert out.state["driver"] == [1, 4] and core.sim.tool.ignored == {2: 1}
+    out = core.tick([SwitchScenario("stiffness", {}, 0), tracker(2, 0, DOME_TOP)], MS)
+    assert state_map(out.state)["driver"] == [1, 4] and core.sim.tool.ignored == {2: 1}
 
 
 # -- what the state record carries ------------------------------------------------------------------
 
 def test_the_state_record_holds_the_wire_fields_in_their_order_then_the_loops_own():
     core = LoopCore(Simulation(ContactAngle()))
-    state = core.tick([tracker(3, 0, DOME_TOP)], 0).state
+    state = state_map(core.tick([tracker(3, 0, DOME_TOP)], 0).state)
     assert list(state) == ["frame", "tick", "t", "scene", "hip", "proxy", "force", "contact", "contacts", "objects",
                            "cues", "hud", "values", "visible", "events", "scales", "stiffness", "haptic", "driver",
                            "tools", "points", "tracking",  # v1.4 wire fields, in their declared order
@@ -190,8 +192,8 @@ def test_the_state_record_carries_stiffness_so_a_client_computes_the_force():
     core = LoopCore(Simulation(StiffnessScenario()), state_hz=1000)  # a record every tick
     scene_k = {o.id: o.material.stiffness_n_per_m for o in core.sim.scene.objects}
     top = [0.0, SPACING, 2 * SPHERE_RADIUS + DEFAULT_PROXY_RADIUS - 0.004]  # 4 mm into the right sphere
-    keys = {50: [["input", 1, "ArrowDown", "down"]], 51: [["input", 1, "ArrowDown", "down"]],
-            90: [["input", 1, "ArrowUp", "down"]]}
+    keys = {50: [Input(1, "ArrowDown", "down")], 51: [Input(1, "ArrowDown", "down")],
+            90: [Input(1, "ArrowUp", "down")]}
     states = [s["state"] for s in run(core, 120, {0: [tracker(1, 0, top)], **keys})]
     assert states[0]["stiffness"] == {} and states[0]["scene"] == core.sim.scene.hash
     assert states[60]["stiffness"] == {"right": 80.0} and states[100]["stiffness"] == {"right": 90.0}
@@ -206,11 +208,11 @@ def test_the_state_record_carries_stiffness_so_a_client_computes_the_force():
 
 def test_the_state_record_carries_the_touchability_overrides():
     core = LoopCore(Simulation(StiffnessScenario()))
-    out = core.tick([["input", 1, "r", "press"]], 0)  # recording hides the left sphere and makes it untouchable
-    assert out.state["haptic"] == {}, "the tick that asks renders with the old set"
+    out = core.tick([Input(1, "r", "press")], 0)  # recording hides the left sphere and makes it untouchable
+    assert state_map(out.state)["haptic"] == {}, "the tick that asks renders with the old set"
     states = [s["state"] for s in run(core, 40) if s["state"] is not None]
     assert states[0]["haptic"] == {"left": False} and states[0]["visible"]["left"] is False
-    run(core, 1, {core.sim.data.tick: [["input", 1, "r", "press"]]})
+    run(core, 1, {core.sim.data.tick: [Input(1, "r", "press")]})
     assert [s["state"]["haptic"] for s in run(core, 40) if s["state"] is not None][-1] == {}
 
 
@@ -232,12 +234,12 @@ def test_the_recorder_takes_a_trials_metrics_from_the_loops_finished_entries(rec
     scenario = Finishing()
     scenario.at = 30
     core = LoopCore(Simulation(scenario))
-    out = core.tick([["trial", {"phase": "main", "params": {"angle_deg": 10.0}, "index": 0}]], 0)
+    out = core.tick([Trial({"phase": "main", "params": {"angle_deg": 10.0}, "index": 0})], 0)
     for _ in range(60):
         for record in out.records:
             recorder.on_record(record)
         if out.state is not None:
-            recorder.on_record(["state", out.state])
+            recorder.on_record(out.state)
         out = core.tick((), core.sim.data.tick * MS)
     assert recorder.end().metrics == {"completion_s": 1.5}
 
@@ -279,17 +281,17 @@ def test_a_run_nobody_draws_records_the_same_and_leaves_the_picture_out():
     from scenarios.positioning import Positioning
     drawn, undrawn = (LoopCore(Simulation(Positioning(), tick_hz=1000), drawn=flag) for flag in (True, False))
     for core in (drawn, undrawn):
-        core.apply(["record", 5], 0)
+        core.apply(RecordEvery(5), 0)
         for t in range(40):
             core.sim.set_hip((0.0, 0.1 * t / 40, 1.0))
             out = core.tick((), t * MS)
             if out.state is not None:
-                core.last = out.state
+                core.last = state_map(out.state)
     full, slim = drawn.last, undrawn.last
     assert set(slim) == {"frame", "tick", "t", "scene", "cues", "hud", "events", "samples", "trackers",
                          "trajectory", "finished"}
     assert {k: full[k] for k in slim} == slim, "what a recorder reads is the same"
     assert full["values"] and "hip" in full
     assert undrawn.sim.drawn is False and drawn.sim.drawn is True
-    undrawn.apply(["scenario", "contact-angle", {}, 0], 0)
+    undrawn.apply(SwitchScenario("contact-angle", {}, 0), 0)
     assert undrawn.sim.drawn is False, "a switched-in simulation is not drawn either"

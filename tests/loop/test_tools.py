@@ -19,6 +19,8 @@ from server.loop.core import LoopCore
 from server.loop.simulation import Simulation, home_position, tool_names
 from server.wire import messages
 from server.loop.tracker_udp import parse_datagram
+from server.ipc.records import CUES, Cues, Input, RecordEvery, SwitchScenario, TrackerGone, TrackerSample, Trial
+from tests.ipc import sent, state_map
 
 MS = 1_000_000
 THUMB = "right.thumb.tip"
@@ -41,7 +43,7 @@ def run(core: LoopCore, ticks: int, records=()):
     out = []
     for i in range(ticks):
         o = core.tick(list(records) if i == 0 else [], core.sim.data.tick * MS)
-        out.append((o.tick, o.state, o.cues, o.finger_cues, o.result))
+        out.append((o.tick, state_map(o.state), o.cues, o.finger_cues, o.result))
     return out
 
 
@@ -49,7 +51,7 @@ def run(core: LoopCore, ticks: int, records=()):
 
 def test_the_default_rig_has_one_tool_the_primary_point_and_the_state_lists_it():
     core = LoopCore(Simulation(ContactAngle()))
-    state = core.tick([tracker(1, 0, DOME_TOP)], 0).state
+    state = state_map(core.tick([tracker(1, 0, DOME_TOP)], 0).state)
     assert [t.name for t in core.sim.data.tools] == [PRIMARY_POINT]
     assert state["tools"] == [{"name": PRIMARY_POINT, "hip": state["hip"], "proxy": state["proxy"], "contact": True,
                                "lost": False}]
@@ -107,7 +109,7 @@ def test_the_tracker_rule_holds_per_tool():
     out = core.tick([tracker(2, 1, DOME_TOP), tracker(1, 1, DOME_TOP, point=THUMB)], MS)
     assert [t.hip for t in out.result.tools] == [FREE, FREE_SIDE], "each tool keeps its own driver"
     assert [t.driver for t in core.sim.data.tools] == [1, 2]
-    assert "from 1 ignored: 2 drives right.thumb.tip" in " ".join(r[2] for r in out.records if r[0] == "log")
+    assert "from 1 ignored: 2 drives right.thumb.tip" in " ".join(r[2] for r in map(sent, out.records) if r[0] == "log")
 
 
 # -- tracker loss (ttl) -------------------------------------------------------------------------
@@ -168,7 +170,7 @@ def test_a_lost_source_drops_its_drawn_points_and_a_source_that_leaves_is_not_lo
     assert ticks[0][1]["points"] == {"right.wrist": [0.0, 0.0, 1.4]} and ticks[-1][1]["points"] == {}
     core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
     run(core, 5, [tracker(4, 1, DOME_TOP, points={"right.wrist": (0, 0, 1.4)}, ttl=40)])
-    (_, state, *_), = run(core, 1, [["tracker_gone", 4]])
+    (_, state, *_), = run(core, 1, [TrackerGone(4)])
     assert state["points"] == {} and state["tracking"] == {"lost": []} and not state["contact"]
     assert run(core, 60)[-1][1]["events"] == [], "no loss is reported for a source that left"
 
@@ -176,7 +178,7 @@ def test_a_lost_source_drops_its_drawn_points_and_a_source_that_leaves_is_not_lo
 def test_a_scenario_switch_keeps_who_drives_each_tool_and_what_is_lost():
     core = two_fingers()
     run(core, 30, [tracker("udp:a", 1, FREE, point=THUMB, ttl=5), tracker(2, 1, DOME_TOP)])
-    core.tick([["scenario", "contact-angle", {}, 0]], 0)
+    core.tick([SwitchScenario("contact-angle", {}, 0)], 0)
     assert [t.driver for t in core.sim.data.tools] == [2, None] and core.sim.data.tool_by_name[THUMB].lost
     assert core.sim.data.lost_sources == {"udp:a": (THUMB,)}
 
@@ -186,9 +188,9 @@ def test_a_scenario_switch_keeps_the_drawn_points_and_the_ttl_running_and_starts
     switch as it would have been before); what the new scenario starts without: the old objects."""
     core = two_fingers()
     run(core, 5, [tracker("udp:h", 1, DOME_TOP, points={"right.wrist": (0, 0, 1.4)}, ttl=40)])
-    core.tick([["input", 1, "scale", "press", False]], 0)
+    core.tick([Input(1, "scale", "press", False)], 0)
     assert core.sim.data.visibility == {"angle_scale": False} and core.sim.data.deadlines == {"udp:h": 0.04}
-    ticks = run(core, 50, [["scenario", "contact-angle", {}, 0]])
+    ticks = run(core, 50, [SwitchScenario("contact-angle", {}, 0)])
     assert ticks[0][1]["points"] == {"right.wrist": [0.0, 0.0, 1.4]}
     assert ticks[0][1]["visible"] == {"angle_scale": True}, "the new scenario's own, not the old one's hidden scale"
     lost = [(tick, e["source"]) for tick, state, *_ in ticks for e in state["events"] if e["name"] == "tracker_lost"]
@@ -237,10 +239,7 @@ def feed_ticks(core, feed, records_by_tick, ticks):
     for i in range(ticks):
         out = core.tick(records_by_tick.get(i, []), i * MS)
         if out.cues is not None:
-            record = ["cues", out.tick, i * MS, out.cues]
-            if out.finger_cues is not None:
-                record.append(out.finger_cues)
-            feed.handle(record, i * MS)
+            feed.handle(Cues(out.tick, i * MS, out.cues, out.finger_cues), i * MS)
 
 
 def given(manager, drivers, name, cues) -> bool:
@@ -279,12 +278,12 @@ def test_touching_with_the_thumb_cues_only_the_thumb_device():
 def test_a_fail_safe_turns_every_finger_off():
     manager, drivers = rig_of_two()
     feed = DeviceFeed(manager)
-    feed.handle(["cues", 1, 0, [], {THUMB: [{"kind": "vibration", "intensity_pct": 50.0, "carrier_hz": 235.0}]}], 0)
+    feed.handle(Cues(1, 0, [], {THUMB: [{"kind": "vibration", "intensity_pct": 50.0, "carrier_hz": 235.0}]}), 0)
     assert manager.finger_cues == {THUMB: (Vibration(50.0, 235.0),)}
-    feed.handle(["cues", 2, 0, []], 0)  # a fail-safe record names no finger: all off
+    feed.handle(Cues(2, 0, []), 0)  # a fail-safe record names no finger: all off
     assert manager.cues == () and manager.finger_cues == {}
     with pytest.raises(ValueError, match="not a cue record"):
-        feed.handle(["cues", 3, 0, [], {THUMB: "buzz"}], 0)
+        feed.handle(CUES.decode(["cues", 3, 0, [], {THUMB: "buzz"}]), 0)
 
 
 # -- the wire -----------------------------------------------------------------------------------
@@ -292,18 +291,17 @@ def test_a_fail_safe_turns_every_finger_off():
 def test_v14_tracker_fields_reach_the_loop_record_through_the_udp_port():
     datagram = msgpack.packb({"type": "tracker", "seq": 4, "t": 1.5, "pos": [0, 0, 1], "point": THUMB,
                               "points": {"right.palm": [0, 0.1, 1]}, "ttl": 40})
-    assert parse_datagram(datagram, "udp:x", 9) == ["tracker", "udp:x", 4, 1.5, [0.0, 0.0, 1.0], None, 9, THUMB,
-                                                     {"right.palm": [0.0, 0.1, 1.0]}, 40.0]
+    assert parse_datagram(datagram, "udp:x", 9) == TrackerSample("udp:x", 4, 1.5, [0.0, 0.0, 1.0], None, 9, THUMB, {"right.palm": [0.0, 0.1, 1.0]}, 40.0)
     plain = msgpack.packb({"type": "tracker", "seq": 4, "t": 1.5, "pos": [0, 0, 1]})
-    assert parse_datagram(plain, "udp:x", 9) == ["tracker", "udp:x", 4, 1.5, [0.0, 0.0, 1.0], None, 9]
+    assert parse_datagram(plain, "udp:x", 9) == TrackerSample("udp:x", 4, 1.5, [0.0, 0.0, 1.0], None, 9)
 
 
 # -- recording every tool's tracked point -------------------------------------------------------
 
 def test_no_point_rows_with_one_tool_and_no_hand():
     core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
-    core.apply(["record", 1], 0)
-    state = core.tick([tracker(1, 0, DOME_TOP)], 0).state
+    core.apply(RecordEvery(1), 0)
+    state = state_map(core.tick([tracker(1, 0, DOME_TOP)], 0).state)
     assert len(state["trajectory"]) == 1 and "point_rows" not in state
 
 
@@ -321,14 +319,14 @@ def test_the_recorder_keeps_every_tracked_point_and_the_loss_and_export_writes_a
     recorder = Recorder(store)
     recorder.begin("s1", trial.id, trial.attempt, "main", 0)
     core = two_fingers()
-    core.apply(["record", 10], 0)
-    out = core.tick([["trial", {"phase": "main", "params": {"angle_deg": 10.0}, "index": 0}],
+    core.apply(RecordEvery(10), 0)
+    out = core.tick([Trial({"phase": "main", "params": {"angle_deg": 10.0}, "index": 0}),
                      tracker("udp:h", 1, DOME_TOP, points={THUMB: FREE_SIDE, "right.wrist": (0, 0, 1.5)}, ttl=30)], 0)
     for _ in range(60):
         for record in out.records:
             recorder.on_record(record)
         if out.state is not None:
-            recorder.on_record(["state", out.state])
+            recorder.on_record(out.state)
         out = core.tick((), core.sim.data.tick * MS)
     recorder.end()
     rows = store.point_samples(trial.id, trial.attempt)
@@ -355,9 +353,9 @@ def test_the_recorder_keeps_every_tracked_point_and_the_loss_and_export_writes_a
 
 def test_point_rows_of_a_state_record_the_hub_could_not_take_ride_with_the_next():
     core = two_fingers()
-    core.apply(["record", 1], 0)
+    core.apply(RecordEvery(1), 0)
     first = core.tick([tracker(1, 0, FREE, points={THUMB: FREE_SIDE})], 0).state
     core.unsent(first)
-    second = core.tick((), MS).state
+    second = state_map(core.tick((), MS).state)
     assert [row[0] for row in second["point_rows"]] == [0, 1]
     assert [row[0] for row in second["trajectory"]] == [0, 1]

@@ -13,13 +13,15 @@ import pytest
 from server.loop import tracker_udp
 from server.loop.tracker_udp import MAX_PER_TICK, TrackerPort, parse_datagram
 from server.wire.codec import WireError
+from server.ipc.records import TrackerSample
+from tests.ipc import sent
 
 
 def test_msgpack_and_json_datagrams_become_the_loops_tracker_records():
     sample = {"type": "tracker", "seq": 7, "t": 12.5, "pos": [0.1, 0.2, 1.0]}
-    assert parse_datagram(msgpack.packb(sample), "udp:h:1", 99) == ["tracker", "udp:h:1", 7, 12.5, [0.1, 0.2, 1.0], None, 99]
+    assert parse_datagram(msgpack.packb(sample), "udp:h:1", 99) == TrackerSample("udp:h:1", 7, 12.5, [0.1, 0.2, 1.0], None, 99)
     with_quat = {**sample, "quat": [1, 0, 0, 0]}
-    assert parse_datagram(json.dumps(with_quat).encode(), "udp:h:1", 5)[5] == [1.0, 0.0, 0.0, 0.0]
+    assert parse_datagram(json.dumps(with_quat).encode(), "udp:h:1", 5).quat == [1.0, 0.0, 0.0, 0.0]
 
 
 @pytest.mark.parametrize("data, code", [
@@ -64,7 +66,7 @@ def test_samples_sent_to_the_port_are_read_in_order_and_bad_ones_get_one_error_r
         bridge.sendto(json.dumps({"type": "tracker", "seq": 3, "t": 1.0, "pos": [0, 0.5, 1]}).encode(), address)
         records = _drain_until(tracker_port, 2, now_ns=42)
         me = "udp:127.0.0.1:%d" % bridge.getsockname()[1]
-        assert [(r[1], r[2], r[4], r[6]) for r in records] == [(me, 1, [0.0, 0.0, 1.0], 42), (me, 3, [0.0, 0.5, 1.0], 42)]
+        assert [(r[1], r[2], r[4], r[6]) for r in map(sent, records)] == [(me, 1, [0.0, 0.0, 1.0], 42), (me, 3, [0.0, 0.5, 1.0], 42)]
         reply = json.loads(bridge.recv(2048))  # in the sender's format (JSON here)
         assert reply["type"] == "error" and reply["code"] == "bad_message" and "'t'" in reply["message"]
     assert (tracker_port.received, tracker_port.bad) == (2, 1)
@@ -79,7 +81,7 @@ def test_a_flood_is_read_at_most_max_per_tick_at_a_time_and_nothing_is_lost(port
         first = tracker_port.drain(0)
         assert len(first) == MAX_PER_TICK
         rest = _drain_until(tracker_port, MAX_PER_TICK + 5)
-    assert [r[2] for r in first + rest] == list(range(MAX_PER_TICK * 2 + 5))
+    assert [r[2] for r in map(sent, first + rest)] == list(range(MAX_PER_TICK * 2 + 5))
 
 
 def test_binding_a_port_in_use_says_which_and_what_to_do(port):

@@ -9,23 +9,25 @@ from server import ipc
 from server.loop.core import LoopCore
 from server.loop.process import _send_in_order
 from server.loop.simulation import Simulation
+from server.ipc.records import FROM_LOOP, Input, Log, RecordEvery, TrackerSample
+from tests.ipc import sent, state_map
 
 MS = 1_000_000
 
 
 def test_an_unsent_state_records_rows_events_and_trackers_go_out_with_the_next_one():
     core = LoopCore(Simulation(ContactAngle()), state_hz=100)
-    core.apply(["record", 1], 0)
+    core.apply(RecordEvery(1), 0)
     core.record_sample(MS, 20_000)  # a timing sample the first state record carries
     states = []
     for t in range(40):
-        records = [["input", 1, "space", "press"]] if t == 3 else []
+        records = [Input(1, "space", "press")] if t == 3 else []
         if t == 5:
-            records.append(["tracker", 7, 1, 0.0, [0.0, 0.0, 0.5], None, 0])
+            records.append(TrackerSample(7, 1, 0.0, [0.0, 0.0, 0.5], None, 0))
         out = core.tick(records, t * MS)
         core.record_sample(MS, 10_000)
         if out.state is not None:
-            states.append(out.state)
+            states.append(state_map(out.state))
             if len(states) == 1:
                 core.unsent(out.state)  # the hub's end was full
     rows = [row[0] for state in states[1:] for row in state["trajectory"]]
@@ -43,8 +45,8 @@ def test_an_unsent_state_records_rows_events_and_trackers_go_out_with_the_next_o
 def test_records_wait_in_order_while_the_hub_does_not_read():
     ours, theirs = ipc.channel_pair()
     try:
-        backlog = deque([["log", "info", str(i)] for i in range(3)])
-        big = ["log", "info", "x" * 60_000]
+        backlog = deque([Log("info", str(i)) for i in range(3)])
+        big = Log("info", "x" * 60_000)
         while ipc.send_record(ours, big):  # fill the hub's end
             pass
         _send_in_order(ours, backlog)
@@ -57,7 +59,7 @@ def test_records_wait_in_order_while_the_hub_does_not_read():
                 break
         _send_in_order(ours, backlog)
         assert not backlog
-        got = ipc.drain(theirs)
+        got = [sent(r) for r in ipc.drain(theirs, FROM_LOOP)]
         assert [r[2] for r in got] == ["0", "1", "2"]
     finally:
         ours.close()

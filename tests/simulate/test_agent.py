@@ -11,13 +11,14 @@ from devices.profiles import profile_by_model
 from server.simulate.agent import AgentParams, GaveUp, PositioningAgent
 from server.simulate.virtual_device import VirtualDevice
 from server.simulate.virtual_hub import VirtualHub
+from server.ipc.records import State
 
 
 def run(cue: str, obj: str, model: str, fault=None, timeout_s: float = 90.0):
     device = VirtualDevice(model, profile_by_model(model), fault=fault)
     hub = VirtualHub({model: device})
     events = []
-    hub.listeners.append(lambda r: events.extend(r[1]["events"]) if r[0] == "state" else None)
+    hub.listeners.append(lambda r: events.extend(r.view["events"]) if type(r) is State else None)
     hub.switch_scenario("positioning", {"cue": cue})
     hub.set_trial("main", {"object": obj, "cue": cue}, 0)
     PositioningAgent(hub, device.feel, AgentParams(trial_timeout_s=timeout_s)).run_trial(obj, cue)

@@ -18,6 +18,7 @@ from server.simulate.effects import parse_settings
 from server.simulate.power import power_table, replication_seed, run_power
 from server.simulate.power_store import ConfigMismatch
 from tests.analysis.thesis_data import Truth, build
+from server.ipc.records import State
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -155,7 +156,7 @@ def test_a_device_slowdown_lengthens_that_devices_positioning_trials():
         device = VirtualDevice("fingertac", profile_by_model("fingertac"))
         hub = VirtualHub({"fingertac": device})
         events = []
-        hub.listeners.append(lambda r: events.extend(r[1]["events"]) if r[0] == "state" else None)
+        hub.listeners.append(lambda r: events.extend(r.view["events"]) if type(r) is State else None)
         hub.switch_scenario("positioning", {"cue": "P1"})
         hub.set_trial("main", {"object": "cube_a", "cue": "P1"}, 0)
         PositioningAgent(hub, device.feel, parse_settings(settings).agent["fingertac"]).run_trial("cube_a", "P1")

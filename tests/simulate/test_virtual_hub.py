@@ -8,6 +8,7 @@ from scenarios.contact_angle import PROXY_RADIUS, RADIUS
 from server.core.scenario import ParamError
 from server.simulate.virtual_device import VirtualDevice
 from server.simulate.virtual_hub import VirtualHub
+from tests.ipc import sent
 
 DOME_TOP = (0.0, 0.0, RADIUS + PROXY_RADIUS - 0.003)
 
@@ -16,7 +17,7 @@ def rig():
     device = VirtualDevice("ferrovibe", profile_by_model("ferrovibe"))
     hub = VirtualHub({"ferrovibe": device})
     heard = []
-    hub.listeners.append(heard.append)
+    hub.listeners.append(lambda record: heard.append(sent(record)))  # as on the socket
     return hub, device, heard
 
 

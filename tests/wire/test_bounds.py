@@ -28,7 +28,7 @@ def test_the_udp_port_refuses_a_position_outside_the_workspace(pos, fmt):
 def test_the_workspace_edge_is_inside():
     h = WORKSPACE_HALF_EXTENT_M
     record = parse_datagram(msgpack.packb({"type": "tracker", "seq": 1, "t": 0, "pos": [h, -h, h]}), "udp:x", 0)
-    assert record[4] == [h, -h, h]
+    assert record.pos == [h, -h, h]
     assert in_workspace((h, -h, 0.0)) and not in_workspace((h + 1e-9, 0.0, 0.0))
     assert not in_workspace((float("nan"), 0.0, 0.0))
     assert clamp_to_workspace((1e308, -1e308, float("nan"))) == (h, -h, 0.0)
@@ -40,4 +40,4 @@ def test_integers_beyond_2_53_are_out_of_range(seq):
         parse_datagram(msgpack.packb({"type": "tracker", "seq": seq, "t": 0, "pos": [0, 0, 0]}), "udp:x", 0)
     assert info.value.code == "out_of_range"
     ok = parse_datagram(msgpack.packb({"type": "tracker", "seq": 2**53 - 1, "t": 0, "pos": [0, 0, 0]}), "udp:x", 0)
-    assert ok[2] == 2**53 - 1
+    assert ok.seq == 2**53 - 1

@@ -14,15 +14,10 @@ no more. Measured on this machine, the empty non-blocking `recv` alone was p50 5
 of a tick; counting also spares a tick that has records the last `recv`, the one that finds the
 socket empty and raises (~1.2 µs of a 2.6 µs drain of one record, warm).
 
-Records, hub → loop: ["tracker", client_id, seq, t_ms, [x,y,z], quat|None, recv_ns] (+ [point,
-points, ttl_ms] for a v1.4 sample with any of them: server/wire/messages.py Tracker.loop_record),
-["input", client_id, key, action, value?], ["trial", body|None], ["scenario", name, params, seed, n],
-["devices", report], ["record", every_n_ticks], ["tracker_gone", client_id] (a /ws client that
-sent tracker samples left: the HIP it drove goes home), ["stop"].
-Records, loop → hub: ["hello", info], ["scene", scene_map, hash], ["scenario", info],
-["state", state_map], ["fail_safe"], ["log", level, text].
-The cue channel (loop → device host process, devices/feed.py) is a second pair of the same kind:
-["cues", tick, sent_ns, [cue, ...]] in every tick whose cues changed.
+The records each direction carries are declared once in server/ipc/records.py (frozen dataclasses,
+`[tag, *fields]` on the socket); their tables are in docs/architecture.md "The mailbox", written
+from those declarations by server/ipc/doc.py. The cue channel (loop → device host process,
+devices/feed.py) is a second pair of the same kind.
 """
 
 from __future__ import annotations
@@ -33,6 +28,8 @@ import socket
 import struct
 
 import msgpack
+
+from server.ipc.records import BadRecord, Channel, Malformed, Record
 
 MAX_RECORD_BYTES = 256 * 1024
 DRAIN_LIMIT = 1024  # records read in one call at most: a flood waits for the next tick, never stalls this one
@@ -48,10 +45,23 @@ def channel_pair() -> tuple[socket.socket, socket.socket]:
     return a, b
 
 
-def send_record(sock: socket.socket, record: list) -> bool:
+def pack(record: Record) -> bytes:
+    return msgpack.packb(record.to_array(), use_bin_type=True)
+
+
+def unpack(data: bytes, channel: Channel) -> Record:
+    """The record in `data`; BadRecord when it is none of `channel`'s (or not msgpack)."""
+    try:
+        array = msgpack.unpackb(data, raw=False)
+    except (ValueError, msgpack.UnpackException) as exc:
+        raise BadRecord(f"{channel.name}: not msgpack ({exc})") from None
+    return channel.decode(array)
+
+
+def send_record(sock: socket.socket, record: Record) -> bool:
     """Send one record without blocking; False when the peer's buffer is full (dropped)."""
     try:
-        sock.send(msgpack.packb(record, use_bin_type=True))
+        sock.send(pack(record))
         return True
     except (BlockingIOError, InterruptedError):
         return False
@@ -61,9 +71,10 @@ class PeerClosed(Exception):
     """The other end of the mailbox went away."""
 
 
-def drain(sock: socket.socket, limit: int = DRAIN_LIMIT) -> list[list]:
+def drain(sock: socket.socket, channel: Channel, limit: int = DRAIN_LIMIT) -> list[Record | Malformed]:
     """Every record waiting now (at most `limit`: with exactly `limit` waiting, no `recv` finds
-    the socket empty), without blocking."""
+    the socket empty), without blocking. One that is no record of `channel` comes out as
+    `Malformed` for the receiver to report: the records after it still arrive."""
     records = []
     for _ in range(limit):
         try:
@@ -74,7 +85,10 @@ def drain(sock: socket.socket, limit: int = DRAIN_LIMIT) -> list[list]:
             if records:  # hand over what came before the close; the next call raises
                 break
             raise PeerClosed()
-        records.append(msgpack.unpackb(data, raw=False))
+        try:
+            records.append(unpack(data, channel))
+        except BadRecord as exc:
+            records.append(Malformed(str(exc)))
     return records
 
 
