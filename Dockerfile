@@ -5,7 +5,7 @@ RUN apt-get update && apt-get install -y --no-install-recommends npm gcc libc6-d
 WORKDIR /app
 COPY . .
 RUN python -m venv .venv && .venv/bin/pip install --no-cache-dir -e . \
-    && .venv/bin/python -c "from devices.fwcore import ensure_library; ensure_library()" \
+    && .venv/bin/python -c "from devices.firmware_binding import ensure_library; ensure_library()" \
     && cd clients/web && npm ci --no-audit --no-fund --loglevel=error
 EXPOSE 8000
 CMD [".venv/bin/viestac", "serve", "--host", "0.0.0.0", "--port", "8000"]

@@ -1,6 +1,6 @@
 """Device emulators: a pseudo-terminal that behaves like the FingerTac, FerroVibe or devkit firmware.
 
-The emulator runs the real firmware core (devices/firmware, through devices.fwcore) behind a pty,
+The emulator runs the real firmware core (devices/firmware, through devices.firmware_binding) behind a pty,
 so the host's whole byte path (pyserial, framing, handshake, coalescing) is the production one.
 It models what the pty cannot:
 
@@ -30,7 +30,7 @@ import tty
 from collections import deque
 from pathlib import Path
 
-from devices.fwcore import MODELS, Edge, FirmwareCore
+from devices.firmware_binding import MODELS, Edge, Firmware
 from devices.link import BYTE_TIME_S
 from devices.messages import PatternMode
 from devices.realtime import fifo_this_thread
@@ -53,7 +53,7 @@ class Emulator:
     def __init__(self, model: str, *, link: str | os.PathLike | None = None, timeline: str | os.PathLike | None = None,
                  wire: bool = True, history: int = 2_000_000, clock_ns=time.monotonic_ns, realtime: bool = False,
                  append_timeline: bool = False):
-        self.core = FirmwareCore(model)
+        self.core = Firmware(model)
         # A device has a CPU of its own: as a measuring instrument (bench latency) the emulator's
         # thread asks for SCHED_FIFO, so its read stamps do not include waiting for a shared core.
         self.realtime = realtime
@@ -193,7 +193,7 @@ class Emulator:
                 self._close_pty()
             elif what == "replug":
                 if self._master < 0:
-                    self.core = FirmwareCore(self.model)
+                    self.core = Firmware(self.model)
                     self._open_pty()
             done.set()
 

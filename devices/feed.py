@@ -3,7 +3,7 @@
 The loop sends a `Cues` record (server/ipc/records.py) on the cue channel in every tick whose
 cues differ from what the devices were last given, before that tick's state record; with several
 tools (fingers) its `fingers` carry every other tool's cues, and each device gets its own finger's (devices/manager.py). Without it, a device on
-another finger gets nothing: a fail-safe `[]` turns every device off. The feed runs in the device host process (devices/host_process.py), never on the hub's
+another finger gets nothing: a fail-safe `[]` turns every device off. The feed runs in the device host process (devices/device_host_process.py), never on the hub's
 event loop: with 64 viewers that loop is busy sending the same tick's frame to every viewer right
 when a cue changes (docs/performance.md "Tracker → device latency"). The thread sleeps in `recv`,
 runs at SCHED_FIFO below the loop when allowed (devices/realtime.py), and hands each cue set to

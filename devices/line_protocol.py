@@ -1,4 +1,4 @@
-"""LineProtocol: HostProtocol's interface for lab firmware that speaks ASCII lines, sans-I/O.
+"""LineProtocol: DeviceSession's interface for lab firmware that speaks ASCII lines, sans-I/O.
 
 A `LineProfile` maps each command to a line template (str.format syntax), e.g.
 
@@ -19,7 +19,7 @@ off_ms, period_us (pattern), direction_deg (tilt), celsius (temperature), coeffi
 Templates are checked when the profile is built: an unknown placeholder or a format that fails
 is a LineProfileError naming the template and the allowed placeholders.
 
-Behaviour, as in HostProtocol (devices/protocol.py): the same calls, latest-wins slots per
+Behaviour, as in DeviceSession (devices/protocol.py): the same calls, latest-wins slots per
 layer_key, at most one line per poll within the same LinkBudget, events out. Differences:
 - no acknowledgements (a written line counts as shown), no heartbeat, no RTT, so the status is
   disconnected, handshaking or connected and never unresponsive;
@@ -166,7 +166,7 @@ class CommandRefused:
 class LineProtocol:
     def __init__(self, profile: LineProfile | Mapping, *, share: float = 0.5, byte_time_s: float = BYTE_TIME_S,
                  hello_interval_s: float = 0.25, ping_interval_s: float = 0.5, silence_timeout_s: float = 1.5):
-        # ping_interval_s and silence_timeout_s: accepted for HostProtocol's signature; an ASCII
+        # ping_interval_s and silence_timeout_s: accepted for DeviceSession's signature; an ASCII
         # firmware has no heartbeat this class could rely on
         self.profile = profile if isinstance(profile, LineProfile) else LineProfile.from_dict(profile)
         self.hello_interval_s = hello_interval_s

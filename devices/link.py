@@ -151,7 +151,7 @@ class CommandBook:
 
     def set(self, message, now_s: float) -> bool:
         """The newest value of one layer. Returns whether it changed between nothing waiting and
-        something waiting (HostProtocol.set tells its driver from that whether to poll)."""
+        something waiting (DeviceSession.set tells its driver from that whether to poll)."""
         if not isinstance(message, SET_MESSAGES):
             raise TypeError(f"not a SET_* or STOP message: {message!r}")
         key = message.layer_key

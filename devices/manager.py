@@ -1,6 +1,6 @@
 """DeviceManager: the configured devices of a rig, fed with the loop's cues.
 
-It lives in the device host process (devices/host_process.py), where the device feed
+It lives in the device host process (devices/device_host_process.py), where the device feed
 (devices/feed.py) hands it each cue set the loop sends on the cue channel in every tick whose
 cues changed. For every device it encodes the cues for that device's profile (devices.encoder)
 and passes the commands to its SerialDevice, which coalesces them onto the link. Refusals (cues a
@@ -37,7 +37,7 @@ from devices.link import BYTE_TIME_S
 from devices.ports import PortSpec
 from devices.messages import cap_names
 from devices.profiles import DeviceProfile, ProfileError, profile_by_model
-from devices.protocol import (WATCHDOG_MS, DeviceErrorReported, FrameRejected, HostProtocol, Identified, StatusChanged,
+from devices.protocol import (WATCHDOG_MS, DeviceErrorReported, FrameRejected, DeviceSession, Identified, StatusChanged,
                               WatchdogReported)
 from devices.serial_port import SerialDevice
 
@@ -162,7 +162,7 @@ def make_protocol(profile: DeviceProfile, link_share: float, baud: int, watchdog
     if profile.protocol == "line":
         return LineProtocol(dict(profile.line), share=link_share, byte_time_s=byte_time_s)
     # keepalives at a quarter of the watchdog, never more often than every 5 ms
-    return HostProtocol(share=link_share, byte_time_s=byte_time_s, watchdog_ms=watchdog_ms,
+    return DeviceSession(share=link_share, byte_time_s=byte_time_s, watchdog_ms=watchdog_ms,
                         keepalive_interval_s=max(0.005, watchdog_ms / 4000))
 
 

@@ -1,4 +1,4 @@
-"""HostProtocol: the host side of a device session (docs/device-protocol.md §4), sans-I/O.
+"""DeviceSession: the host side of a device session (docs/device-protocol.md §4), sans-I/O.
 
 Theory of operation (the websockets/h11 shape). The adapter (devices/serial_port.py) owns the
 port and the clock and calls, with the current time in seconds:
@@ -103,7 +103,7 @@ class Pong:
     rtt_s: float  # PING write → PONG receipt
 
 
-class HostProtocol:
+class DeviceSession:
     def __init__(self, *, share: float = 0.5, byte_time_s: float = BYTE_TIME_S, hello_interval_s: float = 0.25,
                  ping_interval_s: float = 0.5, silence_timeout_s: float = 1.5, ack_timeout_s: float = 0.5,
                  watchdog_ms: int = 0, keepalive_interval_s: float = KEEPALIVE_INTERVAL_S):

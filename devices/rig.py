@@ -26,7 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from devices.fwcore import ensure_library
+from devices.firmware_binding import ensure_library
 from devices.manager import DeviceConfig
 from devices.ports import PortSpec
 from devices.profiles import profile_by_model

@@ -1,5 +1,5 @@
 """SerialDevice: one configured device on a serial port — pyserial and two threads around a
-sans-I/O protocol (devices.protocol.HostProtocol or devices.line_protocol.LineProtocol).
+sans-I/O protocol (devices.protocol.DeviceSession or devices.line_protocol.LineProtocol).
 
 No domain logic lives here. The reader thread owns the connection: it resolves the port (a
 path or USB VID/PID/serial number), opens it, feeds every byte it reads to the protocol, and on

@@ -4,7 +4,7 @@ sleeps (like h11's ConnectionPair).
 SimulatedLink moves whole writes across a line of `byte_time_s` per byte (both directions
 serialised, plus a fixed latency) and polls the host exactly when its poll() asked to be
 called again, after something was received, or after a set() that answers that a poll may
-have something new to do (HostProtocol.set): it checks that contract too. The device end is
+have something new to do (DeviceSession.set): it checks that contract too. The device end is
 the simulated study's firmware core (server/simulate/virtual_device.py) or the tests' FakeDevice.
 """
 

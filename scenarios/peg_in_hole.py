@@ -79,7 +79,7 @@ class PegInHole:
     def _clear_table(self) -> None:
         """Every object back at its start, touchable; nothing carried or placed."""
         self.pending.poses = {item.id: Pose((*item.start, item.half)) for item in ITEMS}
-        self.pending.haptic = {item.id: True for item in ITEMS}
+        self.pending.touchable = {item.id: True for item in ITEMS}
         self.placed: dict[str, str] = {}   # object id → the object id whose hole it is in
         self.carried: Item | None = None
         self.position = None
@@ -146,7 +146,7 @@ class PegInHole:
     def _grasp(self, t: float, item: Item) -> None:
         self.carried, self.t_pick, self.t_done = item, t, None
         self.position, self.path_length, self.nearest = None, 0.0, None
-        self.pending.haptic[item.id] = False
+        self.pending.touchable[item.id] = False
         self.pending.emit("pick", object=item.id)
 
     def _choose_nearest(self, item: Item, position) -> None:

@@ -232,7 +232,7 @@ class Positioning:
         self.guide = PatternGuide(self._cue(), self.p2_form, self.boundary) if self._cue() in PATTERNS else None
         item = ITEMS[index]
         self.pending.poses[item.id] = Pose((*item.start, item.half))
-        self.pending.haptic[item.id] = True
+        self.pending.touchable[item.id] = True
         self.pending.visible.update({"arrow_shaft": False, "arrow_head": False})
 
     def _cue(self) -> str:
@@ -245,7 +245,7 @@ class Positioning:
         self.trial = trial
         for item in ITEMS:
             self.pending.poses[item.id] = Pose((*item.start, item.half))
-            self.pending.haptic[item.id] = True
+            self.pending.touchable[item.id] = True
         self._begin(ITEM_IDS.index(trial.params["object"]) if trial else 0)
 
     def on_input(self, key: str, action: str, value: Any = None) -> None:
@@ -303,7 +303,7 @@ class Positioning:
 
     def _grasp(self, ctx: TickContext, item: Item) -> None:
         self.phase, self.t_pick = "carry", ctx.t_s
-        self.pending.haptic[item.id] = False
+        self.pending.touchable[item.id] = False
         self.pending.visible.update({"arrow_shaft": True, "arrow_head": True})
         self.pending.emit("pick", object=item.id)
 

@@ -117,7 +117,7 @@ class ShapeScenario:
             y = 0.0 if trial is not None and active else GALLERY_Y[name]
             self.origins[name] = (0.0, y, 0.0)
             self.pending.poses[name] = origin_pose(name, y)
-            self.pending.haptic[name] = active
+            self.pending.touchable[name] = active
             self.pending.visible[name] = active and not (trial is not None and trial.params["hidden"])
             if self.labels:
                 self.pending.visible[f"{name}_label"] = trial is None

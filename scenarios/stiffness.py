@@ -131,7 +131,7 @@ class StiffnessScenario:
             self.recorded_s = self._t - self.recording_since
             self.recording_since = None
         # §5.4.1: while recording only the spheres to be matched are shown (and touchable)
-        self.pending.haptic[LEFT] = self.pending.visible[LEFT] = not on
+        self.pending.touchable[LEFT] = self.pending.visible[LEFT] = not on
         if self.labels:
             self.pending.visible["left_label"] = not on
         self.pending.emit("recording", on=on, by=why, right_level=self.levels[RIGHT],

@@ -13,7 +13,7 @@ apt_packages=()
 python3 -c 'import venv, ensurepip' 2>/dev/null || apt_packages+=(python3-venv)
 command -v npm >/dev/null || apt_packages+=(npm)
 # gcc/make build the device firmware core that the emulators of the simulated rig run; gcc and
-# Python's headers build the compiled haptic core (server/core/haptics/_ccore.c, setup.py).
+# Python's headers build the compiled haptic core (server/core/haptics/_chaptics.c, setup.py).
 command -v gcc >/dev/null || apt_packages+=(gcc)
 python3 -c 'import os, sys, sysconfig; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' \
   || apt_packages+=(python3-dev)
@@ -52,14 +52,14 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
 fi
 # The compiled haptic core again when its C source changed since it was built (a pull, an edit):
 # a stale build is not used (compiled.py warns and falls back to the Python reference).
-core_so=$(ls server/core/haptics/_ccore.*.so 2>/dev/null | head -n 1 || true)
-if [ -z "$core_so" ] || [ server/core/haptics/_ccore.c -nt "$core_so" ]; then
+core_so=$(ls server/core/haptics/_chaptics.*.so 2>/dev/null | head -n 1 || true)
+if [ -z "$core_so" ] || [ server/core/haptics/_chaptics.c -nt "$core_so" ]; then
   echo "setup: building the compiled haptic core"
   .venv/bin/python -m pip install -q --no-deps -e .
 fi
 
 # The firmware core the emulators run (rebuilt only when its C sources change).
-.venv/bin/python -c "from devices.fwcore import ensure_library; ensure_library()"
+.venv/bin/python -c "from devices.firmware_binding import ensure_library; ensure_library()"
 
 if [ ! -d clients/web/node_modules ] || [ clients/web/package-lock.json -nt clients/web/node_modules ]; then
   echo "setup: installing the browser client's npm packages"

@@ -147,7 +147,7 @@ def _device_processes_elsewhere(hub: int) -> list[str]:
     found = []
     for p in psutil.process_iter(["pid", "ppid", "cmdline"]):
         line = " ".join(p.info["cmdline"] or [])
-        if ("devices.host_process" in line or "devices.emulator" in line) and p.info["ppid"] != hub:
+        if ("devices.device_host_process" in line or "devices.emulator" in line) and p.info["ppid"] != hub:
             found.append(f"{p.info['pid']} (parent {p.info['ppid']}): {line[:120]}")
     return found
 

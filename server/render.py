@@ -10,7 +10,7 @@ the scenario's `fingers`, and every --tool) drives that tool, the others are the
 points, exactly as a live tracker sample with `points`. The loop runs tick by tick
 from the first to the last sample; between samples the HIP holds the latest one (zero-order
 hold, the same rule as the live loop), so a re-render matches what the live server computed.
-The ticks are the live loop's (LoopCore.tick): each new sample goes in as a tracker record, and
+The ticks are the live loop's (Loop.tick): each new sample goes in as a tracker record, and
 one output row per tick (proxy, force, contacts and cues) comes from the tick's output. A tick
 that fails stops the render with the scenario's error (offline there is nothing to keep safe).
 With several tools, each other tool adds NAME.proxy_x/y/z, NAME.contact and NAME.cues columns.
@@ -29,7 +29,7 @@ from scenarios import registry
 from scenarios.free import FreeExploration
 from server.core.points import PRIMARY_POINT, check_point_name
 from server.core.records import EXPORT_TRAJECTORY_AS_SAMPLES
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.simulation import Simulation
 from server.core.scene import Scene
 from server.wire.messages import Tracker
@@ -147,7 +147,7 @@ def render(sim: Simulation, samples, out_path: str | Path) -> int:
     """Run the samples through `sim`; write one row per tick; return the number of ticks."""
     t0, t_end = samples[0][0], samples[-1][0]
     n_ticks = int(math.floor((t_end - t0) * sim.tick_hz + 1e-9)) + 1
-    core = LoopCore(sim)
+    core = Loop(sim)
     tick_ns = 1_000_000_000 / sim.tick_hz
     index, fed = 0, -1
     others = [tool.name for tool in sim.data.tools[1:]]

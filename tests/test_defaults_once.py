@@ -9,7 +9,7 @@ from server.cli import build_parser
 from server.config import Settings
 from server.core.haptics.contact_gate import BAND, MIN_DWELL_S, ReferenceContactGate
 from server.loop.cadence import STATE_HZ
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.process import LoopConfig
 from server.simulate.virtual_hub import VirtualHub
 
@@ -21,7 +21,7 @@ def _default(fn, name):
 def test_every_layer_uses_the_one_state_cadence():
     serve = build_parser().parse_args(["serve"])
     assert serve.state_hz == Settings().state_hz == LoopConfig().state_hz == STATE_HZ == 60.0
-    assert _default(LoopCore.__init__, "state_hz") == _default(VirtualHub.__init__, "state_hz") == STATE_HZ
+    assert _default(Loop.__init__, "state_hz") == _default(VirtualHub.__init__, "state_hz") == STATE_HZ
 
 
 def test_every_layer_uses_the_one_gate_band_and_dwell():

@@ -101,13 +101,13 @@ def run_method(method: ContactMethod, traj: Trajectory) -> dict:
 def contact_query_cost(bodies, radius: float, traj: Trajectory) -> dict:
     """The compiled contact query alone, per tick: ``GodCore.step`` (the C step and the
     ProxyStep it returns), without the Python wrapper of GodObject and of the bench's method."""
-    from server.core.haptics.compiled import ccore
+    from server.core.haptics.compiled import chaptics
 
     scene = tuple(bodies)
     costs = []
     clock = time.perf_counter_ns
     for _ in range(2):  # the first pass warms caches and code paths
-        core = ccore.GodCore(radius)
+        core = chaptics.GodCore(radius)
         costs = []
         gc.collect()
         gc.disable()

@@ -2,7 +2,7 @@
 samples to the state frames that show them, and the summary. No I/O (roundtrip_bench.py runs it).
 
 A sample is shown by a state frame whose `hip` equals the sample's position. The loop publishes
-`hip` rounded to 9 decimals (server/loop/core.py), so the paths are rounded the same way and the
+`hip` rounded to 9 decimals (server/loop/tick.py), so the paths are rounded the same way and the
 comparison is exact; each position carries a tag of one micrometre per sample index (mod 1000),
 so any 1000 consecutive samples are distinct and a frame names exactly one of them.
 """

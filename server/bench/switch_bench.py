@@ -3,7 +3,7 @@
 Starts a server of its own, resets the loop's timing window, asks for `switches` switches over
 REST (positioning, hot wire and peg-in-hole in turn: the scenarios with the largest scenes) spaced
 `every_s` apart, waits for the last one to be announced, and reads the loop's telemetry. Building
-a scenario never runs inside a tick (server/loop/core.py), so the overruns should be those of an
+a scenario never runs inside a tick (server/loop/tick.py), so the overruns should be those of an
 idle loop. Run: `python -m server.bench.switch_bench [--switches 100] [--every-ms 24]`.
 """
 

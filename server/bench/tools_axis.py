@@ -10,7 +10,7 @@ Two costs per tick, both timed in-process with perf_counter_ns, the garbage coll
 the start-up frozen as in the loop process (no sockets, no sleeping, so the caches are warm:
 the live tick in `viestac bench loop` costs more, docs/performance.md):
 - **god-object**: the tools' proxy steps alone (CompiledGodObject.step per tool, the same HIPs);
-- **tick**: `LoopCore.tick` with the sample, plus msgpack encoding of the state record when one
+- **tick**: `Loop.tick` with the sample, plus msgpack encoding of the state record when one
   is due (what the loop process does before it sends it): the whole tick minus the socket calls.
 Each at two sample rates: a sample every 8th tick (a 120 Hz tracker; the HIP is held between
 samples) and a sample every tick (every tick moves every tool; the cues change, so every tick
@@ -52,7 +52,7 @@ def fingertip(k: int, tick: int) -> tuple[float, float, float]:
 
 
 def sample(n: int, tick: int, seq: int) -> TrackerSample:
-    """The loop's tracker record for one sample of n fingertips (server/loop/core.py apply)."""
+    """The loop's tracker record for one sample of n fingertips (server/loop/tick.py apply)."""
     pos = fingertip(0, tick)
     points = {FINGERTIPS[k]: fingertip(k, tick) for k in range(1, n)}
     return TrackerSample("hand", seq, tick, list(pos), None, tick * 1_000_000, PRIMARY_POINT, points or None, None)

@@ -243,7 +243,7 @@ class ScenarioOutput:
     values: dict = field(default_factory=dict)
     poses: dict[str, Pose] = field(default_factory=dict)        # objects moved this tick
     visible: dict[str, bool] = field(default_factory=dict)      # objects/overlays shown or hidden this tick
-    haptic: dict[str, bool] = field(default_factory=dict)       # bodies made touchable or not this tick
+    touchable: dict[str, bool] = field(default_factory=dict)    # bodies made touchable or not this tick
     stiffness: dict[str, float] = field(default_factory=dict)   # bodies whose spring k changed this tick
     scales: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # drawn size factors (scene axes)
     hold_hip: Vec3 | None = None  # hold the HIP here from the next tick on (experimenter's tap); None: tracker
@@ -270,7 +270,7 @@ class Pending:
         self.finished: dict[str, Any] | None = None
         self.poses: dict[str, Pose] = {}
         self.visible: dict[str, bool] = {}
-        self.haptic: dict[str, bool] = {}
+        self.touchable: dict[str, bool] = {}
         self.stiffness: dict[str, float] = {}
         self.scales: dict[str, tuple[float, float, float]] = {}
 
@@ -290,9 +290,9 @@ class Pending:
         everything pending. A buffer with nothing in it is handed on as the shared empty mapping and
         kept (most ticks change nothing but a pose): only a filled one is replaced."""
         events, finished = self.events, self.finished
-        poses, visible, haptic, stiffness, scales = self.poses, self.visible, self.haptic, self.stiffness, self.scales
+        poses, visible, touchable, stiffness, scales = self.poses, self.visible, self.touchable, self.stiffness, self.scales
         out = ScenarioOutput(cues, hud, {} if values is None else values,
-                             poses or _NOTHING, visible or _NOTHING, haptic or _NOTHING, stiffness or _NOTHING,
+                             poses or _NOTHING, visible or _NOTHING, touchable or _NOTHING, stiffness or _NOTHING,
                              scales or _NOTHING, hold_hip, tuple(events) if events else (), held, finished,
                              tool_cues)
         if events:
@@ -302,8 +302,8 @@ class Pending:
             self.poses = {}
         if visible:
             self.visible = {}
-        if haptic:
-            self.haptic = {}
+        if touchable:
+            self.touchable = {}
         if stiffness:
             self.stiffness = {}
         if scales:

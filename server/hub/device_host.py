@@ -1,4 +1,4 @@
-"""The hub's handle on the device host process (devices/host_process.py).
+"""The hub's handle on the device host process (devices/device_host_process.py).
 
 Adapter only (server/hub/child.py: add_reader, no thread; restart with backoff): it starts the
 process, hands its reports to the hub and answers /api/devices with a snapshot request.
@@ -49,7 +49,7 @@ class DeviceHost(ChildProcess):
 
     def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "devices.host_process", "--control-fd", str(theirs.fileno()),
+            [sys.executable, "-m", "devices.device_host_process", "--control-fd", str(theirs.fileno()),
              "--cues-fd", str(self.device_end.fileno()), "--cue-quiet-ms", repr(float(self.cue_quiet_ms))],
             stdin=subprocess.PIPE, pass_fds=(theirs.fileno(), self.device_end.fileno()), cwd=os.getcwd(),
             start_new_session=True)  # Ctrl-C stops the hub, which stops the devices in order (all off first)

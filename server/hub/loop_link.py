@@ -52,7 +52,7 @@ class LoopLink:
         match record:
             case State():
                 self._on_state(record)
-            case Fault(failures, _, error):  # a tick failed (LoopCore; at most once per 100 failing ticks)
+            case Fault(failures, _, error):  # a tick failed (Loop; at most once per 100 failing ticks)
                 self.health.fault(time.monotonic(), failures, error)
                 self.check_health()
             case Recovered(_, failures):

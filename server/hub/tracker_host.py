@@ -1,4 +1,4 @@
-"""The hub's handle on the tracker host process (server/tracking/host_process.py).
+"""The hub's handle on the tracker host process (server/tracking/tracker_host_process.py).
 
 Adapter only, in the device host's shape (server/hub/child.py: add_reader, no thread; restart
 with backoff). The tracker samples never pass through here: the tracker host sends them to the
@@ -42,7 +42,7 @@ class TrackerHost(ChildProcess):
 
     def _spawn(self, theirs: socket.socket) -> subprocess.Popen:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "server.tracking.host_process", "--control-fd", str(theirs.fileno()),
+            [sys.executable, "-m", "server.tracking.tracker_host_process", "--control-fd", str(theirs.fileno()),
              "--udp", self.udp_target, "--data-dir", str(self.data_dir)],
             stdin=subprocess.PIPE, pass_fds=(theirs.fileno(),), cwd=os.getcwd(), start_new_session=True)
         proc.stdin.write(json.dumps([s.to_dict() for s in self.specs]).encode())

@@ -140,7 +140,7 @@ class Trial(Record):
 
 @record("scenario")
 class SwitchScenario(Record):
-    """Switch the scenario between trials (built off the tick: server/loop/core.py)."""
+    """Switch the scenario between trials (built off the tick: server/loop/tick.py)."""
     name: str = doc("the scenario id")
     params: dict = doc("its checked parameters")
     seed: int = doc("the random seed")
@@ -353,7 +353,7 @@ class Alive(Record):
         return cls(array[1], array[2])
 
 
-# ---- the hub ⇄ the device host process (server/hub/device_host.py, devices/host_process.py) ----
+# ---- the hub ⇄ the device host process (server/hub/device_host.py, devices/device_host_process.py) ----
 @record("snapshot")
 class SnapshotRequest(Record):
     """The hub asks for the devices as the console shows them."""
@@ -380,7 +380,7 @@ class Snapshot(Record):
     snapshot: dict = doc("DeviceManager.snapshot plus the feed's `info()` as `feed`")
 
 
-# ---- the hub ⇄ the tracker host process (server/hub/tracker_host.py, server/tracking/host_process.py)
+# ---- the hub ⇄ the tracker host process (server/hub/tracker_host.py, server/tracking/tracker_host_process.py)
 @record("calibrate")
 class Calibrate(Record):
     """Set (or reset) a source's calibration."""
@@ -445,9 +445,9 @@ CUES = Channel("loop → device host", (Cues, Alive),
 TO_DEVICE_HOST = Channel("hub → device host", (SnapshotRequest, Stop),
                          "the device host's control socket (server/hub/device_host.py sends)")
 FROM_DEVICE_HOST = Channel("device host → hub", (Hello, DeviceStatus, DeviceProfiles, Snapshot),
-                           "its other direction (devices/host_process.py sends)")
+                           "its other direction (devices/device_host_process.py sends)")
 TO_TRACKER_HOST = Channel("hub → tracker host", (Calibrate, Capture, Stop),
                           "the tracker host's control socket (server/hub/tracker_host.py sends)")
 FROM_TRACKER_HOST = Channel("tracker host → hub", (Hello, SourcesHealth, Answer),
-                            "its other direction (server/tracking/host_process.py sends)")
+                            "its other direction (server/tracking/tracker_host_process.py sends)")
 CHANNELS = (TO_LOOP, FROM_LOOP, CUES, TO_DEVICE_HOST, FROM_DEVICE_HOST, TO_TRACKER_HOST, FROM_TRACKER_HOST)

@@ -1,7 +1,7 @@
 """Builds the loop's scenario switches on a thread of their own, off the tick.
 
 Building a scenario takes milliseconds (8-17 ms for the positioning tasks' scenes), several tick
-periods, so the tick never does it (server/loop/core.py, "A scenario switch is built outside the
+periods, so the tick never does it (server/loop/tick.py, "A scenario switch is built outside the
 tick"). The loop process calls `between_ticks()` after every tick: it installs a finished build
 (cheap: the core takes the new simulation over and announces it) and starts building the core's
 pending switch, if any, on a new thread.
@@ -28,7 +28,7 @@ import threading
 import traceback
 
 from server.ipc.records import Log
-from server.loop.core import LoopCore, Switch
+from server.loop.tick import Loop, Switch
 from server.loop.simulation import Simulation
 
 BUILD_SWITCH_INTERVAL_S = 0.0001
@@ -47,7 +47,7 @@ def _step_aside() -> None:
 
 
 class SwitchBuilder:
-    def __init__(self, core: LoopCore):
+    def __init__(self, core: Loop):
         self.core = core
         self.builds = 0
         self._thread: threading.Thread | None = None

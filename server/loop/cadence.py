@@ -1,4 +1,4 @@
 """The loop's default publish cadence, defined once (viestac serve --state-hz, Settings,
-LoopConfig, LoopCore, the simulated study's virtual hub)."""
+LoopConfig, Loop, the simulated study's virtual hub)."""
 
 STATE_HZ = 60.0  # state records a second on the cadence; a tick whose cues changed publishes besides

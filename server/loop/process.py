@@ -1,4 +1,4 @@
-"""The loop process: a thin adapter that runs LoopCore at 1 kHz on a real clock.
+"""The loop process: a thin adapter that runs Loop at 1 kHz on a real clock.
 
 Why a separate process at SCHED_FIFO (docs/architecture.md "Processes, and why the loop has its own"):
 a 1 kHz thread beside the asyncio server shares the GIL with the broadcasts and misses
@@ -7,7 +7,7 @@ p99 1.03 ms with 64 viewers. Without CAP_SYS_NICE/root it falls back to normal p
 clear warning, reported in telemetry as `rt: false`.
 
 It owns the clock, the deadline scheduler and the sockets; the tick itself (records in, the
-simulation step, fail-safe, what goes out) is LoopCore.tick (core.py). No serial port, no socket
+simulation step, fail-safe, what goes out) is Loop.tick (core.py). No serial port, no socket
 to a client, no thread (the device drivers live in the device host process). It talks only through
 non-blocking sockets (server/ipc): the mailbox to the hub, and the cue channel that carries a tick's
 changed cues to the device host's feed thread before the tick's state record leaves. It also reads the
@@ -38,7 +38,7 @@ from server.cpu_plan import pin_process
 from server.loop.builder import SwitchBuilder
 from server.loop.cadence import STATE_HZ
 from server.loop.clock import Clock, MonotonicClock
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.scheduler import DeadlineScheduler
 from server.loop.simulation import Simulation
 from server.loop.tracker_udp import TrackerPort
@@ -76,7 +76,7 @@ class LoopConfig:
         return cls(**fields)
 
 
-def build_core(config: LoopConfig) -> LoopCore:
+def build_core(config: LoopConfig) -> Loop:
     scene = Scene.load(config.scene_file) if config.scene_file else None
 
     def make_sim(scenario, seed: int, given: Scene | None = None) -> Simulation:
@@ -86,7 +86,7 @@ def build_core(config: LoopConfig) -> LoopCore:
         return Simulation(scenario, tick_hz=config.tick_hz, gate=gate, seed=seed, scene=given, rig=config.rig)
 
     scenario = registry.create(config.scenario, **config.scenario_params)
-    core = LoopCore(make_sim(scenario, config.seed, scene), state_hz=config.state_hz, make_sim=make_sim,
+    core = Loop(make_sim(scenario, config.seed, scene), state_hz=config.state_hz, make_sim=make_sim,
                     build_off_tick=True)  # switches are built by SwitchBuilder, never inside a tick
     core.params, core.seed = dict(config.scenario_params), config.seed
     core.sim.data.tick, core.frames = config.start_tick, config.start_frame

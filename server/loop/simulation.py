@@ -52,7 +52,7 @@ class TickResult:
     output: ScenarioOutput
     cues_changed: bool       # the active cue set differs from the previous tick's
     stiffness: dict[str, float]  # the stiffness overrides this tick's force was computed with
-    haptic: dict[str, bool]  # the touchability overrides this tick's contacts were found with
+    untouchable: dict[str, bool]  # the untouchable overrides this tick's contacts were found with
     tools: tuple[ToolView, ...] = ()  # every tool this tick, primary first (hip/proxy/... above are tools[0])
 
 
@@ -86,7 +86,7 @@ class Simulation:
         self.scene = scene if scene is not None else scenario.build_scene()
         self.tick_hz = tick_hz
         self.rig = tuple(rig)  # the rig's fingers besides the primary point (devices' `finger`)
-        self.drawn = True  # someone draws the state (TickContext.drawn); set by LoopCore
+        self.drawn = True  # someone draws the state (TickContext.drawn); set by Loop
         # The tracked points, one tool each; the scenario's hip/proxy/contact are the first's.
         names = tool_names(self.rig, tuple(getattr(type(scenario), "fingers", ())))
         home = home_position(self.scene)
@@ -162,7 +162,7 @@ class Simulation:
             data.expire(tick, t_s)
         tool = data.tools[0]
         hip = tool.hip
-        stiffness, haptic = data.stiffness, data.haptic  # what this tick renders with
+        stiffness, untouchable = data.stiffness, data.untouchable  # what this tick renders with
         proxy_step = tool.proxy_step(data.bodies, hip)
         contacts = proxy_step.contacts
         contact = tool.gate.update(t_s, bool(contacts), proxy_step.separation)
@@ -186,7 +186,7 @@ class Simulation:
         ctx = TickContext(tick, t_s, hip, proxy_step.proxy, contact, touching, nearest, data.refusals,
                           tool.god.sticking, tools, self.drawn)
         output = self.scenario.step(ctx)
-        if output.poses or output.haptic or output.stiffness or output.visible or output.scales:
+        if output.poses or output.touchable or output.stiffness or output.visible or output.scales:
             data.apply_changes(output, self.scene)
         if output.hold_hip != tool.held:
             tool.hold(output.hold_hip, data.bodies)
@@ -200,7 +200,7 @@ class Simulation:
         data.tool_cues = tool_cues
         data.tick = tick + 1
         return TickResult(tick, t_s, hip, proxy_step.proxy, proxy_step.force, contacts, contact,
-                          output, cues_changed, stiffness, haptic, tools)
+                          output, cues_changed, stiffness, untouchable, tools)
 
     def _render_others(self, others: tuple[Tool, ...], t_s: float) -> list[ToolView]:
         """The tools other than the primary, in one loop: each its own god-object against the

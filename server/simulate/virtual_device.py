@@ -1,7 +1,7 @@
 """A tactile device on the virtual clock: the production byte path without a port.
 
-cues → CueEncoder (the device profile) → HostProtocol (latest-wins layers, link budget,
-handshake) → SimulatedLink (115200 8N1 byte times) → the device's C firmware core (FirmwareCore)
+cues → CueEncoder (the device profile) → DeviceSession (latest-wins layers, link budget,
+handshake) → SimulatedLink (115200 8N1 byte times) → the device's C firmware core (Firmware)
 → actuator edges, each stamped with its exact scheduled time. The same code as a real rig or the
 pty emulators, only the clock is the study's virtual clock, so a simulated study runs faster
 than real time and the participant model feels exactly what a device would play.
@@ -18,16 +18,16 @@ from dataclasses import dataclass
 
 from devices.encoder import CueEncoder
 from devices.simulated_link import SimulatedLink
-from devices.fwcore import Edge, FirmwareCore
+from devices.firmware_binding import Edge, Firmware
 from devices.profiles import DeviceProfile
-from devices.protocol import HostProtocol
+from devices.protocol import DeviceSession
 
 
 class FirmwareDevice:
     """The device end of a SimulatedLink: the C firmware core with times in seconds."""
 
     def __init__(self, model: str):
-        self.core = FirmwareCore(model)
+        self.core = Firmware(model)
 
     def receive_data(self, data: bytes, now_s: float) -> None:
         self.core.receive(data, _us(now_s))
@@ -112,7 +112,7 @@ class VirtualDevice:
     def __init__(self, name: str, profile: DeviceProfile, fault=None):
         self.name, self.profile, self.fault = name, profile, fault
         self.encoder = CueEncoder(profile)
-        self.host = HostProtocol()
+        self.host = DeviceSession()
         self.device = FirmwareDevice(profile.model)
         self.link = SimulatedLink(self.host, self.device)
         self.link.plug()

@@ -1,7 +1,7 @@
 """The hub's, the loop process's and the device host's roles for a simulated study, in one
 process on the virtual clock.
 
-It drives the real loop core (LoopCore.tick: the same tick as `viestac serve`, fail-safe
+It drives the real loop core (Loop.tick: the same tick as `viestac serve`, fail-safe
 included), checks the experiment engine's requests with the hub's own scenario control
 (server/hub/control.py) and applies them between ticks exactly as the loop applies mailbox
 records, hands every record to the listeners (the recorder), and feeds the virtual devices from
@@ -22,7 +22,7 @@ from scenarios import registry
 from server.hub.control import ScenarioControl
 from server.loop.cadence import STATE_HZ
 from server.ipc.records import Record, RecordEvery, ScenarioAnnounce
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.simulation import Simulation
 from server.simulate.virtual_device import VirtualDevice
 
@@ -36,7 +36,7 @@ class VirtualHub:
         self.tick_hz = tick_hz
         spec = registry.resolve(scenario)
         sim = Simulation(registry.create(spec.id, **(params or {})), tick_hz=tick_hz, seed=seed)
-        self.core = LoopCore(sim, state_hz=state_hz, drawn=False)  # no viewer: the recorder and the participant read
+        self.core = Loop(sim, state_hz=state_hz, drawn=False)  # no viewer: the recorder and the participant read
         self.core.params, self.core.seed = registry.check_scenario_params(spec, params or {}), seed
         # which scenario runs: the hub's one owner of it (it hears the announcements in _emit)
         self.control = ScenarioControl(self._send, lambda: {n: d.profile for n, d in self.devices.items()})
@@ -54,7 +54,7 @@ class VirtualHub:
 
     @property
     def scenario_target(self) -> dict | None:
-        """What runs once the switches sent land: here a switch is built at once (LoopCore)."""
+        """What runs once the switches sent land: here a switch is built at once (Loop)."""
         return self.control.target()
 
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:

@@ -29,7 +29,7 @@ class SourceSpec:
 
 
 class Feed(Protocol):
-    """What a running source feeds (the tracker host's Source, server/tracking/host_process.py)."""
+    """What a running source feeds (the tracker host's Source, server/tracking/tracker_host_process.py)."""
     spec: SourceSpec
     health: SourceHealth  # a runner sets its `note` and `connected`
     pipeline: Any         # server/tracking/pipeline.py SourcePipeline (reset_filters on a new track)

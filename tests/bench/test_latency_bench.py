@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from devices.fwcore import Edge
+from devices.firmware_binding import Edge
 from server.bench.latency_bench import match_switches, run_latency_bench, written_at
 
 

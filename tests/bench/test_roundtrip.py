@@ -11,7 +11,7 @@ import pytest
 from scenarios.contact_angle import ContactAngle
 from server.bench.roundtrip import BAND_MS, TAG_PERIOD, match_samples, sample_position, summarize
 from server.bench.roundtrip_bench import phase_plan, run_roundtrip_bench
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.simulation import Simulation
 from server.ipc.records import TrackerSample
 from tests.ipc import state_map
@@ -23,7 +23,7 @@ def _drive(where: str, first: int, count: int, ticks_per_sample: int = 17):
     """Feed samples first..first+count-1 of a path into the real loop core, one every
     `ticks_per_sample` ticks; yield (k, position, the state record of the tick that applied it
     or None, that tick's result)."""
-    core = LoopCore(Simulation(ContactAngle()), state_hz=60.0)
+    core = Loop(Simulation(ContactAngle()), state_hz=60.0)
     tick_ns = 1_000_000
     now = 0
     for k in range(first, first + count):

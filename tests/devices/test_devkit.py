@@ -1,6 +1,6 @@
 """The devkit model: temperature and friction from a cue to the emulated actuator timeline.
 
-Cue → CueEncoder → HostProtocol → pyserial → pty → emulator (the C firmware core) → timeline,
+Cue → CueEncoder → DeviceSession → pyserial → pty → emulator (the C firmware core) → timeline,
 with nothing mocked, next to a FingerTac that must refuse the same cues."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import pytest
 from server.core.cues import Friction, Temperature, Texture
 from devices.emulator import TIMELINE_COLUMNS, Emulator, edge_row
 from devices.encoder import NEUTRAL_SKIN_C, CueEncoder
-from devices.fwcore import MODELS, FirmwareCore, encode_frame
+from devices.firmware_binding import MODELS, Firmware, encode_frame
 from devices.manager import DeviceConfig, DeviceManager
 from devices.messages import ALL_CHANNELS, SetFriction, SetTemperature, cap_names
 from devices.ports import PortSpec
@@ -63,7 +63,7 @@ def devkit_and_fingertac(tmp_path):
 def test_profile_matches_the_firmware_model():
     assert profile_by_model("devkit") is DEVKIT and set(MODELS) == set(PROFILES)
     for model, profile in PROFILES.items():
-        core = FirmwareCore(model)
+        core = Firmware(model)
         assert cap_names(core.caps) == profile.caps, model
         assert (core.channels, core.carrier_hz) == (len(profile.channels), profile.carrier_hz), model
         assert ".".join(map(str, core.firmware)) == profile.firmware, model
@@ -84,7 +84,7 @@ def test_encoder_accepts_on_devkit_and_refuses_on_fingertac():
 
 
 def test_timeline_row_leaves_layers_that_are_off_empty():
-    core = FirmwareCore("devkit")
+    core = Firmware("devkit")
     core.receive(encode_frame(0x12, 1, struct.pack("<Bh", 0, 4_000)), 10)   # SET_TEMPERATURE 40 °C
     core.receive(encode_frame(0x1F, 2, b"\x00"), 20)                        # STOP
     rows = [dict(zip(TIMELINE_COLUMNS, edge_row(e))) for e in core.advance(20)]

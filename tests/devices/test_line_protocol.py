@@ -1,4 +1,4 @@
-"""LineProtocol: HostProtocol's interface over ASCII line templates."""
+"""LineProtocol: DeviceSession's interface over ASCII line templates."""
 
 import tomllib
 

@@ -1,4 +1,4 @@
-"""HostProtocol (docs/device-protocol.md §4–§6) against an in-memory device on simulated time:
+"""DeviceSession (docs/device-protocol.md §4–§6) against an in-memory device on simulated time:
 bytes in, events and bytes out; no ports, no sleeps."""
 
 import bisect
@@ -13,14 +13,14 @@ from devices.simulated_link import SimulatedLink
 from tests.devices.fake_device import FERROVIBE, FINGERTAC, FakeDevice
 from devices.framing import FrameDecoder, encode_frame
 from devices.messages import ErrorCode, SetPattern, SetTemperature, SetTilt, Stop
-from devices.protocol import (Acked, DeviceErrorReported, FrameRejected, HostProtocol, Identified, Pong,
+from devices.protocol import (Acked, DeviceErrorReported, FrameRejected, DeviceSession, Identified, Pong,
                               StatusChanged)
 
 EVERYTHING = replace(FINGERTAC, caps=m.Caps(0x3F), model="testrig")  # 2 channels, every layer
 
 
 def link(identity=FINGERTAC, **kwargs) -> SimulatedLink:
-    return SimulatedLink(HostProtocol(), FakeDevice(identity), **kwargs)
+    return SimulatedLink(DeviceSession(), FakeDevice(identity), **kwargs)
 
 
 def events(sim: SimulatedLink, kind) -> list:
@@ -38,7 +38,7 @@ def frame(message, seq=0) -> bytes:
 # ---- handshake ------------------------------------------------------------------------------
 
 def test_nothing_happens_before_the_port_opens():
-    host = HostProtocol()
+    host = DeviceSession()
     host.set(SetTilt(0, 9000, 100), 0.0)
     assert host.poll(0.0) == (b"", None)
     assert host.status == "disconnected" and host.events_received() == []
@@ -105,7 +105,7 @@ def test_silence_makes_the_device_unresponsive_and_a_frame_brings_it_back():
 
 
 def test_bad_version_from_error():
-    sim = SimulatedLink(HostProtocol(), FakeDevice(FINGERTAC, version=2))
+    sim = SimulatedLink(DeviceSession(), FakeDevice(FINGERTAC, version=2))
     sim.plug()
     sim.run_until(1.0)
     assert sim.host.status == "bad_version"
@@ -307,7 +307,7 @@ def test_a_lost_frame_is_resent_after_the_ack_timeout():
 # ---- what the device sends that is wrong -------------------------------------------------------
 
 def test_rejected_frames_are_counted_and_reported():
-    host = HostProtocol()
+    host = DeviceSession()
     host.connection_made(0.0)
     host.poll(0.0)
     host.receive_data(b"\x55" * 70 + b"\x00" + b"\x05\x11\x00" + frame(m.SetTilt(0, 1, 1)) +
@@ -322,14 +322,14 @@ def test_rejected_frames_are_counted_and_reported():
 
 
 def test_an_ack_for_an_unknown_seq_is_still_an_event():
-    host = HostProtocol()
+    host = DeviceSession()
     host.connection_made(0.0)
     host.receive_data(frame(m.Ack(200)), 0.01)
     assert [e for e in host.events_received() if isinstance(e, Acked)] == [Acked(200, None, None)]
 
 
 def test_poll_tells_when_to_come_back():
-    host = HostProtocol()
+    host = DeviceSession()
     host.connection_made(0.0)
     data, wake = host.poll(0.0)
     assert data.startswith(b"\x00") and len(data) == 8  # flush + HELLO
@@ -349,7 +349,7 @@ def test_poll_tells_when_to_come_back():
 
 @given(st.lists(st.binary(max_size=100), max_size=10))
 def test_arbitrary_bytes_never_raise_and_a_good_frame_after_them_counts(chunks):
-    host = HostProtocol()
+    host = DeviceSession()
     host.connection_made(0.0)
     host.set(SetTilt(0, 1, 1), 0.0)
     t = 0.0

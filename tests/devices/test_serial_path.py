@@ -1,4 +1,4 @@
-"""The whole device byte path: cue → encoder → HostProtocol → pyserial → pty → emulator (the C
+"""The whole device byte path: cue → encoder → DeviceSession → pyserial → pty → emulator (the C
 firmware core) → actuator timeline. Nothing here is mocked; the only model is the emulator's
 115200-baud wire time (86.8 µs per byte), which a pty does not enforce."""
 

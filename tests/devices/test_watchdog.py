@@ -1,5 +1,5 @@
-"""The firmware watchdog end to end on simulated time: HostProtocol (with the production
-defaults of devices.manager.make_protocol) against the real C firmware core (devices.fwcore).
+"""The firmware watchdog end to end on simulated time: DeviceSession (with the production
+defaults of devices.manager.make_protocol) against the real C firmware core (devices.firmware_binding).
 The host arms it at the handshake and keeps it fed; a host that goes silent leaves every actuator
 off within the watchdog's timeout, and when it speaks again it learns so and shows every layer
 again. A firmware that predates the watchdog (tests/devices/fake_device.py) keeps working as before."""
@@ -10,10 +10,10 @@ from devices import messages as m
 from devices.simulated_link import SimulatedLink
 from tests.devices.fake_device import FERROVIBE, FakeDevice
 from devices.framing import FrameDecoder, FrameError
-from devices.fwcore import FirmwareCore
+from devices.firmware_binding import Firmware
 from devices.manager import make_protocol
 from devices.profiles import profile_by_model
-from devices.protocol import HostProtocol, WatchdogReported
+from devices.protocol import DeviceSession, WatchdogReported
 
 TICK_S = 0.0005
 
@@ -21,8 +21,8 @@ TICK_S = 0.0005
 class FirmwareLink:
     """Host and C firmware joined by an instant wire; `host_alive` False = the host process is gone."""
 
-    def __init__(self, host: HostProtocol, model: str = "ferrovibe"):
-        self.host, self.core = host, FirmwareCore(model)
+    def __init__(self, host: DeviceSession, model: str = "ferrovibe"):
+        self.host, self.core = host, Firmware(model)
         self.t = 0.0
         self.host_alive = True
         self.writes: list[tuple[float, bytes]] = []
@@ -47,7 +47,7 @@ class FirmwareLink:
                 self.events += self.host.events_received()
 
 
-def ferrovibe_host() -> HostProtocol:
+def ferrovibe_host() -> DeviceSession:
     return make_protocol(profile_by_model("ferrovibe"), 0.5, 115200)
 
 
@@ -95,9 +95,9 @@ def test_a_firmware_without_the_watchdog_keeps_working_without_keepalives():
 
 
 def test_old_hosts_are_unchanged_the_watchdog_is_off_until_a_host_arms_it():
-    core = FirmwareCore("ferrovibe")
+    core = Firmware("ferrovibe")
     assert core.watchdog_deadline_us() is None
-    host = HostProtocol()  # no watchdog_ms: what a host before SET_WATCHDOG sends
+    host = DeviceSession()  # no watchdog_ms: what a host before SET_WATCHDOG sends
     sim = FirmwareLink(host)
     sim.host.set(m.SetTilt(0, 9000, 100), 0.0)
     sim.run_until(2.0)

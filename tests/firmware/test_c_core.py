@@ -4,7 +4,7 @@
 3. the shared vectors (tests/vectors/device_frames.json, §7) through the ctypes binding: the C
    encoder must produce every frame byte for byte, the device must act on every host frame and
    reject every invalid one with the named error;
-4. the scheduler and command handling through devices.fwcore.FirmwareCore.
+4. the scheduler and command handling through devices.firmware_binding.Firmware.
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from devices import fwcore
-from devices.fwcore import Edge, FirmwareCore, Frame, FrameDecoder, encode_frame
+from devices import firmware_binding
+from devices.firmware_binding import Edge, Firmware, Frame, FrameDecoder, encode_frame
 
 ROOT = Path(__file__).resolve().parents[2]
 FIRMWARE = ROOT / "devices" / "firmware"
@@ -46,13 +46,13 @@ def tilt(channel, direction_cdeg, magnitude) -> bytes:
     return struct.pack("<BHB", channel, direction_cdeg, magnitude)
 
 
-def send(core: FirmwareCore, type_: int, seq: int, payload: bytes, now_us: int) -> list[Frame]:
+def send(core: Firmware, type_: int, seq: int, payload: bytes, now_us: int) -> list[Frame]:
     """One frame to the device; returns its replies (decoded)."""
     core.receive(encode_frame(type_, seq, payload), now_us)
     return replies(core)
 
 
-def replies(core: FirmwareCore) -> list[Frame]:
+def replies(core: Firmware) -> list[Frame]:
     out = FrameDecoder().feed(core.take_output())
     assert all(isinstance(f, Frame) for f in out), out
     return out
@@ -103,15 +103,15 @@ def vectors() -> dict:
 def test_vector_crc16(vectors):
     assert vectors["crc16"]
     for v in vectors["crc16"]:
-        assert fwcore.crc16(bytes.fromhex(v["data_hex"])) == v["crc"], v
+        assert firmware_binding.crc16(bytes.fromhex(v["data_hex"])) == v["crc"], v
 
 
 def test_vector_cobs(vectors):
     assert vectors["cobs"]
     for v in vectors["cobs"]:
         raw, encoded = bytes.fromhex(v["raw_hex"]), bytes.fromhex(v["encoded_hex"])
-        assert fwcore.cobs_encode(raw) == encoded, v
-        assert fwcore.cobs_decode(encoded) == raw, v
+        assert firmware_binding.cobs_encode(raw) == encoded, v
+        assert firmware_binding.cobs_decode(encoded) == raw, v
 
 
 def test_vector_frames_encode_and_decode(vectors):
@@ -120,20 +120,20 @@ def test_vector_frames_encode_and_decode(vectors):
         wire, payload = bytes.fromhex(v["frame_hex"]), bytes.fromhex(v["payload_hex"])
         assert encode_frame(v["type"], v["seq"], payload) == wire, v["name"]
         assert FrameDecoder().feed(wire) == [Frame(v["type"], v["seq"], payload)], v["name"]
-        assert fwcore.message_check(v["type"], payload) is None, v["name"]
+        assert firmware_binding.message_check(v["type"], payload) is None, v["name"]
 
 
-def _core_for(type_: int, fields: dict) -> FirmwareCore:
+def _core_for(type_: int, fields: dict) -> Firmware:
     """A device that can accept the command: a real model if one can, else a full-caps one."""
     channel = fields.get("channel", 0)
     need = {SET_TILT: 0x08, SET_TEMPERATURE: 0x10, SET_FRICTION: 0x20}.get(type_, 0)
     if type_ == SET_PATTERN and fields["mode"]:
         need = 1 << (fields["mode"] - 1)
-    for model in fwcore.MODELS:
-        core = FirmwareCore(model)
+    for model in firmware_binding.MODELS:
+        core = Firmware(model)
         if core.caps & need == need and (channel == 0xFF or channel < core.channels):
             return core
-    return FirmwareCore.from_descriptor("testdev", **FULL)
+    return Firmware.from_descriptor("testdev", **FULL)
 
 
 def _check_host_frame(v: dict) -> None:
@@ -181,7 +181,7 @@ def _check_host_frame(v: dict) -> None:
             raise AssertionError(f"{name}: host frame of unexpected type {type_:#x}")
 
 
-def _set_tx_seq(core: FirmwareCore, seq: int) -> None:
+def _set_tx_seq(core: Firmware, seq: int) -> None:
     for _ in range(seq):
         core.receive(encode_frame(PING, 0, b"\0\0\0\0"), 0)
     core.take_output()
@@ -191,20 +191,20 @@ def _device_frame_from_core(v: dict) -> bytes:
     """Make the C device itself produce the vector's device frame (with the vector's seq)."""
     type_, fields = v["type"], v["fields"]
     if type_ == IDENTIFY:
-        if fields["model"] in fwcore.MODELS:
-            core = FirmwareCore(fields["model"])
+        if fields["model"] in firmware_binding.MODELS:
+            core = Firmware(fields["model"])
         else:
-            core = FirmwareCore.from_descriptor(fields["model"], channels=fields["channels"], caps=fields["caps"],
+            core = Firmware.from_descriptor(fields["model"], channels=fields["channels"], caps=fields["caps"],
                                                 carrier_hz=fields["carrier_hz"],
                                                 firmware=(fields["fw_major"], fields["fw_minor"], fields["fw_patch"]))
         trigger = encode_frame(HELLO, 0, b"\x01")
     elif type_ == PONG:
-        core, trigger = FirmwareCore("fingertac"), encode_frame(PING, 0, struct.pack("<I", fields["token"]))
+        core, trigger = Firmware("fingertac"), encode_frame(PING, 0, struct.pack("<I", fields["token"]))
     elif type_ == ACK:
-        core, trigger = FirmwareCore("fingertac"), encode_frame(STOP, fields["ref_seq"], b"\xff")
+        core, trigger = Firmware("fingertac"), encode_frame(STOP, fields["ref_seq"], b"\xff")
     elif type_ == WATCHDOG:  # armed, then silent for the timeout: reported before the next reply
         assert fields["trips"] == 1, f"{v['name']}: one trip is what this helper makes"
-        core, timeout_us = FirmwareCore("fingertac"), fields["timeout_ms"] * 1000
+        core, timeout_us = Firmware("fingertac"), fields["timeout_ms"] * 1000
         _set_tx_seq(core, v["seq"] - 1)  # the SET_WATCHDOG's ACK takes seq - 1
         core.receive(encode_frame(SET_WATCHDOG, 0, struct.pack("<H", fields["timeout_ms"])), 0)
         core.advance(timeout_us)
@@ -214,12 +214,12 @@ def _device_frame_from_core(v: dict) -> bytes:
         return out[:out.index(0) + 1]  # the report; the PONG follows it
     elif type_ == ERROR:
         ref, code = fields["ref_seq"], fields["code"]
-        core = FirmwareCore("fingertac")
+        core = Firmware("fingertac")
         if code in (1, 2, 3):
             assert ref == 0xFF, f"{v['name']}: §3 says ref_seq is 0xFF for error code {code}"
             if code == 1:
                 body = bytes([PING, 1, 1, 2, 3, 4])
-                trigger = fwcore.cobs_encode(body + (fwcore.crc16(body) ^ 1).to_bytes(2, "little")) + b"\0"
+                trigger = firmware_binding.cobs_encode(body + (firmware_binding.crc16(body) ^ 1).to_bytes(2, "little")) + b"\0"
             else:
                 trigger = {2: b"\x05\x11\x00", 3: b"\x02\xaa\x00"}[code]
         else:
@@ -249,7 +249,7 @@ def test_vector_frames_device_frames_are_produced_by_the_device(vectors):
         assert _device_frame_from_core(v) == bytes.fromhex(v["frame_hex"]), v["name"]
 
 
-def _state(core: FirmwareCore):
+def _state(core: Firmware):
     return [core.layers(ch) for ch in range(core.channels)], [core.output(ch) for ch in range(core.channels)]
 
 
@@ -265,7 +265,7 @@ def test_vector_invalid_frames_are_rejected(vectors):
             assert len(decoded) == 1 and isinstance(decoded[0], Frame), (name, decoded)
             frame = decoded[0]
             if error in ("unknown_type", "bad_length"):
-                assert fwcore.message_check(frame.type, frame.payload) == error, name
+                assert firmware_binding.message_check(frame.type, frame.payload) == error, name
             seq = 0xFF if error in FRAME_LEVEL else frame.seq
         if error in VALUE_LEVEL and decoded[0].type & 0x80:
             continue    # a device-to-host frame's content: the host's business, a device ignores it
@@ -274,7 +274,7 @@ def test_vector_invalid_frames_are_rejected(vectors):
         # FingerTac is unsupported before its values are looked at), so those need one model
         # that names the vector's error; every other error must be named by all.
         named_by = []
-        cores = [FirmwareCore(m) for m in fwcore.MODELS] + [FirmwareCore.from_descriptor("testdev", **FULL)]
+        cores = [Firmware(m) for m in firmware_binding.MODELS] + [Firmware.from_descriptor("testdev", **FULL)]
         for core in cores:
             before, state = core.counters(), _state(core)
             core.receive(data, 1000)
@@ -300,7 +300,7 @@ def gate_edges(edges: list[Edge], channel: int = 0) -> list[tuple[int, bool]]:
 
 
 def test_pulse_train_edges_are_exact_whenever_advance_is_called():
-    core = FirmwareCore("fingertac")
+    core = Firmware("fingertac")
     assert_ack(send(core, SET_PATTERN, 1, pattern(0, PULSE, 100, 0, 50_000, 200_000), 1_000), 1)
     rng = random.Random(7)
     edges, t = [], 1_000
@@ -320,7 +320,7 @@ def test_pulse_train_edges_are_exact_whenever_advance_is_called():
 @pytest.mark.parametrize("model", ["fingertac", "ferrovibe"])
 @pytest.mark.parametrize("period_us", [2000, 3000, 4000, 5000, 6000])
 def test_texture_periods(model, period_us):
-    core = FirmwareCore(model)
+    core = Firmware(model)
     half = period_us // 2
     assert_ack(send(core, SET_PATTERN, 9, pattern(0, TEXTURE, 100, 0, half, half), 10_000), 9)
     edges = core.advance(10_000 + 20 * period_us)
@@ -332,7 +332,7 @@ def test_texture_periods(model, period_us):
 
 
 def test_identical_pattern_keeps_the_phase_and_a_different_one_restarts_it():
-    core = FirmwareCore("fingertac")
+    core = Firmware("fingertac")
     train = pattern(0, PULSE, 100, 0, 50_000, 200_000)
     send(core, SET_PATTERN, 1, train, 0)
     core.advance(120_000)                            # now in the off-phase (50k..250k)
@@ -347,7 +347,7 @@ def test_identical_pattern_keeps_the_phase_and_a_different_one_restarts_it():
 
 
 def test_set_tilt_is_immediate_and_keeps_the_pattern_phase():
-    core = FirmwareCore("ferrovibe")
+    core = Firmware("ferrovibe")
     send(core, SET_PATTERN, 1, pattern(0, TEXTURE, 100, 0, 2_000, 2_000), 0)
     core.advance(5_000)
     assert core.next_edge_us() == 6_000
@@ -365,7 +365,7 @@ def test_set_tilt_is_immediate_and_keeps_the_pattern_phase():
 
 
 def test_stop_and_channel_all():
-    core = FirmwareCore("fingertac")
+    core = Firmware("fingertac")
     assert_ack(send(core, SET_PATTERN, 1, pattern(0xFF, PULSE, 80, 0, 10_000, 10_000), 0), 1)
     edges = core.advance(0)
     assert [(e.channel, e.gate, e.intensity) for e in edges] == [(0, True, 80), (1, True, 80)]
@@ -382,7 +382,7 @@ def test_stop_and_channel_all():
 
 
 def test_on_zero_is_always_off_and_off_zero_always_on():
-    core = FirmwareCore("fingertac")
+    core = Firmware("fingertac")
     send(core, SET_PATTERN, 1, pattern(0, PULSE, 100, 0, 0, 5_000), 0)
     send(core, SET_PATTERN, 2, pattern(1, PULSE, 100, 0, 5_000, 0), 0)
     assert [(e.channel, e.gate) for e in core.advance(1_000_000)] == [(0, False), (1, True)]
@@ -390,7 +390,7 @@ def test_on_zero_is_always_off_and_off_zero_always_on():
 
 
 def test_unsupported_capability_changes_nothing():
-    core = FirmwareCore("fingertac")
+    core = Firmware("fingertac")
     send(core, SET_PATTERN, 1, pattern(0, PULSE, 100, 0, 50_000, 200_000), 0)
     core.advance(0)
     state = _state(core)
@@ -413,14 +413,14 @@ def test_unsupported_capability_changes_nothing():
     (SET_FRICTION, struct.pack("<BH", 0, 5001)),
 ])
 def test_out_of_range_values_are_bad_value(type_, payload):
-    core = FirmwareCore.from_descriptor("testdev", **FULL)
+    core = Firmware.from_descriptor("testdev", **FULL)
     state = _state(core)
     assert_error(send(core, type_, 42, payload, 1_000), 42, 5)
     assert _state(core) == state and core.advance(1_000) == [] and core.counters()["bad_value"] == 1
 
 
 def test_limits_are_accepted():
-    core = FirmwareCore.from_descriptor("testdev", **FULL)
+    core = Firmware.from_descriptor("testdev", **FULL)
     assert_ack(send(core, SET_PATTERN, 1, pattern(0, PULSE, 100, 0, 60_000_000, 60_000_000), 0), 1)
     assert_ack(send(core, SET_TILT, 2, tilt(1, 35_999, 100), 0), 2)
     assert_ack(send(core, SET_TEMPERATURE, 3, struct.pack("<Bh", 0xFF, 5000), 0), 3)
@@ -429,7 +429,7 @@ def test_limits_are_accepted():
 
 
 def test_bad_channel():
-    core = FirmwareCore("ferrovibe")
+    core = Firmware("ferrovibe")
     assert_error(send(core, SET_TILT, 5, tilt(1, 0, 10), 0), 5, 7)
     assert_error(send(core, STOP, 6, b"\x02", 0), 6, 7)
     assert core.counters()["bad_channel"] == 2 and core.advance(0) == []
@@ -437,7 +437,7 @@ def test_bad_channel():
 
 @pytest.mark.parametrize("model,channels,caps", [("fingertac", 2, 0x07), ("ferrovibe", 1, 0x0F), ("devkit", 1, 0x37)])
 def test_hello_identify(model, channels, caps):
-    core = FirmwareCore(model)
+    core = Firmware(model)
     assert (core.channels, core.caps, core.carrier_hz, core.firmware) == (channels, caps, 235, (1, 0, 0))
     out = send(core, HELLO, 17, b"\x01", 0)
     body = bytes([1, 1, 0, 0, channels, caps]) + struct.pack("<H", 235) + bytes([len(model)]) + model.encode()
@@ -447,14 +447,14 @@ def test_hello_identify(model, channels, caps):
 
 
 def test_ping_pong_and_sequence_numbers():
-    core = FirmwareCore("ferrovibe")
+    core = Firmware("ferrovibe")
     for i in range(300):
         token = struct.pack("<I", (i * 2654435761) & 0xFFFFFFFF)
         assert send(core, PING, i & 0xFF, token, 0) == [Frame(PONG, i & 0xFF, token)]
 
 
 def test_unknown_type_and_device_frames():
-    core = FirmwareCore("fingertac")
+    core = Firmware("fingertac")
     assert_error(send(core, 0x55, 3, b"", 0), 3, 4)
     assert_error(send(core, SET_TILT, 4, b"\x00\x00\x00", 0), 0xFF, 3)   # payload length wrong
     # a device-to-host frame (e.g. a looped-back line) is ignored, never answered
@@ -464,7 +464,7 @@ def test_unknown_type_and_device_frames():
 
 def test_random_garbage_never_crashes_and_is_counted():
     rng = random.Random(20240611)
-    core = FirmwareCore("ferrovibe")
+    core = Firmware("ferrovibe")
     t = 0
     total = 0
     for _ in range(400):
@@ -508,7 +508,7 @@ def test_garbage_classification_matches_the_host_decoder():
 
 
 def test_edge_fields_and_output_state():
-    core = FirmwareCore("ferrovibe")
+    core = Firmware("ferrovibe")
     assert core.output(0) == Edge(0, 0, False, OFF, 0, 0, 0, 0, "state")
     send(core, SET_PATTERN, 1, pattern(0, CONTINUOUS, 70, 180), 100)
     send(core, SET_TILT, 2, tilt(0, 18_000, 30), 200)
@@ -530,7 +530,7 @@ def friction(channel, milli) -> bytes:
 
 
 def test_devkit_temperature_and_friction_produce_command_edges():
-    core = FirmwareCore("devkit")
+    core = Firmware("devkit")
     assert core.output(0).temperature_c is None and core.output(0).friction is None
     send(core, SET_PATTERN, 1, pattern(0, PULSE, 100, 0, 50_000, 200_000), 0)
     core.advance(0)
@@ -559,7 +559,7 @@ def test_devkit_temperature_and_friction_produce_command_edges():
 
 
 def test_temperature_and_friction_edges_on_every_channel():
-    core = FirmwareCore.from_descriptor("testdev", **FULL)
+    core = Firmware.from_descriptor("testdev", **FULL)
     assert_ack(send(core, SET_TEMPERATURE, 1, temperature(0xFF, 3_450), 1_000), 1)
     assert_ack(send(core, SET_FRICTION, 2, friction(1, 2_500), 2_000), 2)
     edges = core.advance(2_000)
@@ -569,7 +569,7 @@ def test_temperature_and_friction_edges_on_every_channel():
 
 @pytest.mark.parametrize("model", ["fingertac", "ferrovibe"])
 def test_vibrotactile_models_report_no_temperature_or_friction(model):
-    core = FirmwareCore(model)
+    core = Firmware(model)
     assert_error(send(core, SET_TEMPERATURE, 1, temperature(0, 4_000), 0), 1, 6)
     assert_error(send(core, SET_FRICTION, 2, friction(0, 800), 0), 2, 6)
     send(core, SET_PATTERN, 3, pattern(0, CONTINUOUS, 50), 10)
@@ -581,4 +581,4 @@ def test_vibrotactile_models_report_no_temperature_or_friction(model):
 
 def test_unknown_model_is_a_value_error():
     with pytest.raises(ValueError, match="fingertac"):
-        FirmwareCore("haptx")
+        Firmware("haptx")

@@ -1,5 +1,5 @@
 """Property test (hypothesis) of the loop's core: any finite tracker positions, ±1e308 included,
-never make a tick raise out of LoopCore, and the next sane sample renders a sane proxy (on the
+never make a tick raise out of Loop, and the next sane sample renders a sane proxy (on the
 dome's surface or at the HIP). Bounded and derandomized."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from scenarios.contact_angle import ContactAngle
 from server.core.workspace import WORKSPACE_HALF_EXTENT_M
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.simulation import Simulation
 from server.ipc.records import TrackerSample
 
@@ -21,7 +21,7 @@ coord = st.one_of(st.floats(allow_nan=False, allow_infinity=False),
                   st.sampled_from([1e154, 1.35e154, -1e154, 1e308, -1e308, 10.0, -10.0, 0.0, 5e-324]))
 positions = st.lists(st.tuples(coord, coord, coord), min_size=1, max_size=6)
 SANE = [(0.1, 0.1, 0.5), (0.0, 0.0, 1.2), (0.3, -0.2, 0.7)]
-CORE = LoopCore(Simulation(ContactAngle()))  # one core: the state a hostile sequence leaves behind carries over
+CORE = Loop(Simulation(ContactAngle()))  # one core: the state a hostile sequence leaves behind carries over
 
 
 @settings(max_examples=300, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])

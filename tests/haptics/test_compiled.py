@@ -1,4 +1,4 @@
-"""The compiled haptic core (_ccore.c) gives the Python reference's numbers.
+"""The compiled haptic core (_chaptics.c) gives the Python reference's numbers.
 
 Random paths (numpy draws them, seeded) run through ``ReferenceGodObject`` and ``CompiledGodObject``
 side by side; every tick's proxy, force, contacts, separation and iteration count must agree to
@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from server.bench.objects import cluttered_scene
-from server.core.haptics.compiled import COMPILED, ccore
+from server.core.haptics.compiled import COMPILED, chaptics
 from server.core.haptics.primitives import Body, Box, Cone, Cylinder, Hemisphere, Plane, Pose, Sphere
 
 from .implementations import NOT_BUILT
@@ -146,10 +146,10 @@ def test_primitives_evaluate_and_cast_like_the_reference():
             pts = (np.asarray(pose.to_world(centre)) + rng.uniform(-1.5, 1.5, size=(20_000, 3)) * extent).tolist()
             pts += [[0.0, 0.0, z] for z in (-0.5, 0.0, 0.25, 0.7, 1.0)]  # on the axis: the tie-breaks
             for p in pts:
-                assert ccore.evaluate(body, p) == body._eval(tuple(p)), (name, p)
+                assert chaptics.evaluate(body, p) == body._eval(tuple(p)), (name, p)
             for a, b in zip(pts[::2], pts[1::2]):
                 for radius in (0.0, 0.03):
-                    assert ccore.cast(body, a, b, radius) == body.cast(a, b, radius), (name, a, b, radius)
+                    assert chaptics.cast(body, a, b, radius) == body.cast(a, b, radius), (name, a, b, radius)
 
 
 def test_bodies_the_core_does_not_know_take_the_reference_step():

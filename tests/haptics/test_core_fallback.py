@@ -10,12 +10,12 @@ ROOT = Path(__file__).resolve().parents[2]
 
 PROBE = """
 import sys, warnings
-sys.modules["server.core.haptics._ccore"] = None  # as if the extension was never built
+sys.modules["server.core.haptics._chaptics"] = None  # as if the extension was never built
 with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always")
     from server.core.haptics import compiled, contact_gate, god_object
 from server.core.haptics.primitives import Body, Plane
-assert not compiled.COMPILED and compiled.ccore is None
+assert not compiled.COMPILED and compiled.chaptics is None
 assert god_object.GodObject is god_object.ReferenceGodObject
 assert contact_gate.ContactGate is contact_gate.ReferenceContactGate
 assert [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)

@@ -1,12 +1,12 @@
 """Switches in flight are matched by number, not by scenario id (issue 33): the hub's scenario
-control (server/hub/control.py) and the loop core (server/loop/core.py) together, the loop
+control (server/hub/control.py) and the loop core (server/loop/tick.py) together, the loop
 building off the tick as the loop process does."""
 
 from devices.profiles import profile_by_model
 from scenarios import registry
 from server.hub.control import ScenarioControl
 from server.ipc.records import ScenarioAnnounce
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.simulation import Simulation
 
 PROFILES = {model: profile_by_model(model) for model in ("ferrovibe", "fingertac")}
@@ -14,7 +14,7 @@ PROFILES = {model: profile_by_model(model) for model in ("ferrovibe", "fingertac
 
 def rig():
     """A loop running stiffness (A) with middle_level 5, and the hub's control of it."""
-    core = LoopCore(Simulation(registry.create("stiffness", middle_level=5), tick_hz=1000, seed=0),
+    core = Loop(Simulation(registry.create("stiffness", middle_level=5), tick_hz=1000, seed=0),
                     build_off_tick=True)
     core.params = {"middle_level": 5, "labels": True}
     mailbox: list = []

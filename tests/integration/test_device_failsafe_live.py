@@ -144,7 +144,7 @@ def test_a_killed_device_host_leaves_the_device_flat_by_its_own_watchdog(tmp_pat
     control, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
     feed_end, loop_end = ipc.channel_pair()
     config = DeviceConfig("ferro", profile_by_model("ferrovibe"), PortSpec.parse(emulator.path))
-    proc = subprocess.Popen([sys.executable, "-m", "devices.host_process", "--control-fd", str(theirs.fileno()),
+    proc = subprocess.Popen([sys.executable, "-m", "devices.device_host_process", "--control-fd", str(theirs.fileno()),
                              "--cues-fd", str(feed_end.fileno()), "--cue-quiet-ms", "600000"],
                             stdin=subprocess.PIPE, pass_fds=(theirs.fileno(), feed_end.fileno()), cwd=ROOT)
     try:

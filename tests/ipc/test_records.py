@@ -94,10 +94,10 @@ def test_records_are_frozen_and_slotted():
 
 def test_the_loop_reports_a_bad_record_from_the_hub_and_ticks_on():
     from scenarios.contact_angle import ContactAngle
-    from server.loop.core import LoopCore
+    from server.loop.tick import Loop
     from server.loop.simulation import Simulation
 
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     out = core.tick([Malformed("hub → loop: unknown record 'teleport'"), Input(1, "space", "press")], 0)
     (log,) = [sent(r) for r in out.records]
     assert log[:2] == ["log", "error"] and "unknown record 'teleport'" in log[2]

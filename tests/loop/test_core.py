@@ -1,10 +1,10 @@
-"""LoopCore on a virtual clock: publish cadence, cue-change frames, tracker hold, device reports."""
+"""Loop on a virtual clock: publish cadence, cue-change frames, tracker hold, device reports."""
 
 import msgpack
 
 from scenarios.contact_angle import ContactAngle
 from server.core.records import TRAJECTORY_COLUMNS
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.simulation import Simulation
 from server.ipc.records import DeviceReport, Input, RecordEvery, ScenarioAnnounce, SwitchScenario, TrackerSample, Trial
 from tests.ipc import sent, state_map
@@ -13,7 +13,7 @@ MS = 1_000_000
 
 
 def step(core, now_ns):
-    """LoopCore.step, with the state record as the map it goes on the socket as."""
+    """Loop.step, with the state record as the map it goes on the socket as."""
     result, state = core.step(now_ns)
     return result, state_map(state)
 
@@ -24,7 +24,7 @@ def _dome(angle_inset=0.003):
 
 def make_core(state_hz=60.0):
     sim = Simulation(ContactAngle())
-    return LoopCore(sim, state_hz=state_hz)
+    return Loop(sim, state_hz=state_hz)
 
 
 def test_cadence_is_exactly_state_hz_without_changes():

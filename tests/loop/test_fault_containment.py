@@ -4,8 +4,8 @@ then [0.1,0.1,0.5] wedged the god-object with OverflowError in every tick."""
 
 from scenarios.contact_angle import ContactAngle
 from server.core.workspace import WORKSPACE_HALF_EXTENT_M
-from server.loop import core as core_module
-from server.loop.core import LoopCore
+from server.loop import tick as core_module
+from server.loop.tick import Loop
 from server.loop.simulation import Simulation
 from tests.loop.test_tick import Flaky
 from server.ipc.records import TrackerSample
@@ -30,7 +30,7 @@ def run(core, records_by_tick, ticks):
 
 
 def test_huge_tracker_positions_do_not_wedge_the_loop_and_a_sane_sample_is_rendered():
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     outs = run(core, {0: [tracker(0, (0, 1e154, 0.5))], 1: [tracker(1, (0, 1.35e154, 0.5))],
                       2: [tracker(2, (0.1, 0.1, 0.5))]}, 40)
     assert all(o["error"] is None for o in outs), outs[-1]["error"]
@@ -58,7 +58,7 @@ class Exploding(Flaky):
 def test_a_failing_tick_is_counted_reported_and_recovered_from(monkeypatch):
     monkeypatch.setattr(core_module, "FAULT_REPORT_EVERY", 5)
     scenario = Exploding()
-    core = LoopCore(Simulation(scenario))
+    core = Loop(Simulation(scenario))
     run(core, {0: [tracker(0, DOME_TOP)]}, 3)
     tool = core.sim.data.tools[0]
     assert tool.god.proxy is not None
@@ -86,14 +86,14 @@ def test_a_failing_tick_is_counted_reported_and_recovered_from(monkeypatch):
 
 
 def test_no_failure_no_failures_key_in_the_state_record():
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     state = next(o["state"] for o in run(core, {}, 20) if o["state"] is not None)
     assert "failures" not in state
 
 
 def test_a_proxy_left_far_away_by_a_failure_is_not_reused(monkeypatch):
     """Even a god-object that got somewhere absurd is forgotten by the failure it causes."""
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     run(core, {0: [tracker(0, DOME_TOP)]}, 2)
     tool = core.sim.data.tools[0]
     tool.god.reset((0.0, 1.35e154, 0.5))  # what a driver without the clamp could leave behind

@@ -1,9 +1,9 @@
-"""Scenario switches off the tick (server/loop/core.py): with build_off_tick, tick() never builds a
+"""Scenario switches off the tick (server/loop/tick.py): with build_off_tick, tick() never builds a
 scenario; the driver builds it and installs it between ticks; records during the build go to the
 running scenario, trials wait for the new one, the latest switch wins."""
 
 from scenarios.contact_angle import ContactAngle
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.simulation import Simulation
 from server.ipc.records import Input, SwitchScenario, Trial
 from tests.ipc import sent, state_map
@@ -23,7 +23,7 @@ class CountingBuilds:
 
 def off_tick_core():
     make = CountingBuilds()
-    return LoopCore(Simulation(ContactAngle()), state_hz=1000, make_sim=make, build_off_tick=True), make
+    return Loop(Simulation(ContactAngle()), state_hz=1000, make_sim=make, build_off_tick=True), make
 
 
 def test_tick_never_builds_a_switch_it_only_records_it():
@@ -97,7 +97,7 @@ def test_a_failed_build_is_reported_and_the_running_scenario_goes_on():
 
 
 def test_without_build_off_tick_apply_builds_and_installs_at_once():
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     core.apply(SwitchScenario("stiffness", {}, 0), 0)
     core.apply(Trial(TRIAL), 0)
     assert core.pending_switch is None and core.sim.scenario.id == "stiffness-v1" and core.sim.data.trial.index == 5

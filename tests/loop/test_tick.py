@@ -1,4 +1,4 @@
-"""LoopCore.tick on a virtual clock: the whole tick as data (fail-safe, cue hand-over and re-send,
+"""Loop.tick on a virtual clock: the whole tick as data (fail-safe, cue hand-over and re-send,
 scenario switches, the tracker rule, what the state record carries, trial ends)."""
 
 from dataclasses import replace
@@ -8,7 +8,7 @@ import pytest
 from scenarios.contact_angle import ContactAngle
 from scenarios.stiffness import SPHERE_RADIUS, SPACING, StiffnessScenario
 from server.core.tool import DEFAULT_PROXY_RADIUS, DRIVER_QUIET_S
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.simulation import Simulation, home_position
 from tests.experiment.test_recorder import recording  # noqa: F401 - the fixture
 from server.ipc.records import Input, Log, RecordEvery, SwitchScenario, TrackerGone, TrackerSample, Trial
@@ -62,7 +62,7 @@ def run(core, ticks, records_at=None):
 
 def test_a_failing_step_turns_every_actuator_off_reports_once_and_the_next_good_tick_sends_again():
     scenario = Flaky()
-    core = LoopCore(Simulation(scenario))
+    core = Loop(Simulation(scenario))
     first = run(core, 3, {0: [tracker(1, 0, DOME_TOP)]})
     assert [s["cues"] for s in first] == [TILT, None, None]
     scenario.failing = True
@@ -81,7 +81,7 @@ def test_a_failing_step_turns_every_actuator_off_reports_once_and_the_next_good_
 
 def test_a_failing_scenario_reports_the_first_failures_then_every_thousandth():
     scenario = Flaky()
-    core = LoopCore(Simulation(scenario))
+    core = Loop(Simulation(scenario))
     scenario.failing = True
     seen = run(core, 2000)
     reported = [s["tick"] for s in seen if any(r[0] == "log" for r in s["records"])]
@@ -90,7 +90,7 @@ def test_a_failing_scenario_reports_the_first_failures_then_every_thousandth():
 
 
 def test_cues_that_could_not_be_handed_over_go_again_next_tick():
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     out = core.tick([tracker(1, 0, DOME_TOP)], 0)
     assert out.cues == TILT
     assert core.tick((), MS).cues is None, "unchanged and delivered: nothing to send"
@@ -100,7 +100,7 @@ def test_cues_that_could_not_be_handed_over_go_again_next_tick():
 
 
 def test_a_switch_announces_scene_and_scenario_and_turns_the_old_cue_off():
-    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    core = Loop(Simulation(ContactAngle()), state_hz=1000)
     run(core, 2, {0: [tracker(1, 0, DOME_TOP)]})
     out = core.tick([SwitchScenario("stiffness", {}, 3)], 2 * MS)
     assert [r[0] for r in map(sent, out.records)] == ["scene", "scenario"]
@@ -110,7 +110,7 @@ def test_a_switch_announces_scene_and_scenario_and_turns_the_old_cue_off():
 
 
 def test_a_bad_record_is_reported_and_the_tick_goes_on():
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     out = core.tick([SwitchScenario("no-such-scenario", {}, 0), tracker(1, 0, DOME_TOP)], 0)
     (level, text), = [r[1:] for r in map(sent, out.records)]
     assert level == "error" and "record scenario failed" in text and "no-such-scenario" in text
@@ -120,7 +120,7 @@ def test_a_bad_record_is_reported_and_the_tick_goes_on():
 # -- the tracker rule ------------------------------------------------------------------------------
 
 def test_one_source_drives_the_hip_others_are_ignored_and_counted():
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     out = core.tick([tracker(1, 0, FREE), tracker("udp:10.0.0.2:5000", 0, DOME_TOP)], 0)
     assert out.result.hip == tuple(FREE), "the first source drives; the second is ignored"
     assert state_map(out.state)["driver"] == [1, 0]
@@ -135,7 +135,7 @@ def test_one_source_drives_the_hip_others_are_ignored_and_counted():
 
 
 def test_a_quiet_driver_loses_the_hip_after_driver_quiet_s():
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     core.tick([tracker(1, 0, FREE)], 0)
     quiet = round(DRIVER_QUIET_S * 1000)
     run(core, quiet - 2)
@@ -149,7 +149,7 @@ def test_a_quiet_driver_loses_the_hip_after_driver_quiet_s():
 
 
 def test_when_the_driver_leaves_the_hip_goes_home_and_the_contact_cue_stops():
-    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    core = Loop(Simulation(ContactAngle()), state_hz=1000)
     home = home_position(core.sim.scene)
     run(core, 5, {0: [tracker(7, 0, DOME_TOP)]})
     out = core.tick([TrackerGone(8)], 5 * MS)
@@ -162,7 +162,7 @@ def test_when_the_driver_leaves_the_hip_goes_home_and_the_contact_cue_stops():
 
 
 def test_the_driver_stays_across_a_scenario_switch():
-    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    core = Loop(Simulation(ContactAngle()), state_hz=1000)
     core.tick([tracker(1, 4, FREE)], 0)
     out = core.tick([SwitchScenario("stiffness", {}, 0), tracker(2, 0, DOME_TOP)], MS)
     assert state_map(out.state)["driver"] == [1, 4] and core.sim.tool.ignored == {2: 1}
@@ -171,7 +171,7 @@ def test_the_driver_stays_across_a_scenario_switch():
 # -- what the state record carries ------------------------------------------------------------------
 
 def test_the_state_record_holds_the_wire_fields_in_their_order_then_the_loops_own():
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     state = state_map(core.tick([tracker(3, 0, DOME_TOP)], 0).state)
     assert list(state) == ["frame", "tick", "t", "scene", "hip", "proxy", "force", "contact", "contacts", "objects",
                            "cues", "hud", "values", "visible", "events", "scales", "stiffness", "haptic", "driver",
@@ -189,7 +189,7 @@ def test_the_state_record_carries_stiffness_so_a_client_computes_the_force():
     (nothing between proxy and HIP), force = 0. With the record's `stiffness` (overrides of the
     scene's material stiffness) a client computes the force the loop reports, to the record's
     rounding, also in the tick a key changes k (the record has the set that tick rendered with)."""
-    core = LoopCore(Simulation(StiffnessScenario()), state_hz=1000)  # a record every tick
+    core = Loop(Simulation(StiffnessScenario()), state_hz=1000)  # a record every tick
     scene_k = {o.id: o.material.stiffness_n_per_m for o in core.sim.scene.objects}
     top = [0.0, SPACING, 2 * SPHERE_RADIUS + DEFAULT_PROXY_RADIUS - 0.004]  # 4 mm into the right sphere
     keys = {50: [Input(1, "ArrowDown", "down")], 51: [Input(1, "ArrowDown", "down")],
@@ -207,7 +207,7 @@ def test_the_state_record_carries_stiffness_so_a_client_computes_the_force():
 
 
 def test_the_state_record_carries_the_touchability_overrides():
-    core = LoopCore(Simulation(StiffnessScenario()))
+    core = Loop(Simulation(StiffnessScenario()))
     out = core.tick([Input(1, "r", "press")], 0)  # recording hides the left sphere and makes it untouchable
     assert state_map(out.state)["haptic"] == {}, "the tick that asks renders with the old set"
     states = [s["state"] for s in run(core, 40) if s["state"] is not None]
@@ -220,7 +220,7 @@ def test_the_state_record_carries_the_touchability_overrides():
 def test_a_trial_end_rides_with_the_next_state_record_as_finished_and_as_an_event(with_event):
     scenario = Finishing()
     scenario.at, scenario.with_event = 5, with_event
-    core = LoopCore(Simulation(scenario))
+    core = Loop(Simulation(scenario))
     states = [s["state"] for s in run(core, 40) if s["state"] is not None]
     assert [s["tick"] for s in states[:2]] == [0, 17], "tick 5 publishes nothing"
     assert states[1]["finished"] == [{"tick": 5, "metrics": {"completion_s": 1.5}}]
@@ -233,7 +233,7 @@ def test_the_recorder_takes_a_trials_metrics_from_the_loops_finished_entries(rec
     _, recorder, _ = recording
     scenario = Finishing()
     scenario.at = 30
-    core = LoopCore(Simulation(scenario))
+    core = Loop(Simulation(scenario))
     out = core.tick([Trial({"phase": "main", "params": {"angle_deg": 10.0}, "index": 0})], 0)
     for _ in range(60):
         for record in out.records:
@@ -256,7 +256,7 @@ class Carrying(ContactAngle):
             return out
         kind, value = what
         if kind == "haptic":
-            return replace(out, haptic={"hemisphere": value})
+            return replace(out, touchable={"hemisphere": value})
         if kind == "stiffness":
             return replace(out, stiffness={"hemisphere": value})
         return replace(out, poses={"hemisphere": value})
@@ -279,7 +279,7 @@ def test_a_body_moved_while_untouchable_is_where_it_was_last_moved_when_it_count
 
 def test_a_run_nobody_draws_records_the_same_and_leaves_the_picture_out():
     from scenarios.positioning import Positioning
-    drawn, undrawn = (LoopCore(Simulation(Positioning(), tick_hz=1000), drawn=flag) for flag in (True, False))
+    drawn, undrawn = (Loop(Simulation(Positioning(), tick_hz=1000), drawn=flag) for flag in (True, False))
     for core in (drawn, undrawn):
         core.apply(RecordEvery(5), 0)
         for t in range(40):

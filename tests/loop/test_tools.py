@@ -15,7 +15,7 @@ from scenarios.contact_angle import ContactAngle
 from server.core.cues import Tilt, Vibration
 from server.core.points import PRIMARY_POINT
 from server.core.tool import DEFAULT_PROXY_RADIUS
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.simulation import Simulation, home_position, tool_names
 from server.wire import messages
 from server.loop.tracker_udp import parse_datagram
@@ -34,11 +34,11 @@ def tracker(source, seq, pos, point=None, points=None, ttl=None) -> list:
     return messages.Tracker(seq, 0.0, tuple(pos), None, point, points, ttl).loop_record(source, 0)
 
 
-def two_fingers(scenario=None, **kw) -> LoopCore:
-    return LoopCore(Simulation(scenario or ContactAngle(), rig=(THUMB,)), state_hz=1000, **kw)
+def two_fingers(scenario=None, **kw) -> Loop:
+    return Loop(Simulation(scenario or ContactAngle(), rig=(THUMB,)), state_hz=1000, **kw)
 
 
-def run(core: LoopCore, ticks: int, records=()):
+def run(core: Loop, ticks: int, records=()):
     """`ticks` ticks, `records` applied before the first; every tick's (tick, state, cues) kept."""
     out = []
     for i in range(ticks):
@@ -50,7 +50,7 @@ def run(core: LoopCore, ticks: int, records=()):
 # -- tools and their names ----------------------------------------------------------------------
 
 def test_the_default_rig_has_one_tool_the_primary_point_and_the_state_lists_it():
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     state = state_map(core.tick([tracker(1, 0, DOME_TOP)], 0).state)
     assert [t.name for t in core.sim.data.tools] == [PRIMARY_POINT]
     assert state["tools"] == [{"name": PRIMARY_POINT, "hip": state["hip"], "proxy": state["proxy"], "contact": True,
@@ -87,7 +87,7 @@ def test_the_scenario_sees_every_tool_primary_first():
         def step(self, ctx):
             seen.append(ctx.tools)
             return super().step(ctx)
-    core = LoopCore(Simulation(Watching(), rig=(THUMB,)))
+    core = Loop(Simulation(Watching(), rig=(THUMB,)))
     core.tick([tracker(1, 0, DOME_TOP), tracker(1, 1, FREE_SIDE, point=THUMB)], 0)
     (index, thumb), = seen
     assert index.name == PRIMARY_POINT and index.contact and index.hip == DOME_TOP
@@ -134,14 +134,14 @@ def test_a_source_whose_ttl_passes_is_lost_its_tools_leave_contact_and_the_devic
 
 def test_loss_does_not_wait_for_the_gates_minimum_on_time():
     """The gate holds contact on for min_on_s (30 ms) after switching on; a lost finger must not."""
-    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    core = Loop(Simulation(ContactAngle()), state_hz=1000)
     ticks = run(core, 10, [tracker("udp:a", 1, DOME_TOP, ttl=2)])
     assert [r.contact for *_, r in ticks[:4]] == [True, True, False, False]
     assert ticks[2][2] == []
 
 
 def test_a_lost_source_that_sends_again_is_back():
-    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    core = Loop(Simulation(ContactAngle()), state_hz=1000)
     run(core, 30, [tracker("udp:a", 1, DOME_TOP, ttl=20)])
     assert core.sim.data.lost_sources == {"udp:a": (PRIMARY_POINT,)}
     (tick, state, cues, _, result), = run(core, 1, [tracker("udp:a", 2, DOME_TOP, ttl=20)])
@@ -152,23 +152,23 @@ def test_a_lost_source_that_sends_again_is_back():
 
 
 def test_another_source_taking_over_the_lost_tools_clears_the_loss():
-    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    core = Loop(Simulation(ContactAngle()), state_hz=1000)
     run(core, 30, [tracker("udp:a", 1, DOME_TOP, ttl=20)])
     (_, state, *_), = run(core, 1, [tracker(5, 1, FREE)])
     assert state["tracking"] == {"lost": []} and state["driver"] == [5, 1] and not state["tools"][0]["lost"]
 
 
 def test_a_sample_without_ttl_is_held_as_the_mouse_is():
-    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    core = Loop(Simulation(ContactAngle()), state_hz=1000)
     ticks = run(core, 2000, [tracker(3, 1, DOME_TOP)])
     assert all(r.contact for *_, r in ticks) and core.sim.data.lost_sources == {}
 
 
 def test_a_lost_source_drops_its_drawn_points_and_a_source_that_leaves_is_not_lost():
-    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    core = Loop(Simulation(ContactAngle()), state_hz=1000)
     ticks = run(core, 50, [tracker("udp:a", 1, FREE, points={"right.wrist": (0, 0, 1.4)}, ttl=40)])
     assert ticks[0][1]["points"] == {"right.wrist": [0.0, 0.0, 1.4]} and ticks[-1][1]["points"] == {}
-    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    core = Loop(Simulation(ContactAngle()), state_hz=1000)
     run(core, 5, [tracker(4, 1, DOME_TOP, points={"right.wrist": (0, 0, 1.4)}, ttl=40)])
     (_, state, *_), = run(core, 1, [TrackerGone(4)])
     assert state["points"] == {} and state["tracking"] == {"lost": []} and not state["contact"]
@@ -299,7 +299,7 @@ def test_v14_tracker_fields_reach_the_loop_record_through_the_udp_port():
 # -- recording every tool's tracked point -------------------------------------------------------
 
 def test_no_point_rows_with_one_tool_and_no_hand():
-    core = LoopCore(Simulation(ContactAngle()), state_hz=1000)
+    core = Loop(Simulation(ContactAngle()), state_hz=1000)
     core.apply(RecordEvery(1), 0)
     state = state_map(core.tick([tracker(1, 0, DOME_TOP)], 0).state)
     assert len(state["trajectory"]) == 1 and "point_rows" not in state

@@ -6,7 +6,7 @@ from collections import deque
 
 from scenarios.contact_angle import ContactAngle
 from server import ipc
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.process import _send_in_order
 from server.loop.simulation import Simulation
 from server.ipc.records import FROM_LOOP, Input, Log, RecordEvery, TrackerSample
@@ -16,7 +16,7 @@ MS = 1_000_000
 
 
 def test_an_unsent_state_records_rows_events_and_trackers_go_out_with_the_next_one():
-    core = LoopCore(Simulation(ContactAngle()), state_hz=100)
+    core = Loop(Simulation(ContactAngle()), state_hz=100)
     core.apply(RecordEvery(1), 0)
     core.record_sample(MS, 20_000)  # a timing sample the first state record carries
     states = []

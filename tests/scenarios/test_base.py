@@ -33,7 +33,7 @@ def test_pending_goes_out_once_in_the_next_output_and_a_trial_end_is_both_finish
     pending.emit("tap", angle_deg=30.0, by="experimenter")
     pending.poses["cube"] = Pose((1.0, 2.0, 3.0))
     pending.visible["arrow"] = False
-    pending.haptic["cube"] = False
+    pending.touchable["cube"] = False
     pending.stiffness["sphere"] = 40.0
     pending.scales["hole"] = (1.5, 1.5, 1.0)
     pending.finish({"completion_s": 1.25, "object": "cube"})
@@ -41,12 +41,12 @@ def test_pending_goes_out_once_in_the_next_output_and_a_trial_end_is_both_finish
     assert out.events == ({"name": "tap", "angle_deg": 30.0, "by": "experimenter"},
                           {"name": "trial_done", "completion_s": 1.25, "object": "cube"})
     assert out.finished == {"completion_s": 1.25, "object": "cube"}
-    assert (out.poses, out.visible, out.haptic) == ({"cube": Pose((1.0, 2.0, 3.0))}, {"arrow": False}, {"cube": False})
+    assert (out.poses, out.visible, out.touchable) == ({"cube": Pose((1.0, 2.0, 3.0))}, {"arrow": False}, {"cube": False})
     assert (out.stiffness, out.scales) == ({"sphere": 40.0}, {"hole": (1.5, 1.5, 1.0)})
     assert (out.hud, out.values, out.held) == ("Done", {"phase": "done"}, "cube")
     again = pending.flush(hud="")
     assert again.events == () and again.finished is None
-    assert not (again.poses or again.visible or again.haptic or again.stiffness or again.scales)
+    assert not (again.poses or again.visible or again.touchable or again.stiffness or again.scales)
     assert out.poses == {"cube": Pose((1.0, 2.0, 3.0))}, "a flushed output keeps what it carried"
 
 

@@ -8,7 +8,7 @@ from scenarios.free import FreeExploration, sandbox
 from server.config import Settings
 from server.core.cues import Vibration
 from server.core.scene import Scene
-from server.loop.core import Switch
+from server.loop.tick import Switch
 from server.loop.process import build_core
 from server.loop.simulation import Simulation
 

@@ -10,7 +10,7 @@ import pytest
 
 from server.tracking import sources, store
 from server.tracking.calibration import Calibration, leap_default
-from server.tracking.host_process import Source
+from server.tracking.tracker_host_process import Source
 from server.tracking.source_kind import SourceKind, SourceSpec
 from server.tracking.sources import KINDS, parse_spec, parse_specs
 

@@ -4,7 +4,7 @@ change what crosses a socket (tests/ipc/test_records.py).
 
 The first version of the file was written by the code as it was before the records were typed
 (positional lists built at each sender); running this again must give identical bytes. Records
-that the loop builds (state, scene, scenario) come from a LoopCore run on a virtual clock.
+that the loop builds (state, scene, scenario) come from a Loop run on a virtual clock.
 """
 
 import json
@@ -17,15 +17,15 @@ OUT = HERE / "ipc_records.json"
 
 
 def _core_records() -> dict:
-    """Records of a deterministic LoopCore run: the announcements and state records (drawn, not
+    """Records of a deterministic Loop run: the announcements and state records (drawn, not
     drawn, several tools with point rows, a failed tick's fault and recovery)."""
     from scenarios.contact_angle import ContactAngle
     from server.ipc.records import Input, RecordEvery, TrackerSample
-    from server.loop.core import LoopCore
+    from server.loop.tick import Loop
     from server.loop.simulation import Simulation
 
     out = {}
-    core = LoopCore(Simulation(ContactAngle(), seed=1), state_hz=60)
+    core = Loop(Simulation(ContactAngle(), seed=1), state_hz=60)
     scene, scenario = core.announce()
     out["loop_scene"], out["loop_scenario"] = scene, scenario
     now = 5_000_000_000
@@ -34,12 +34,12 @@ def _core_records() -> dict:
     core.record_sample(1_000_100, 20_500, False)
     out["loop_state_drawn"] = core.tick((), now).state
 
-    blind = LoopCore(Simulation(ContactAngle(), seed=1), state_hz=60, drawn=False)
+    blind = Loop(Simulation(ContactAngle(), seed=1), state_hz=60, drawn=False)
     blind.apply(Input(2, "ArrowUp", "down"), now)
     blind.record_sample(999_000, 18_000, True)
     out["loop_state_not_drawn"] = blind.tick((), now).state
 
-    fingers = LoopCore(Simulation(ContactAngle(), seed=1, rig=("right.thumb.tip",)), state_hz=60)
+    fingers = Loop(Simulation(ContactAngle(), seed=1, rig=("right.thumb.tip",)), state_hz=60)
     fingers.apply(RecordEvery(1), now)
     fingers.apply(TrackerSample("udp:127.0.0.1:5000", 4, 11.0, [0.0, 0.1, 0.0], None, now, None,
                                 {"right.thumb.tip": [0.02, 0.1, 0.0]}, 80.0), now)

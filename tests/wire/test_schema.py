@@ -11,7 +11,7 @@ import pytest
 
 from scenarios.contact_angle import ContactAngle
 from server.core.cues import CUE_CLASSES, CUE_KINDS, cue_to_wire
-from server.loop.core import LoopCore
+from server.loop.tick import Loop
 from server.loop.simulation import Simulation
 from server.wire import doc, messages
 from server.wire.check import check_message
@@ -230,7 +230,7 @@ def _decimals_ok(value, decimals):
 
 
 def test_the_loop_rounds_the_documented_fields_to_the_documented_places():
-    core = LoopCore(Simulation(ContactAngle()))
+    core = Loop(Simulation(ContactAngle()))
     for t in range(50):
         core.step(t * 1_000_000)
     # an odd point inside the dome's top, so contact, force and normal have many digits

@@ -23,7 +23,7 @@ clock, so it is deterministic and testable.
 from __future__ import annotations
 
 from ..numbers import is_finite_number
-from .compiled import ccore
+from .compiled import chaptics
 
 BAND = 0.002        # the default hysteresis band, scene units (above: ~4 sigma of a Leap's jitter)
 MIN_DWELL_S = 0.030  # the default minimum on and off time (above: felt as a vibration, not a pulse)
@@ -72,8 +72,8 @@ def _elapsed(t_change: float | None, t_s: float) -> float:
     return float("inf") if t_change is None else t_s - t_change
 
 
-if ccore is not None:
-    class ContactGate(ccore.Gate):  # state, ``on``, ``reset`` and ``update`` in _ccore.c
+if chaptics is not None:
+    class ContactGate(chaptics.Gate):  # state, ``on``, ``reset`` and ``update`` in _chaptics.c
         __doc__ = ReferenceContactGate.__doc__
         __init__ = ReferenceContactGate.__init__
         _STATE = ("band", "min_on_s", "min_off_s", "_on", "_t_change")

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from math import inf, isfinite, sqrt
 from typing import Sequence
 
-from .compiled import ccore
+from .compiled import chaptics
 from .primitives import EPS_SURFACE, SHAPE_TYPES, Body
 from .vec import Vec3, project_halfspaces
 
@@ -424,13 +424,13 @@ def _on_core(name: str) -> property:
 
 
 class CompiledGodObject(ReferenceGodObject):
-    """The god-object with its state and step in the compiled core (_ccore.c): the same API and
+    """The god-object with its state and step in the compiled core (_chaptics.c): the same API and
     the same numbers as the reference. Bodies the core does not know (the bench's mesh and grid
     baselines) take the reference's step, on the same state."""
 
     def __init__(self, radius: float = 0.0, *, max_iterations: int = 16, tolerance: float = 1e-12,
                  shortcut: bool = True) -> None:
-        self._core = ccore.GodCore()
+        self._core = chaptics.GodCore()
         super().__init__(radius, max_iterations=max_iterations, tolerance=tolerance, shortcut=shortcut)
 
     radius = _on_core("radius")
@@ -456,13 +456,13 @@ class CompiledGodObject(ReferenceGodObject):
         return {name: getattr(self, name) for name in self._STATE}
 
     def __setstate__(self, state: dict) -> None:
-        self._core = ccore.GodCore()
+        self._core = chaptics.GodCore()
         for name in self._STATE:
             setattr(self, name, state[name])
 
 
-if ccore is not None:
-    ccore.configure(Body, SHAPE_TYPES, ProxyStep, Contact)
+if chaptics is not None:
+    chaptics.configure(Body, SHAPE_TYPES, ProxyStep, Contact)
     GodObject: type[ReferenceGodObject] = CompiledGodObject
 else:
     GodObject = ReferenceGodObject

@@ -1171,7 +1171,7 @@ static PyObject *make_record(PyObject *cls, PyObject **names, PyObject **values,
 static PyObject *core_step(GodCore *g, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs != 2) { PyErr_SetString(PyExc_TypeError, "step(bodies, hip)"); return NULL; }
-    if (!ProxyStepType) { PyErr_SetString(PyExc_RuntimeError, "_ccore.configure() was not called"); return NULL; }
+    if (!ProxyStepType) { PyErr_SetString(PyExc_RuntimeError, "_chaptics.configure() was not called"); return NULL; }
     V3 hip;
     if (to_v3(args[1], &hip)) return NULL;
     int rc = core_sync(g, args[0]);
@@ -1295,7 +1295,7 @@ static PyMethodDef core_methods[] = {
 
 static PyTypeObject GodCoreType = {
     PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "server.core.haptics._ccore.GodCore",
+    .tp_name = "server.core.haptics._chaptics.GodCore",
     .tp_basicsize = sizeof(GodCore),
     .tp_flags = Py_TPFLAGS_DEFAULT,
     .tp_doc = "The god-object's state and its compiled step (god_object.GodObject wraps it).",
@@ -1390,7 +1390,7 @@ static PyMethodDef gate_methods[] = {
 
 static PyTypeObject GateType = {
     PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "server.core.haptics._ccore.Gate",
+    .tp_name = "server.core.haptics._chaptics.Gate",
     .tp_basicsize = sizeof(Gate),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE,
     .tp_doc = "The contact gate's state and update (contact_gate.ContactGate subclasses it).",
@@ -1458,10 +1458,10 @@ static PyMethodDef mod_methods[] = {
     {NULL}
 };
 
-static struct PyModuleDef moddef = {PyModuleDef_HEAD_INIT, "_ccore",
-    "The compiled haptic core (see _ccore.c; the Python modules beside it are the reference).", -1, mod_methods};
+static struct PyModuleDef moddef = {PyModuleDef_HEAD_INIT, "_chaptics",
+    "The compiled haptic core (see _chaptics.c; the Python modules beside it are the reference).", -1, mod_methods};
 
-PyMODINIT_FUNC PyInit__ccore(void)
+PyMODINIT_FUNC PyInit__chaptics(void)
 {
     if (PyType_Ready(&GodCoreType) < 0 || PyType_Ready(&GateType) < 0) return NULL;
     PyObject *m = PyModule_Create(&moddef);

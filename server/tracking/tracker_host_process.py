@@ -1,7 +1,7 @@
 """The tracker host process: runs the configured tracker sources outside the loop and the hub.
 
 Started by the hub (server/hub/tracker_host.py) as
-`python -m server.tracking.host_process --control-fd C --udp HOST:PORT --data-dir DIR`, with the
+`python -m server.tracking.tracker_host_process --control-fd C --udp HOST:PORT --data-dir DIR`, with the
 source specs as JSON on stdin. For every sample of every source: calibrate, 1€-filter each point
 (server/tracking/pipeline.py) and send one `tracker` datagram (msgpack) to the loop's tracker UDP
 port, from one UDP socket per source (so the loop tells the sources apart, and a source that
@@ -107,7 +107,7 @@ class Source:
         await sources.KINDS[self.spec.kind].run(self)  # its kind's module (server/tracking/sources.py)
 
 
-class TrackerHost:
+class TrackerHostProcess:
     def __init__(self, control: socket.socket, specs: list[SourceSpec], target: tuple[str, int], data_dir: Path,
                  rt: bool = False):
         self.control = control
@@ -202,7 +202,7 @@ class TrackerHost:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m server.tracking.host_process")
+    parser = argparse.ArgumentParser(prog="python -m server.tracking.tracker_host_process")
     parser.add_argument("--control-fd", type=int, required=True)
     parser.add_argument("--udp", required=True, help="the loop's tracker UDP port, HOST:PORT")
     parser.add_argument("--data-dir", required=True)
@@ -215,7 +215,7 @@ def main(argv: list[str] | None = None) -> int:
     # On the tracker → device path, like the device host's threads: SCHED_FIFO below the loop when
     # allowed, so a sample is not left waiting for a CPU while the hub broadcasts (devices/realtime.py).
     rt = fifo_this_thread()
-    tracker = TrackerHost(control, specs, (host.strip("[]"), int(port)), Path(args.data_dir), rt=rt)
+    tracker = TrackerHostProcess(control, specs, (host.strip("[]"), int(port)), Path(args.data_dir), rt=rt)
     asyncio.run(tracker.run())
     return 0
 

@@ -8,7 +8,7 @@ only Python threads are the devices' own (reader, writer; SCHED_FIFO for the wri
 feed, which blocks in `recv` on the cue channel the loop process writes to directly.
 
 Started by the hub (server/hub/device_host.py) as
-`python -m devices.host_process --control-fd C --cues-fd Q`, with the pickled device configs on
+`python -m devices.device_host_process --control-fd C --cues-fd Q`, with the pickled device configs on
 stdin. Control records on a SEQPACKET socket: server/ipc/records.py TO_DEVICE_HOST (snapshot,
 stop) and FROM_DEVICE_HOST (hello, report, profiles, snapshot); docs/architecture.md "The mailbox"
 has their tables. A closed control socket (the hub died) is a stop. Stopping turns every actuator off first; so does
@@ -35,7 +35,7 @@ from server.ipc.records import (TO_DEVICE_HOST, DeviceProfiles, DeviceStatus, He
 log = logging.getLogger("viestac.devices")
 
 
-class DeviceHost:
+class DeviceHostProcess:
     """The child's side: a DeviceManager, the cue feed, and the hub's control channel."""
 
     def __init__(self, manager: DeviceManager, control: socket.socket, *, cue_quiet_ms: float = CUE_QUIET_MS):
@@ -117,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
     configs = pickle.loads(sys.stdin.buffer.read())  # from the hub, our parent: trusted
     control = socket.socket(fileno=args.control_fd)
     cues = socket.socket(fileno=args.cues_fd)
-    DeviceHost(DeviceManager(configs), control, cue_quiet_ms=args.cue_quiet_ms).run(cues)
+    DeviceHostProcess(DeviceManager(configs), control, cue_quiet_ms=args.cue_quiet_ms).run(cues)
     return 0
 
 

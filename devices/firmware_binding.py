@@ -1,6 +1,6 @@
 """ctypes binding of the device firmware core (devices/firmware, docs/device-protocol.md).
 
-The device emulators run the very C code the ESP32 sketches run: `FirmwareCore` owns one
+The device emulators run the very C code the ESP32 sketches run: `Firmware` owns one
 `vt_device` (the whole device state, a plain buffer of `vt_device_sizeof()` bytes), feeds it
 host bytes with explicit microsecond timestamps, and hands back its reply bytes and the
 actuator *edges* (every change of a channel's output, stamped with its exact scheduled time).
@@ -199,13 +199,13 @@ def _load(path: Path) -> ctypes.CDLL:
         try:
             fn = getattr(lib, name)
         except AttributeError:
-            raise FirmwareBuildError(f"{path} has no {name}: it is older than devices/fwcore.py; rebuild it") from None
+            raise FirmwareBuildError(f"{path} has no {name}: it is older than devices/firmware_binding.py; rebuild it") from None
         fn.restype, fn.argtypes = restype, argtypes
     # a struct can change and keep its size (padding), so every vt_edge field's offset is compared too
     offsets = [getattr(_Edge, name).offset for name, _ in _Edge._fields_] + [ctypes.c_size_t(-1).value]
     if (lib.vt_edge_sizeof() != ctypes.sizeof(_Edge) or lib.vt_channel_sizeof() != ctypes.sizeof(_Channel)
             or [lib.vt_edge_offset(k) for k in range(len(offsets))] != offsets):
-        raise FirmwareBuildError(f"{path} does not match devices/fwcore.py's struct layout; rebuild it")
+        raise FirmwareBuildError(f"{path} does not match devices/firmware_binding.py's struct layout; rebuild it")
     return lib
 
 
@@ -292,7 +292,7 @@ class Edge:
     carrier_hz: int       # effective carrier; 0 for texture and off
     direction_cdeg: int
     magnitude: int        # tilt %, 0 = flat
-    cause: str            # "command", "schedule" or "watchdog" ("state" only from FirmwareCore.output)
+    cause: str            # "command", "schedule" or "watchdog" ("state" only from Firmware.output)
     temperature_c: float | None = None   # temperature layer, None = off
     friction: float | None = None        # friction coefficient, None = off
 
@@ -304,7 +304,7 @@ class Edge:
                    e.friction_milli / 1000 if e.friction_on else None)
 
 
-class FirmwareCore:
+class Firmware:
     """One device running the C firmware core, driven with explicit µs timestamps.
 
     receive() applies every complete frame at `now_us` (§2 timing rule); scheduled edges that
@@ -322,7 +322,7 @@ class FirmwareCore:
 
     @classmethod
     def from_descriptor(cls, name: str, *, channels: int, caps: int, carrier_hz: int,
-                        firmware: tuple[int, int, int] = (1, 0, 0)) -> FirmwareCore:
+                        firmware: tuple[int, int, int] = (1, 0, 0)) -> Firmware:
         """A core for a model that is not built in (tests, new devices): same code, own descriptor."""
         if not (name and name.isascii() and name == name.lower() and len(name) <= 32):
             raise ValueError(f"model name must be 1..32 lower-case ASCII characters, got {name!r}")
@@ -357,7 +357,7 @@ class FirmwareCore:
         self._quiet_until = 0  # µs: before this the C core has nothing to do (its next edge or watchdog expiry)
 
     def __repr__(self) -> str:
-        return f"FirmwareCore({self.model!r}, channels={self.channels}, caps=0x{self.caps:02x})"
+        return f"Firmware({self.model!r}, channels={self.channels}, caps=0x{self.caps:02x})"
 
     @property
     def cap_names(self) -> tuple[str, ...]:

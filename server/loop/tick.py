@@ -1,4 +1,4 @@
-"""LoopCore: the whole tick of the 1 kHz loop, as data in and data out.
+"""Loop: the whole tick of the 1 kHz loop, as data in and data out.
 
 `tick(records, now_ns)` is one tick: the records that arrived since the last one (tracker
 samples, keys and commands, trials, scenario switches, device reports) are applied, then one
@@ -105,7 +105,7 @@ class TickOutput:
         self.error: str | None = None  # why the step failed (also in `records` as a log line)
 
 
-class LoopCore:
+class Loop:
     def __init__(self, sim: Simulation, *, state_hz: float = STATE_HZ,
                  make_sim: Callable[..., Simulation] | None = None, build_off_tick: bool = False,
                  drawn: bool = True):

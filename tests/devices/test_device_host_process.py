@@ -1,5 +1,5 @@
 """The device host process's own fail-safe: a broken cue channel or control channel turns every
-actuator off first (devices/host_process.py), with a stand-in manager so the order is visible."""
+actuator off first (devices/device_host_process.py), with a stand-in manager so the order is visible."""
 
 import socket
 import threading
@@ -7,7 +7,7 @@ import time
 
 import msgpack
 
-from devices.host_process import DeviceHost
+from devices.device_host_process import DeviceHostProcess
 from server import ipc
 from server.ipc.records import Cues
 
@@ -45,7 +45,7 @@ def test_a_broken_cue_channel_turns_everything_off_and_keeps_it_off():
     manager = RecordingManager()
     control, hub_end = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
     feed_end, loop_end = ipc.channel_pair()
-    host = DeviceHost(manager, control, cue_quiet_ms=60_000)
+    host = DeviceHostProcess(manager, control, cue_quiet_ms=60_000)
     runner = threading.Thread(target=host.run, args=(feed_end,), daemon=True)
     runner.start()
     assert ipc.send_record(loop_end, Cues(1, time.monotonic_ns(), [TILT]))
@@ -82,7 +82,7 @@ class RacingManager(RecordingManager):
 def test_the_hub_is_left_with_the_newest_report_when_two_devices_announce_at_once():
     manager = RacingManager()
     control, hub_end = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
-    host = DeviceHost(manager, control, cue_quiet_ms=60_000)
+    host = DeviceHostProcess(manager, control, cue_quiet_ms=60_000)
     first = threading.Thread(target=host._changed)  # read "handshaking", then stalls
     first.start()
     assert manager.read.wait(2)
