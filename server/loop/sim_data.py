@@ -50,7 +50,7 @@ def _bits(pose: Pose) -> bytes:
 class SimData:
     __slots__ = ("tick", "cues", "tool_cues", "refusals", "trial", "events", "finished",
                  "tools", "tool_by_name", "points", "point_source", "deadlines", "lost_sources",
-                 "moved", "visibility", "scales", "stiffness", "untouchable", "all_bodies", "bodies", "stale",
+                 "moved", "visibility", "scales", "stiffness", "touch_overrides", "all_bodies", "bodies", "stale",
                  "others", "primary_view", "primary_step", "tools_view", "other_views", "nearest_memo")
 
     def __init__(self, tools: tuple[Tool, ...], bodies: dict[str, Body]):
@@ -72,10 +72,10 @@ class SimData:
         self.moved: dict[str, Pose] = {}  # objects whose pose differs from the scene's
         self.visibility: dict[str, bool] = {}  # objects/overlays shown or hidden against the scene
         self.scales: dict[str, tuple[float, float, float]] = {}  # objects drawn scaled (never touched scaled)
-        # Stiffness and the untouchable overrides (the wire's `haptic`) against the scene's;
+        # Stiffness and touchability overrides against the scene's;
         # replaced, never changed in place, so a tick's result keeps the set it was computed with.
         self.stiffness: dict[str, float] = {}
-        self.untouchable: dict[str, bool] = {}
+        self.touch_overrides: dict[str, bool] = {}  # id → False: the wire's `haptic`
         self.all_bodies = bodies  # every haptic body by id, as last built
         # The touchable ones, in scene order: a tuple, built again only when one changes, which the
         # compiled god-object recognises by identity (no per-body check of the scene each tick).
@@ -100,7 +100,7 @@ class SimData:
     @property
     def untouchable(self) -> frozenset[str]:
         """The bodies the scenario made untouchable."""
-        return frozenset(self.untouchable)
+        return frozenset(self.touch_overrides)
 
     def carry_over(self, old: SimData) -> None:
         """What a scenario switch keeps of the data it replaces: the tick, the device host's
@@ -194,7 +194,7 @@ class SimData:
                 continue  # where it is already (a carried object between tracker samples): same body, same row
             body = all_bodies.get(object_id)
             if body is not None:
-                if object_id in self.untouchable:  # untouchable (a carried object): no god-object sees it
+                if object_id in self.touch_overrides:  # untouchable (a carried object): no god-object sees it
                     self.stale.add(object_id)  # its Body follows `moved` when it is needed (_fresh)
                 else:
                     all_bodies[object_id] = replace(body, pose=pose)
@@ -214,14 +214,14 @@ class SimData:
             self.stiffness = stiffness
         if output.touchable:
             bodies_changed = True
-            untouchable = dict(self.untouchable)
+            untouchable = dict(self.touch_overrides)
             for object_id, on in output.touchable.items():
                 self._body(object_id, scene)
                 if on:  # every body of the scene is touchable there (Scene.bodies)
                     untouchable.pop(object_id, None)
                 else:
                     untouchable[object_id] = False
-            self.untouchable = untouchable
+            self.touch_overrides = untouchable
         for object_id, factors in output.scales.items():
             if not scene.has_id(object_id):
                 raise KeyError(f"scenario scales {object_id!r}, which is not in scene {scene.name!r}")
@@ -236,7 +236,7 @@ class SimData:
         if bodies_changed:
             if self.stale:
                 self._fresh()
-            self.bodies = tuple(b for b in all_bodies.values() if b.id not in self.untouchable)
+            self.bodies = tuple(b for b in all_bodies.values() if b.id not in self.touch_overrides)
             for tool in self.tools:
                 tool.forget_fixed_point()  # the fixed point may have moved with the bodies
 

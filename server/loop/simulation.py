@@ -52,7 +52,7 @@ class TickResult:
     output: ScenarioOutput
     cues_changed: bool       # the active cue set differs from the previous tick's
     stiffness: dict[str, float]  # the stiffness overrides this tick's force was computed with
-    untouchable: dict[str, bool]  # the untouchable overrides this tick's contacts were found with
+    touch_overrides: dict[str, bool]  # the bodies made untouchable (→ False) this tick's contacts were found with
     tools: tuple[ToolView, ...] = ()  # every tool this tick, primary first (hip/proxy/... above are tools[0])
 
 
@@ -162,7 +162,7 @@ class Simulation:
             data.expire(tick, t_s)
         tool = data.tools[0]
         hip = tool.hip
-        stiffness, untouchable = data.stiffness, data.untouchable  # what this tick renders with
+        stiffness, touch_overrides = data.stiffness, data.touch_overrides  # what this tick renders with
         proxy_step = tool.proxy_step(data.bodies, hip)
         contacts = proxy_step.contacts
         contact = tool.gate.update(t_s, bool(contacts), proxy_step.separation)
@@ -200,7 +200,7 @@ class Simulation:
         data.tool_cues = tool_cues
         data.tick = tick + 1
         return TickResult(tick, t_s, hip, proxy_step.proxy, proxy_step.force, contacts, contact,
-                          output, cues_changed, stiffness, untouchable, tools)
+                          output, cues_changed, stiffness, touch_overrides, tools)
 
     def _render_others(self, others: tuple[Tool, ...], t_s: float) -> list[ToolView]:
         """The tools other than the primary, in one loop: each its own god-object against the

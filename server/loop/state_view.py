@@ -77,7 +77,7 @@ class StateView:
             "events": sim.data.events,
             "scales": {oid: list(s) for oid, s in sim.data.scales.items()} if sim.data.scales else {},
             "stiffness": r.stiffness,  # never changed in place (Simulation): no copy needed
-            "haptic": r.untouchable,  # the wire keeps its name
+            "haptic": r.touch_overrides,  # the wire keeps its name
             "driver": None if tool.driver is None else [tool.driver, tool.seq],
             "tools": tools,
             "points": {name: rounded(p) for name, p in sim.data.points.items()} if sim.data.points else {},

@@ -21,7 +21,7 @@ def fingerprint(sim: Simulation) -> str:
     tools = [(t.name, t.tracked, t.held, t.driver, t.seq, t.ignored, t.lost, t.god.proxy, t.god.sticking, t.gate.on)
              for t in d.tools]
     return repr((d.tick, d.cues, d.tool_cues, d.refusals, d.trial, d.events, d.finished, d.points, d.point_source,
-                 d.deadlines, d.lost_sources, d.moved, d.visibility, d.scales, d.stiffness, d.untouchable, d.bodies,
+                 d.deadlines, d.lost_sources, d.moved, d.visibility, d.scales, d.stiffness, d.touch_overrides, d.bodies,
                  tools))
 
 
