@@ -1,6 +1,6 @@
 """What a tracker source is, declared once: its spec (`viestac serve --tracker KIND[:REST]`, parsed
 in the hub, sent to the tracker host as JSON) and the interface every kind of source implements
-(server/tracking/sources.py lists the kinds; docs/architecture.md "Adding a tracker source")."""
+(server/tracking/sources.py lists the kinds; docs/architecture.md "How to add things")."""
 
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 test vector (tests/vectors/messages.json), and either a row in the access policy (a client →
 server message: server/auth/policy.py) or a handler in both clients (a server → client message:
 the browser's `Connection._onMessage`, the C# client's `Protocol.Parse` and `ViestacSession.Dispatch`).
-A new message fails here until each is there; docs/architecture.md "Adding a client message"."""
+A new message fails here until each is there; docs/architecture.md "How to add things"."""
 
 import json
 import re
