@@ -150,6 +150,7 @@ class Settings:
     def loop_config(self, cpu: int | None = None) -> LoopConfig:
         """`cpu`: the loop's CPU from the server's CpuPlan (None: not pinned)."""
         return LoopConfig(scenario=self.scenario, scenario_params=self.scenario_params, scene_file=self.scene_file,
+                          scene_for=self.scenario if self.scene_file is not None else None,
                           tick_hz=self.tick_hz, cpu=cpu,
                           state_hz=self.state_hz, realtime=self.realtime, gate_band=self.gate_band,
                           gate_min_on_s=self.gate_dwell_s, gate_min_off_s=self.gate_dwell_s,

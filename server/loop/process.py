@@ -55,6 +55,9 @@ class LoopConfig:
     start_tick: int = 0  # a restarted loop continues the dead one's clock (server/hub/supervisor.py)
     start_frame: int = 0
     scene_file: str | None = None  # a custom scene (docs/protocol.md format) instead of the scenario's
+    # The scenario the scene file was given for (serve --scenario X --scene F): a loop restarted into
+    # another one (server/hub/supervisor.py) builds that one's own scene; free-v1 always explores the file.
+    scene_for: str | None = None
     tick_hz: int = 1000
     state_hz: float = STATE_HZ
     realtime: bool = True
@@ -86,7 +89,8 @@ def build_core(config: LoopConfig) -> Loop:
         return Simulation(scenario, tick_hz=config.tick_hz, gate=gate, seed=seed, scene=given, rig=config.rig)
 
     scenario = registry.create(config.scenario, **config.scenario_params)
-    core = Loop(make_sim(scenario, config.seed, scene), state_hz=config.state_hz, make_sim=make_sim,
+    given_for = config.scene_for is None or registry.resolve(config.scene_for).id == scenario.id
+    core = Loop(make_sim(scenario, config.seed, scene if given_for else None), state_hz=config.state_hz, make_sim=make_sim,
                     build_off_tick=True)  # switches are built by SwitchBuilder, never inside a tick
     core.params, core.seed = dict(config.scenario_params), config.seed
     core.sim.data.tick, core.frames = config.start_tick, config.start_frame

@@ -2,6 +2,7 @@
 sandbox): no task, no trials, a vibration on each finger whose debounced contact is on."""
 
 import json
+from dataclasses import replace
 
 from scenarios import registry
 from scenarios.free import FreeExploration, sandbox
@@ -9,7 +10,7 @@ from server.config import Settings
 from server.core.cues import Vibration
 from server.core.scene import Scene
 from server.loop.tick import Switch
-from server.loop.process import build_core
+from server.loop.process import LoopConfig, build_core
 from server.loop.simulation import Simulation
 
 WALL = {"name": "wall", "objects": [
@@ -63,3 +64,17 @@ def test_a_named_scenario_starts_on_the_scene_file_and_a_switch_back_to_free_exp
     assert free.scene == Scene.load(path)
     other = core.build(Switch("texture-v1", {}, 0))
     assert other.scene == other.scenario.build_scene(), "other scenarios switch to their own scene"
+
+
+def test_a_loop_restarted_into_another_scenario_builds_its_own_scene_not_the_file(tmp_path):
+    """What the supervisor does when the loop dies after a switch: the same config, with the
+    scenario that ran (server/hub/supervisor.py _spawn), through the process's JSON."""
+    path = scene_file(tmp_path)
+    config = Settings(scenario="stiffness", scene_file=path).loop_config()
+    restarted = LoopConfig.from_json(replace(config, scenario="texture-v1", scenario_params={}).to_json())
+    texture = build_core(restarted).sim
+    assert texture.scenario.id == "texture-v1" and texture.scene == texture.scenario.build_scene()
+    back = build_core(LoopConfig.from_json(replace(config, scenario="stiffness-v1").to_json())).sim
+    assert back.scene == Scene.load(path), "the scenario the file was given for gets it again"
+    free = build_core(replace(config, scenario="free-v1", scenario_params={})).sim
+    assert free.scene == Scene.load(path), "free-v1 explores the file"
