@@ -22,9 +22,25 @@ class Quick:
     c: dict = dataclasses.field(default_factory=dict)
 
 
+@quick_init
+@dataclasses.dataclass(frozen=True, slots=True)
+class QuickSlotted:  # the records between the processes (server/ipc/records.py) are slotted
+    a: int
+    b: str = "b"
+    c: dict = dataclasses.field(default_factory=dict)
+
+
+@pytest.mark.parametrize("cls", [Quick, QuickSlotted])
 @pytest.mark.parametrize("args, kwargs", [((1,), {}), ((1, "x"), {}), ((1,), {"c": {"k": 1}}), ((), {"a": 2, "b": "y"})])
-def test_same_fields_as_the_generated_init(args, kwargs):
-    assert dataclasses.astuple(Quick(*args, **kwargs)) == dataclasses.astuple(Plain(*args, **kwargs))
+def test_same_fields_as_the_generated_init(cls, args, kwargs):
+    assert dataclasses.astuple(cls(*args, **kwargs)) == dataclasses.astuple(Plain(*args, **kwargs))
+
+
+def test_a_slotted_class_keeps_its_slots():
+    q = QuickSlotted(1)
+    assert not hasattr(q, "__dict__") and q.c == {} and q.c is not QuickSlotted(1).c
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        q.a = 2
 
 
 def test_default_factory_gives_a_fresh_value_each_time_and_a_given_one_is_kept():

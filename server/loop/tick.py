@@ -212,8 +212,9 @@ class Loop:
             case Input(client_id, key, action, value):  # checked by the hub
                 sim.input(key, action, value)
                 # every key and command is recorded with the tick it took effect
-                sim.data.events.append({"tick": sim.data.tick, "t": sim.data.tick / sim.tick_hz, "name": "input", "client": client_id,
-                                   "key": key, "action": action, "value": value})
+                data = sim.data
+                data.events.append({"tick": data.tick, "t": data.tick / sim.tick_hz, "name": "input",
+                                    "client": client_id, "key": key, "action": action, "value": value})
             case Trial(body):  # checked by the hub
                 if self.pending_switch is not None:  # for the scenario being built: applied when it is installed
                     self._waiting.append(record)
