@@ -21,6 +21,9 @@ command -v make >/dev/null || apt_packages+=(make)
 if [ "$want_test" = 1 ]; then
   command -v chromium >/dev/null || apt_packages+=(chromium)
   command -v g++ >/dev/null || apt_packages+=(g++)  # compile-checks the ESP32 sketches
+  # the audio tactors' tests: a real JACK server (dummy driver) and PortAudio for sounddevice
+  command -v jackd >/dev/null || apt_packages+=(jackd2)
+  ldconfig -p | grep -q libportaudio.so.2 || apt_packages+=(libportaudio2)
   # the C# (Unity-style) client: Mono's C# 7.2 compiler, the .NET Standard facades, NUnit 2.6
   command -v mcs >/dev/null || apt_packages+=(mono-mcs)
   [ -f /usr/lib/mono/4.5/Facades/netstandard.dll ] || apt_packages+=(mono-devel)

@@ -2,7 +2,7 @@
 one see them: the modules each extra brings, and the one line that says how to install it.
 
 `viestac serve` with the simulated rig needs none of them; `viestac analyze` needs `analysis`,
-`viestac study --power` needs `power`, `viestac bench` needs `bench`. tests/test_extras.py checks
+`viestac study --power` needs `power`, `viestac bench` needs `bench`, a rig with an audio tactor needs `audio`. tests/test_extras.py checks
 that these modules are the packages pyproject.toml lists.
 """
 
@@ -17,6 +17,7 @@ EXTRA_MODULES: dict[str, tuple[str, ...]] = {
     "analysis": _ANALYSIS,
     "power": (*_ANALYSIS, "dask", "distributed"),  # the power table is analysed as `viestac analyze` does
     "bench": ("scipy", "matplotlib"),               # quantile intervals, the sweeps' charts
+    "audio": ("sounddevice", "jack"),               # audio-interface tactors; JACK captures in the tests
 }
 
 _CHECKOUT = Path(__file__).resolve().parents[1]  # an editable install's checkout (pyproject.toml there)

@@ -19,7 +19,7 @@ from tests.live_server import get_json, start_server, stop_server
 
 ROOT = Path(__file__).resolve().parents[1]
 # A distribution whose import name differs from its name, or that brings another one with it.
-IMPORTED_AS = {"dask[distributed]": ("dask", "distributed")}
+IMPORTED_AS = {"dask[distributed]": ("dask", "distributed"), "JACK-Client": ("jack",)}
 
 BLOCKER = '''
 import sys
