@@ -21,11 +21,11 @@ from server.api.placement_routes import router as placement_router
 from server.api.guard import AuditTrail, guard, install_access_doc
 from server.api.routes import router
 from server.api.tracker_routes import router as tracker_router
-from server.auth import AccessControl
+from server.auth import AccessControl, RunningTrial
 from server.api.web_client import WebClient
 from server.config import Settings
 from server.cpu_plan import CpuPlan, plan_cpus
-from server.experiment.engine import Experiment
+from server.experiment.engine import Experiment, NotFound
 from server.experiment.store import Store, utc_now
 from server.hub.device_host import DeviceHost
 from server.hub.hub import Hub
@@ -40,14 +40,37 @@ log = logging.getLogger("viestac")
 ADMIN_TOKEN_ENV = "VIESTAC_ADMIN_TOKEN"  # a token the tests and benches register for this run (never stored)
 
 
-async def _tick_lease(access: AccessControl, every_s: float = 0.25) -> None:
-    """A quiet holder or queued requester loses its place (the lease's expiry), on the event loop."""
+async def _tick_lease(access: AccessControl, hub: Hub, every_s: float = 0.25) -> None:
+    """A quiet holder or queued requester loses its place (the lease's expiry), a token revoked by
+    the CLI (the store's data_version moved) or past its expiry ends its /ws connections: on the
+    event loop, every `every_s`."""
     while True:
         await asyncio.sleep(every_s)
         try:
             access.tick()
+            hub.check_tokens(None, access.clock())
         except Exception:  # a failed tick (a busy disk) must not end the task; the next one tries again
             log.exception("lease tick failed")
+
+
+def _running_trial(experiment: Experiment):
+    """access.running: the trial recorded now with its session's lab (looked up once per session)."""
+    sites: dict[str, str | None] = {}
+
+    def running() -> RunningTrial | None:
+        session = experiment.recording()
+        if session is None:
+            return None
+        if session not in sites:
+            try:
+                site = experiment.site_of(session)
+            except NotFound:
+                return None
+            sites.clear()
+            sites[session] = site
+        return RunningTrial(session, sites[session])
+
+    return running
 
 
 def _access_control(settings: Settings) -> AccessControl:
@@ -100,6 +123,15 @@ def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None =
     answers = ParticipantAnswers(experiment, hub.answers, access.audit)
     hub.answers.connect(answers.answer, answers.view)
     experiment.on_change = answers.changed
+    access.running = _running_trial(experiment)  # the rig is the running trial's lab's (docs/security.md)
+
+    def tokens_changed() -> None:  # a revocation here or by the CLI: the connections of that token end now
+        if owner.here:
+            hub.check_tokens(access.standing, access.clock())
+        else:
+            owner.loop.call_soon_threadsafe(hub.check_tokens, access.standing, access.clock())
+
+    access.on_tokens_changed = tokens_changed
 
     rig = (SimulatedRig(settings.rig_models, directory=default_rig_dir())
            if settings.simulated_rig and not settings.devices else None)
@@ -142,7 +174,7 @@ def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None =
             feed.watch_health({"loop": supervisor, "device_host": devices}, each_poll=hub.link.retry_undelivered))
         access.tick()  # a lease that expired while the server was down goes now
         access.on_lease_change(access.lease.snapshot())
-        lease_tick = asyncio.get_running_loop().create_task(_tick_lease(access))
+        lease_tick = asyncio.get_running_loop().create_task(_tick_lease(access, hub))
         # A full collection over FastAPI's start-up heap pauses this process, event loop and all,
         # for 10-20 ms (measured when the device threads still lived here); freeze it.
         gc.collect()

@@ -183,6 +183,11 @@ async def join_link(body: JoinLinkRequest, request: Request, who: CallerDep, acc
         except NotFound as exc:
             raise HTTPException(404, str(exc)) from None
         session_id = body.session_id
+    running = access.running()
+    if running is not None and running.session != session_id:  # its participant would be locked out of it
+        lab = f"lab {running.site}" if running.site else "the admin"
+        raise HTTPException(409, f"a trial of {lab} is being recorded: a join link for another session would close "
+                                 f"that trial's participant session; finish or abort the trial first")
     try:
         access.lease.open_session(who, session_id)
     except PermissionError as exc:

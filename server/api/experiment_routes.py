@@ -169,13 +169,17 @@ def notes(session_id: str, body: NotesRequest, experiment: ExperimentDep, site: 
 
 @router.post("/sessions/{session_id}/trials/{seq}/start", responses=errors(403, 404, 409, 422, 503), summary="Start the next pending trial (its scenario and "
                                                                   "trial go to the loop, recording starts)")
-def start(session_id: str, seq: SeqPath, experiment: ExperimentDep, site: SiteDep, token: TokenDep = None,
-          force: bool = Query(False, description="start even when a device the scenario needs is not "
-                                                 "connected (otherwise 409)")) -> dict:
+def start(session_id: str, seq: SeqPath, experiment: ExperimentDep, site: SiteDep, request: Request,
+          token: TokenDep = None, force: bool = Query(False, description="start even when a device the scenario "
+                                                                         "needs is not connected (otherwise 409)")) -> dict:
     try:
-        return experiment.start(session_id, token, seq, force, site=site)
+        started = experiment.start(session_id, token, seq, force, site=site)
     except ERRORS as exc:
         raise _http(exc) from None
+    # the starter holds the lease: its participant session is the open one from now on (its
+    # participant may drive in its own trial, whatever join link was made last)
+    request.app.state.access.follow_running()
+    return started
 
 
 @router.put("/sessions/{session_id}/trials/{seq}/responses/{question}", responses=errors(400, 403, 404, 409, 422), summary="Enter or correct one answer")

@@ -4,8 +4,9 @@ runs (server/auth/policy.py).
 `guard` is the dependency of every /api router (app.py). It names the operation as /openapi.json
 does ("POST /api/scenario"), looks its Rule up in POLICY and refuses an operation without one
 (fail closed: a new endpoint is unusable until it is declared, and the policy test fails). Then:
-the bearer token (401; 429 while failed attempts from that peer are throttled), role and lease
-(403, `decide`), the token's request budget (429), and the lease holder's renewal. The caller's
+the bearer token (401; 429 while failed attempts with that token's prefix are throttled), role and
+lease (403, `decide`), a running trial of another lab or session (409, `decide`), the token's
+request budget (429), and the lease holder's renewal. The caller's
 Identity is left in `request.state.identity` for handlers that scope by site.
 
 `AuditTrail` writes one audit row for every state-changing /api request once its answer is known
@@ -104,7 +105,7 @@ async def guard(request: Request, credentials: BearerDep) -> Identity | None:
                 raise _unauthorized(exc.message) from None
             # a public operation answers anyone; a bad token only makes the caller anonymous
     request.state.identity = who
-    refusal = decide(rule, who, access.lease)
+    refusal = decide(rule, who, access.lease, access.running() if rule.recorded else None)
     if refusal is not None:
         status, reason = refusal
         raise _unauthorized(reason) if status == 401 else HTTPException(status, reason)
@@ -162,7 +163,7 @@ class AuditTrail:
         if action is None or access is None:  # not an operation of ours (404 of an unknown path)
             return
         params = scope.get("path_params") or {}
-        result = "ok" if status < 400 else f"refused {status}" if status in (401, 403, 404, 429) else f"error {status}"
+        result = "ok" if status < 400 else f"refused {status}" if status in (401, 403, 404, 409, 429) else f"error {status}"
         who, session_id = state.get("identity"), params.get("session_id") or state.get("audit_session_id")
         experiment = getattr(scope["app"].state, "experiment", None)
 

@@ -13,13 +13,13 @@ from typing import Callable
 from server.auth.audit import Audit
 from server.auth.identity import ROLES, Identity
 from server.auth.lease import Lease
-from server.auth.policy import POLICY, Rule, decide
+from server.auth.policy import POLICY, RunningTrial, Rule, decide
 from server.auth.ratelimit import FailureThrottle, TokenBucket
 from server.auth.store import AccessStore, load_key
-from server.auth.tokens import TokenBook
+from server.auth.tokens import TokenBook, guess_key
 
 __all__ = ["AccessControl", "AccessStore", "Audit", "FailureThrottle", "Identity", "Lease", "POLICY", "ROLES",
-           "Rule", "TokenBook", "TokenBucket", "Unauthorized", "decide", "open_book"]
+           "Rule", "RunningTrial", "TokenBook", "TokenBucket", "Unauthorized", "decide", "open_book"]
 
 log = logging.getLogger(__name__)
 
@@ -28,7 +28,7 @@ KEY_NAME = "access.key"
 
 
 class Unauthorized(Exception):
-    """No valid token (401), or too many failed attempts from this peer (429 with Retry-After)."""
+    """No valid token (401), or too many failed attempts with this token or code (429 with Retry-After)."""
 
     def __init__(self, message: str, retry_after_s: float | None = None):
         super().__init__(message)
@@ -56,6 +56,11 @@ class AccessControl:
         # wired to the hub's fan-out (Fanout.set_lease); called on the thread that changed the lease (REST
         # handlers run in a thread pool: the callee hands it to its event loop if it needs to)
         self.on_lease_change: Callable[[dict], None] = lambda snapshot: None
+        # wired to the hub (Hub.check_tokens): a token was revoked here or by another process (the CLI);
+        # called on the event loop's thread (the revoke route and the tick run there)
+        self.on_tokens_changed: Callable[[], None] = lambda: None
+        # the trial being recorded now, if any (the app wires the experiment's): the rig is its lab's
+        self.running: Callable[[], RunningTrial | None] = lambda: None
         self._published: dict = lease.to_record()  # the lease as last persisted and published
         self._data_version = store.data_version()
 
@@ -71,42 +76,60 @@ class AccessControl:
         return access
 
     # ---- who is it ---------------------------------------------------------------------------
-    def authenticate(self, secret: str | None, peer: str) -> Identity:
-        """The identity of a valid token. Unauthorized without one; a peer that failed too often is
-        refused (with retry_after_s) until its wait is over. A valid token passes even then: many
-        clients share one address (the rig PC, a NAT), and one of them guessing must not lock the
-        others out; a valid token does not clear the peer's failures either."""
-        now = self.clock()
-        who = self.book.verify(secret) if secret else None
-        if who is not None:
-            return who
-        wait = self.throttle.blocked_for(peer, now)
-        if wait > 0:
-            raise Unauthorized("too many failed attempts; try again later", retry_after_s=wait)
+    def authenticate(self, secret: str | None, peer: str = "") -> Identity:
+        """The identity of a valid token; Unauthorized without one. Failed attempts are counted per
+        token prefix (`guess_key`), never per peer address: after a few, an attempt with that prefix
+        is not checked at all until its wait is over (retry_after_s), so guessing the rest of a
+        known prefix is slowed, and a valid token of anyone else (on the rig PC, behind the same NAT)
+        passes whatever others failed. `peer` only names the address in the log."""
         if not secret:
             raise Unauthorized("a token is needed (Authorization: Bearer TOKEN)")
-        self.throttle.failed(peer, now)
-        raise Unauthorized("the token is unknown, expired or revoked")
+        now = self.clock()
+        key = guess_key("token", secret)
+        self._not_blocked(key, now, "token", peer)
+        who = self.book.verify(secret)
+        if who is None:
+            self.throttle.failed(key, now)
+            raise Unauthorized("the token is unknown, expired or revoked")
+        self.throttle.succeeded(key)
+        return who
 
     def exchange(self, kind: str, code: str | None, peer: str, *, token_ttl_s: float | None) -> tuple[str, Identity]:
-        """A login or join code for a new token (throttled per peer like `authenticate`)."""
+        """A login or join code for a new token (throttled per code prefix like `authenticate`)."""
         now = self.clock()
-        wait = self.throttle.blocked_for(peer, now)
-        if wait > 0:
-            raise Unauthorized("too many failed attempts; try again later", retry_after_s=wait)
+        key = guess_key(kind, code or "")
+        self._not_blocked(key, now, f"{kind} code", peer)
         got = self.book.redeem(kind, code, token_ttl_s=token_ttl_s) if code else None
         if got is None:
-            self.throttle.failed(peer, now)
+            self.throttle.failed(key, now)
             raise Unauthorized(f"the {kind} code is unknown, expired or used")
-        self.throttle.succeeded(peer)
+        self.throttle.succeeded(key)
         return got
+
+    def _not_blocked(self, key: str, now: float, what: str, peer: str) -> None:
+        wait = self.throttle.blocked_for(key, now)
+        if wait > 0:
+            log.info("a %s beginning like earlier failed ones, from %s: not checked for %.1f s", what, peer or "?", wait)
+            raise Unauthorized(f"too many failed attempts with this {what}; try again later", retry_after_s=wait)
+
+    def standing(self, token_id: str) -> str | None:
+        """None while the token may act; else "revoked" or "expired" (reads the database)."""
+        return self.book.standing(token_id)
 
     def revoke(self, token_id: str) -> bool:
         """Revokes a token and takes it out of the lease (holder or queue)."""
         done = self.book.revoke(token_id)
         if self.lease.drop(token_id):
             self.lease_changed()
+        if done:
+            self._tokens_changed()
         return done
+
+    def _tokens_changed(self) -> None:
+        try:
+            self.on_tokens_changed()
+        except Exception:  # the revocation stands; the hub's next check closes the connections
+            log.exception("on_tokens_changed failed")
 
     # ---- the lease ---------------------------------------------------------------------------
     def renew(self, who: Identity) -> bool:
@@ -117,8 +140,28 @@ class AccessControl:
         self.publish_if_changed()
         return renewed
 
+    def keepalive(self, who: Identity) -> None:
+        """/ws activity that reached the rig (a tracker sample, a key, an answer): the lease holder's
+        own, or a participant's of the session the holder opened, renews the holder's lease, so a
+        streamed trial does not lose the lease while its console is quiet."""
+        if self.lease.renew_by_activity(who):
+            self.publish_if_changed()
+
+    def follow_running(self) -> bool:
+        """While a trial is recorded and the lease is with its lab, the open participant session is
+        the trial's: starting a trial of S opens S, and a lab that takes the lease back mid-trial gets
+        S back (its participant is never silently locked out of its own trial). True if it changed."""
+        running = self.running()
+        if running is None or not self.lease.open_for_running(running.session, running.site):
+            return False
+        self.lease_changed()
+        return True
+
     def lease_changed(self) -> None:
         """Persist the lease and tell the hub (lease operations call it after each change)."""
+        running = self.running()
+        if running is not None:
+            self.lease.open_for_running(running.session, running.site)
         record = self.lease.to_record()
         self._published = record
         self.store.save_lease(record)
@@ -141,8 +184,10 @@ class AccessControl:
         """Periodic (the app calls it every 0.25 s): expiry, and tokens revoked by another process."""
         if self._external_change():
             self._drop_inactive()
+            self._tokens_changed()
         self.lease.expire()
-        self.publish_if_changed()
+        if not self.follow_running():
+            self.publish_if_changed()
 
     def _external_change(self) -> bool:
         version = self.store.data_version()

@@ -81,6 +81,32 @@ class Lease:
             entry.seen = now
             return True
 
+    def renew_by_activity(self, who: Identity) -> bool:
+        """The holder's own activity on the rig, or a participant's of the open session, renews the
+        holder (a queued requester's /ws activity does not keep its place: it is not on the rig).
+        False when `who` is neither, or the holder was quiet past the ttl already."""
+        with self._lock:
+            now = self.clock()
+            holder = self.holder
+            if holder is None or self._quiet(holder, now):
+                return False
+            if holder.token_id == who.token_id or (who.role == "participant" and who.session is not None
+                                                   and who.session == self.session):
+                holder.seen = now
+                return True
+            return False
+
+    def open_for_running(self, session_id: str, site: str | None) -> bool:
+        """A trial of `session_id` (of lab `site`; None: a session of no lab, the admin's) is being
+        recorded: if the holder is of that lab (or the admin), that session is the open one. True if
+        it changed."""
+        with self._lock:
+            if self.holder is None or self.session == session_id or \
+                    (self.holder.role != "admin" and self.holder.site != site):
+                return False
+            self.session = session_id
+            return True
+
     def release(self, who: Identity) -> bool:
         """The holder lets go (the next in the queue gets it); a queued requester leaves the queue."""
         with self._lock:

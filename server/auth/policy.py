@@ -22,6 +22,7 @@ class Rule:
     lease: bool = False          # must hold the control lease (the rig changes)
     scope: str = "rig"           # public | rig | site (the handler filters/404s by identity.site) | self
     drive: bool = False          # ws only: the lease holder or a participant of lease.session
+    recorded: bool = False       # changes what a running trial records: only its own lab and session (409)
     doc: str = ""
 
     def __post_init__(self):
@@ -31,6 +32,30 @@ class Rule:
             raise ValueError(f"unknown scope {self.scope!r}")
         if (self.scope == "public") != (not self.roles):
             raise ValueError("a public rule has no roles, and only a public rule")
+
+
+@dataclass(frozen=True)
+class RunningTrial:
+    """The trial being recorded now: its session, and that session's lab (None: a session of no
+    lab, made by the admin)."""
+    session: str
+    site: str | None
+
+    def outsider(self, who: Identity) -> bool:
+        """Whether `who` is outside this trial: a participant of another session, or staff of another
+        lab (the admin, the rig's owner, is of every lab)."""
+        if who.role == "participant":
+            return who.session != self.session
+        return who.role != "admin" and who.site != self.site
+
+    def own_participant(self, who: Identity) -> bool:
+        """A participant of this trial's session: it may drive in its own trial whoever holds the lease."""
+        return who.role == "participant" and who.session == self.session
+
+    def refusal(self) -> str:
+        lab = f"lab {self.site}" if self.site else "the admin"
+        return (f"a trial of {lab} is being recorded on this rig: nothing from outside it may change what it "
+                f"records until {lab} finishes or aborts it")
 
 
 ANY = frozenset(ROLES)
@@ -47,6 +72,12 @@ def _view(doc: str) -> Rule:
 
 def _rig(doc: str) -> Rule:
     return Rule(STAFF, lease=True, doc=doc)
+
+
+def _rig_recorded(doc: str) -> Rule:
+    """A rig change that reaches a running trial's recording (the HIP, the tracker mapping): the
+    lease holder, and while a trial is recorded only of that trial's lab."""
+    return Rule(STAFF, lease=True, recorded=True, doc=doc)
 
 
 def _site_read(doc: str) -> Rule:
@@ -80,10 +111,10 @@ POLICY: dict[str, Rule] = {
     "POST /api/scenario": _rig("switch the scenario"),
     "POST /api/trial": _rig("start a trial"),
     "DELETE /api/trial": _rig("end the trial"),
-    "POST /api/command": _rig("a key or experimenter command, as operator"),
-    "POST /api/trackers/{source}/capture": _rig("capture tracked points for a calibration"),
-    "PUT /api/trackers/{source}/calibration": _rig("calibrate a tracker source"),
-    "DELETE /api/trackers/{source}/calibration": _rig("a tracker source back to its default calibration"),
+    "POST /api/command": _rig_recorded("a key or experimenter command, as operator"),
+    "POST /api/trackers/{source}/capture": _rig_recorded("capture tracked points for a calibration"),
+    "PUT /api/trackers/{source}/calibration": _rig_recorded("calibrate a tracker source"),
+    "DELETE /api/trackers/{source}/calibration": _rig_recorded("a tracker source back to its default calibration"),
     "POST /api/telemetry/reset": _rig("a new timing window (the numbers other labs read)"),
     # studies: the rig's study files; staff reads them to plan sessions
     "GET /api/studies": Rule(STAFF, doc="study files"),
@@ -127,9 +158,10 @@ POLICY: dict[str, Rule] = {
     "PUT /api/placement/session": Rule(DRIVERS, scope="self", doc="the session's placement (the headset's placement step)"),
     # /ws client messages
     "ws:hello": Rule(frozenset(), scope="public", doc="the token comes in it; the role granted follows the token"),
-    "ws:tracker": Rule(DRIVERS, drive=True, doc="drive the HIP: the lease holder or a participant of lease.session"),
-    "ws:input": Rule(DRIVERS, drive=True, doc="participant keys: the lease holder or a participant of lease.session"),
-    "ws:input:operator": Rule(STAFF, lease=True, doc="an operator command: the lease holder"),
+    "ws:tracker": Rule(DRIVERS, drive=True, recorded=True, doc="drive the HIP: the lease holder or a participant of "
+                       "lease.session; while a trial is recorded, its lab's holder and its session's participant"),
+    "ws:input": Rule(DRIVERS, drive=True, recorded=True, doc="participant keys: the lease holder or a participant of lease.session"),
+    "ws:input:operator": Rule(STAFF, lease=True, recorded=True, doc="an operator command: the lease holder"),
     # a participant's own answer (v1.5): the session is its token's (another session's cannot be named);
     # the engine takes it only while that session's trial runs and only for questions the study gives
     # the participant. No lease: the running trial is the experimenter's permission.
@@ -138,9 +170,10 @@ POLICY: dict[str, Rule] = {
 }
 
 
-def decide(rule: Rule, who: Identity | None, lease) -> tuple[int, str] | None:
+def decide(rule: Rule, who: Identity | None, lease, running: RunningTrial | None = None) -> tuple[int, str] | None:
     """None when `who` may; else (401, reason) without a valid token, (403, reason) for the role,
-    the lease or driving. The site check (404) is the handler's (scope "site")."""
+    the lease or driving, (409, reason naming the trial's lab) for a `recorded` rule while `running`
+    is another lab's or session's trial. The site check (404) is the handler's (scope "site")."""
     if not rule.roles:
         return None
     if who is None:
@@ -149,7 +182,9 @@ def decide(rule: Rule, who: Identity | None, lease) -> tuple[int, str] | None:
         return 403, f"a {who.role} may not do this (allowed: {', '.join(sorted(rule.roles))})"
     if rule.lease and not lease.holds(who):
         return 403, "this changes the rig: request the control lease first (POST /api/lease)"
-    if rule.drive and not lease.may_drive(who):
+    if rule.recorded and running is not None and running.outsider(who):
+        return 409, running.refusal()
+    if rule.drive and not lease.may_drive(who) and not (running is not None and running.own_participant(who)):
         if who.role == "participant":
             return 403, "your session is not open: wait for the experimenter"
         return 403, "driving the HIP needs the control lease"

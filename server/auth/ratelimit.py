@@ -1,4 +1,4 @@
-"""Rate limits, pure (the caller passes the time): a token bucket, and a throttle of failed logins."""
+"""Rate limits, pure (the caller passes the time): a token bucket, and a throttle of failed attempts."""
 
 from __future__ import annotations
 
@@ -33,10 +33,11 @@ class TokenBucket:
 
 
 class FailureThrottle:
-    """Failed logins per key (a peer address): `free` failures cost nothing, then each one blocks
-    the key for base_s, 2·base_s, 4·base_s ... up to max_s. A success clears the key. At most
-    `max_keys` keys are remembered (the oldest go first), so a flood of addresses cannot grow it
-    without bound."""
+    """Failed attempts per key (a token's or a code's prefix hash, `guess_key`; never a peer
+    address): `free` failures cost nothing, then each one blocks the key for base_s, 2·base_s,
+    4·base_s ... up to max_s, and while it is blocked an attempt under that key is not checked at
+    all. A success clears the key. At most `max_keys` keys are remembered; the oldest key that is
+    not blocked goes first, so a flood of fresh guesses cannot push a blocked key out."""
 
     def __init__(self, free: int = 5, base_s: float = 1.0, max_s: float = 60.0, max_keys: int = 10_000):
         self.free = free
@@ -57,7 +58,8 @@ class FailureThrottle:
         until = now_s + min(self.max_s, self.base_s * 2 ** (over - 1)) if over > 0 else 0.0
         self._keys[key] = (failures, until)
         while len(self._keys) > self.max_keys:
-            del self._keys[next(iter(self._keys))]
+            idle = next((k for k, (_, blocked) in self._keys.items() if blocked <= now_s), None)
+            del self._keys[idle if idle is not None else next(iter(self._keys))]
 
     def succeeded(self, key: str) -> None:
         self._keys.pop(key, None)

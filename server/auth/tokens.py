@@ -21,6 +21,10 @@ from server.auth.store import AccessStore
 MAX_SECRET = 200  # longer input is refused before hashing (hello.token is at most 200 characters)
 MIN_EPHEMERAL = 16  # an env token shorter than this is refused: it must not be guessable
 CODE_KINDS = {"login": "admin", "join": "participant"}  # kind -> the role of the token it is exchanged for
+# The characters of a presented secret that name its failed-attempt key (72 bits: one key per real
+# secret): a guesser who knows how a secret begins (read over a shoulder, half pasted) and tries the
+# rest is slowed, a client retrying its revoked token is slowed, and nobody else is.
+GUESS_PREFIX = 12
 
 
 def new_secret(nbytes: int) -> str:
@@ -31,6 +35,14 @@ def new_secret(nbytes: int) -> str:
         secret = secrets.token_urlsafe(nbytes)
         if secret[0] != "-":
             return secret
+
+
+def guess_key(kind: str, secret: str) -> str:
+    """The failed-attempt throttle's key of a presented token or code (server/auth/ratelimit.py):
+    its kind and a hash of its first GUESS_PREFIX characters; never the peer's address, so one
+    guesser behind the rig PC's or a NAT's address locks nobody else out."""
+    prefix = secret[:GUESS_PREFIX].encode("utf-8", "replace")
+    return f"{kind}:{hashlib.sha256(prefix).hexdigest()[:16]}"
 
 
 class TokenBook:
@@ -104,11 +116,17 @@ class TokenBook:
 
     def active(self, token_id: str) -> bool:
         """Whether a token of this id may still act (not revoked, not expired)."""
+        return self.standing(token_id) is None
+
+    def standing(self, token_id: str) -> str | None:
+        """None while a token of this id may act; else why not: "revoked" (or unknown) or "expired"."""
         with self._lock:
             if any(ident.token_id == token_id for ident, _ in self._ephemeral.values()):
-                return True
+                return None
         row = self.store.token(token_id)
-        return row is not None and row["revoked_at"] is None and not _expired(row["expires_at"], self.clock())
+        if row is None or row["revoked_at"] is not None:
+            return "revoked"
+        return "expired" if _expired(row["expires_at"], self.clock()) else None
 
     def revoke(self, token_id: str) -> bool:
         """False when no active token has this id (unknown or revoked already)."""

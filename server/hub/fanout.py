@@ -31,7 +31,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 from server.hub.event_log import EventLog
 from server.hub.owner import Owner
 from server.hub.outbox import Close
-from server.hub.session import CLOSED, Gate, ServerInfo, Session
+from server.hub.session import CLOSED, Gate, ServerInfo, Session, gate_of
 from server.wire import codec, messages
 
 SLICE = 8
@@ -145,7 +145,7 @@ class Fanout:
             return CLOSED
         client = ws.scope.get("client")
         peer = client[0] if client else "unknown"
-        return Gate(lambda secret: access.authenticate(secret, peer), lambda: access.lease, self._admit)
+        return gate_of(access, peer, self._admit)
 
     def _admit(self, who) -> str | None:
         n = sum(1 for c in self.connections.values()
@@ -206,7 +206,7 @@ class Fanout:
                 c.wake.clear()
                 while (item := c.session.outbox.next_frame()) is not None:
                     if isinstance(item, Close):
-                        await c.ws.close(code=item.code)
+                        await (c.ws.close(code=item.code, reason=item.reason) if item.reason else c.ws.close(code=item.code))
                         return
                     if isinstance(item, bytes):
                         await c.ws.send_bytes(item)

@@ -11,6 +11,9 @@ loop's (server/hub/owner.py):
 - `health_feed` (server/hub/health_feed.py): health from the children, devices, trackers and faults;
 - `answers` (server/hub/answers.py): a participant's study answers and what it is asked.
 What a client's session asks (`forward`) goes to the loop, the scenario control or the answers.
+Who may stay connected is checked here across connections: a token revoked or expired ends its
+connections (`check_tokens`), and a participant session opened in a second tab takes it from the
+first (`_welcomed`).
 """
 
 from __future__ import annotations
@@ -38,7 +41,7 @@ class Hub:
                  owner: Owner | None = None):
         self.owner = owner or Owner("the hub")
         self.fanout = Fanout(self.owner, ServerInfo(server_name, tick_hz, state_hz), access=access,
-                             forward=self.forward, on_welcomed=lambda c: self.answers.offer_ask(c))
+                             forward=self.forward, on_welcomed=self._welcomed)
         self.answers = AnswerBroker(self.owner, self.fanout.connections)
         self.health_feed = HealthFeed(self.owner, publish=self.fanout.set_health,
                                       scenario_cls=lambda: self.control.scenario_cls,
@@ -47,6 +50,41 @@ class Hub:
                                        lambda: self.health_feed.device_statuses)
         self.link = LoopLink(self.owner, send_to_loop, control=self.control, fanout=self.fanout,
                              health_feed=self.health_feed, tick_hz=tick_hz)
+
+    def _welcomed(self, c: Connection) -> None:
+        """A client was just welcomed: its `ask`, and if it is a participant connection of a session
+        that another connection has, the newer one takes the session (the older only watches)."""
+        self.answers.offer_ask(c)
+        session = c.session.asks_for
+        if session is None:
+            return
+        for other in list(self.fanout.connections.values()):
+            if other is not c and other.session.asks_for == session and other.session.replaced_by is None:
+                self.forward(other, other.session.withdraw("taken", c.session.id))
+                other.wake.set()
+
+    def check_tokens(self, standing: Callable[[str], str | None] | None, now_s: float) -> int:
+        """Ends the connections whose token no longer counts: expired by its expiry time (compared
+        in memory, on every call: the app calls this every 0.25 s), or revoked or expired in the
+        store (`standing(token_id)`, asked once per token, only when access control says tokens
+        changed: a revocation here or by the CLI). Returns how many connections it ended."""
+        self.owner.check()
+        asked: dict[str, str | None] = {}
+        ended = 0
+        for c in list(self.fanout.connections.values()):
+            who = c.session.identity
+            if who is None or c.session.closing:
+                continue
+            why = "expired" if who.expires_at is not None and now_s >= who.expires_at else None
+            if why is None and standing is not None:
+                if who.token_id not in asked:
+                    asked[who.token_id] = standing(who.token_id)
+                why = asked[who.token_id]
+            if why is not None:
+                self.forward(c, c.session.withdraw(why))
+                c.wake.set()
+                ended += 1
+        return ended
 
     def forward(self, c: Connection, events: list[ToLoop | Command | ParticipantAnswer]) -> None:
         """What a client's session asks of the loop; refusals go back to the client as errors."""

@@ -20,8 +20,10 @@ MAX_PENDING_ERRORS = 64  # a client that floods bad frames and does not read get
 
 @dataclass(frozen=True)
 class Close:
-    """Close the connection with this code (after everything queued before it)."""
+    """Close the connection with this code (after everything queued before it) and reason (the close
+    frame's text: "revoked", "expired"; docs/security.md)."""
     code: int
+    reason: str = ""
 
 
 class Outbox:
@@ -57,8 +59,8 @@ class Outbox:
         self._pending_errors += 1
         self._control.append(("error", codec.encode(messages.error(code, text), self.fmt), None))
 
-    def close(self, code: int) -> None:
-        self._control.append(Close(code))
+    def close(self, code: int, reason: str = "") -> None:
+        self._control.append(Close(code, reason))
 
     def offer_state(self, frame: bytes | str, scene_hash: str, message: Mapping[str, Any] | None,
                     events_upto: int | None) -> None:

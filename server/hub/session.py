@@ -26,7 +26,12 @@ protocol decision about one client:
 
 What a client asks of the loop comes out of `receive` as events (`ToLoop`, `Command`); the hub
 forwards them and reports a refusal back with `reply_error`. When the lease changes
-(`set_lease`), a client that drove the HIP and may no longer gets a `tracker_gone` for the loop.
+(`set_lease`), a client that drove the HIP and may no longer gets a `tracker_gone` for the loop,
+and a participant whose session closes is told so (`session_closed`). A token revoked or expired
+while connected ends the connection (`lapse`: `unauthorized`, close 1008 with reason "revoked" or
+"expired"); a participant connection of a session opened again elsewhere (another tab) only
+watches from then on (`replaced`: `session_taken`). Activity that reaches the rig renews the
+lease holder's lease (`Gate.keepalive`, at most once a second per connection).
 """
 
 from __future__ import annotations
@@ -36,7 +41,7 @@ from typing import Any, Callable, Mapping
 
 from server.auth import Unauthorized
 from server.auth.identity import Identity
-from server.auth.policy import POLICY, decide
+from server.auth.policy import POLICY, RunningTrial, decide
 from server.hub.event_log import EventLog
 from server.hub.input_budget import (FORBIDDEN_TRACKER_ERROR_EVERY_NS, INPUT_BURST, INPUT_RATE_PER_S,
                                      RATE_LIMITED_ERROR_EVERY_NS, InputBudget)
@@ -46,7 +51,11 @@ from server.wire import codec, messages
 from server.wire.codec import WireError
 
 HELLO_TIMEOUT_NS = 1_000_000_000
+KEEPALIVE_EVERY_NS = 1_000_000_000  # a streaming client renews the lease at most this often
 POLICY_CLOSE = 1008  # RFC 6455 "policy violation": no valid token, or too many connections of one token
+# Why a welcomed connection's token stopped counting: the close frame's reason (a page shows it and does
+# not reconnect with that token) and the `unauthorized` error's text (docs/security.md).
+LAPSES = {"revoked": "your access was revoked", "expired": "your access expired: ask for a new link"}
 # The wire role a token may ask for, highest first: observer < participant < operator.
 _RANK = {"observer": 0, "participant": 1, "operator": 2}
 MAX_WIRE_ROLE = {"admin": "operator", "experimenter": "operator", "participant": "participant",
@@ -61,10 +70,21 @@ class Gate:
     authenticate(secret) -> Identity, or raises server.auth.Unauthorized (unknown, expired, revoked
     or missing token; a peer throttled after failed attempts);
     lease() -> the current control lease (server.auth.lease.Lease);
-    admit(identity) -> None, or why this token may not open another connection."""
+    admit(identity) -> None, or why this token may not open another connection;
+    running() -> the trial being recorded (server.auth.policy.RunningTrial) or None;
+    keepalive(identity) -> None: activity of `identity` reached the rig (renews the lease holder)."""
     authenticate: Callable[[str | None], Identity]
     lease: Callable[[], Any]
     admit: Callable[[Identity], str | None] = lambda who: None
+    running: Callable[[], RunningTrial | None] = lambda: None
+    keepalive: Callable[[Identity], None] = lambda who: None
+
+
+def gate_of(access, peer: str, admit: Callable[[Identity], str | None]) -> Gate:
+    """The Gate of a connection from `peer` to the server's AccessControl (server/auth); a stand-in
+    without `running` or `keepalive` (a test's) has no running trial and renews nothing."""
+    return Gate(lambda secret: access.authenticate(secret, peer), lambda: access.lease, admit,
+                getattr(access, "running", lambda: None), getattr(access, "keepalive", lambda who: None))
 
 
 def _refuse_everyone(secret: str | None) -> Identity:
@@ -78,6 +98,12 @@ def granted_role(identity: Identity, asked: str) -> str:
     """The wire role for a token that asked for `asked`: as asked up to what its role allows."""
     top = MAX_WIRE_ROLE.get(identity.role, "observer")
     return asked if _RANK[asked] <= _RANK[top] else top
+
+
+TAKEN = ("this session was opened in another tab or on another device: that one drives now and this one only "
+         "watches (reload this page to drive here again)")
+SESSION_CLOSED = ("your session was closed: the experimenter no longer has it open on the rig (the rig was "
+                  "released or given to someone else); wait until they open it again")
 
 
 @dataclass(frozen=True)
@@ -137,6 +163,10 @@ class Session:
         self._lease: bytes | str | None = None  # the current `lease` message in this client's format
         self._ask: bytes | str | None = None  # the current `ask` message (participants of a session)
         self._driving = False  # tracker samples of this client went to the loop since it last lost the right
+        self._keepalive_due_ns = 0  # when this client's activity next renews the lease
+        self._session_open = False  # a participant connection's: it might drive at the last lease change
+        self.replaced_by: int | None = None  # a participant connection whose session another connection took
+        self.lapsed: str | None = None  # "revoked" | "expired": the token stopped counting while connected
         # counters (GET /api/clients; the outbox counts the frames)
         self.tracker_count = 0
         self.last_tracker: dict | None = None
@@ -161,6 +191,7 @@ class Session:
         who = self.identity
         return {"client_id": self.id, "role": self.role, "client": self.client_name, "format": self.fmt,
                 "token_id": who.token_id if who else None, "site": who.site if who else None,
+                "session": self.asks_for, "replaced_by": self.replaced_by,
                 "frames_sent": self.outbox.frames_sent, "frames_dropped": self.outbox.frames_dropped,
                 "tracker_count": self.tracker_count, "last_tracker": self.last_tracker, "errors": self.errors,
                 "rate_limited": self.rate_limited}
@@ -212,7 +243,10 @@ class Session:
         base = kind.split(":")[0]
         if self.role == "observer":
             return f"an observer may not send '{base}' messages"
-        verdict = decide(POLICY[f"ws:{kind}"], self.identity, self.gate.lease())
+        if self.replaced_by is not None:
+            return TAKEN
+        rule = POLICY[f"ws:{kind}"]
+        verdict = decide(rule, self.identity, self.gate.lease(), self.gate.running() if rule.recorded else None)
         if verdict is None and kind == "answer" and self.asks_for is None:
             return "this participant token names no session: there is nothing to answer"
         return None if verdict is None else verdict[1]
@@ -238,6 +272,9 @@ class Session:
             else:
                 self.errors += 1  # refused without a reply: counted, not queued
             return []
+        if now_ns >= self._keepalive_due_ns:  # it reaches the rig: the lease holder's lease stays alive
+            self._keepalive_due_ns = now_ns + KEEPALIVE_EVERY_NS
+            self.gate.keepalive(self.identity)
         if isinstance(message, messages.Tracker):
             self._driving = True
             self.tracker_count += 1
@@ -281,11 +318,30 @@ class Session:
             self.reply_error("forbidden", f"a {who.role} token may not connect as {hello.role}; "
                                           f"connected as {self.role}")
 
-    def _refuse(self, code: str, text: str) -> None:
-        """One error, then close 1008; nothing else is sent (no welcome, no scene, no state)."""
+    def _refuse(self, code: str, text: str, reason: str = "") -> None:
+        """One error, then close 1008 (with `reason`); nothing else is sent (no welcome, no scene, no state)."""
         self.reply_error(code, text)
         self.close_code = POLICY_CLOSE
-        self.outbox.close(POLICY_CLOSE)
+        self.outbox.close(POLICY_CLOSE, reason)
+
+    def withdraw(self, why: str, by_client_id: int | None = None) -> list[ToLoop]:
+        """This connection's right to act ends; a client that drove the HIP leaves it at once.
+        "revoked" | "expired" (LAPSES): the token stopped counting while connected; the client is
+        told why and the connection closes (1008, reason `why`), nothing it sends is applied any more.
+        "taken": another connection of this participant's session was welcomed (a second tab or
+        device, `by_client_id`); the newer one drives and answers, this one is told and only watches."""
+        if self.closing or self.identity is None or self.replaced_by is not None:
+            return []
+        if why == "taken":
+            self.replaced_by = by_client_id
+            self.reply_error("session_taken", TAKEN)
+        else:
+            self.lapsed = why
+            self._refuse("unauthorized", LAPSES[why], why)
+        if not self._driving:
+            return []
+        self._driving = False
+        return [ToLoop(TrackerGone(self.id))]
 
     def disconnected(self) -> list[ToLoop]:
         """The connection is gone: a client whose tracker samples reached the loop leaves the HIP
@@ -299,6 +355,11 @@ class Session:
         self._lease = frames[self.fmt]
         if self.welcomed and not self.closing:
             self.outbox.latest("lease", self._lease)
+            # a participant whose session closes while it is connected is told so in words, once per
+            # closing; it is open again when `lease.session` names it (docs/security.md)
+            was_open, self._session_open = self._session_open, self.asks_for is not None and self.refusal("tracker") is None
+            if was_open and not self._session_open and self.replaced_by is None:
+                self.reply_error("session_closed", SESSION_CLOSED)
         if self._driving and self.refusal("tracker") is not None:
             self._driving = False
             return [ToLoop(TrackerGone(self.id))]
@@ -326,6 +387,7 @@ class Session:
             out.put("lease", self._lease)
         if self._ask is not None and self.asks_for is not None:
             out.put("ask", self._ask)
+        self._session_open = self.asks_for is not None and self.refusal("tracker") is None
 
     def set_ask(self, frames: Mapping[str, bytes | str]) -> None:
         """What the study asks of this participant now (`frames`: the `ask` message per format; the

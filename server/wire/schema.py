@@ -388,7 +388,13 @@ ERROR_CODES: dict[str, str] = {
     "forbidden": "the role, the site or the control lease does not allow this message (or the role asked for in "
                  "`hello`: the welcome then grants a lower one)",
     "unauthorized": "no valid token: `hello` without a token, with an unknown, expired or revoked one, or no "
-                    "`hello` within the grace period (the connection then closes, code 1008)",
+                    "`hello` within the grace period (the connection then closes, code 1008); or the token was "
+                    "revoked or expired while connected (the connection then closes, code 1008 with the close "
+                    "reason `revoked` or `expired`: a client says why and does not reconnect with that token)",
+    "session_closed": "to a participant connection: its session is no longer the one the lease holder has open "
+                      "(released, expired, handed over); it may not drive until `lease.session` names it again",
+    "session_taken": "to a participant connection: another connection of its session (a second tab or device) "
+                     "was welcomed and drives now; this one only watches (a reload takes the session back)",
     "unsupported_version": "`hello.v` is not 1 (the connection then closes)",
     "busy": "the loop's input mailbox is full; the message was dropped",
     "out_of_range": "a finite number beyond the protocol's bounds: an integer outside ±(2^53 − 1), a tracker "

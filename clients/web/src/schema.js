@@ -1304,6 +1304,8 @@ export const SCHEMA = {
   "too_large",
   "forbidden",
   "unauthorized",
+  "session_closed",
+  "session_taken",
   "unsupported_version",
   "busy",
   "out_of_range",
