@@ -24,6 +24,7 @@ __all__ = ["AccessControl", "AccessStore", "Audit", "FailureThrottle", "Identity
 log = logging.getLogger(__name__)
 
 DB_NAME = "access.sqlite"
+FREE_FAILURES = 5
 KEY_NAME = "access.key"
 
 
@@ -68,7 +69,8 @@ class AccessControl:
     def open(cls, data_dir: str | Path, *, lease_ttl_s: float = 60.0, clock=time.time) -> "AccessControl":
         store, book = open_book(data_dir, clock)
         lease = Lease.from_record(store.load_lease(), lease_ttl_s, clock)
-        access = cls(store, book, lease, Audit(store, clock), FailureThrottle(), clock)
+        # after FREE_FAILURES failures with one token's (or code's) prefix, the next attempt waits
+        access = cls(store, book, lease, Audit(store, clock), FailureThrottle(free=FREE_FAILURES - 1), clock)
         # tokens revoked meanwhile leave the lease on the first tick after a change, not here: the
         # environment's token (a lease holder before the restart too) is added after open()
         lease.expire()
