@@ -20,6 +20,7 @@ from fastapi import APIRouter, Depends, HTTPException, Query, Request
 from pydantic import BaseModel, Field
 
 from server.api.errors import MAX_INT, errors
+from server.api.guard import identity
 
 from server.core.scenario import ParamError, describe
 from scenarios.registry import SCENARIOS, UnknownScenario
@@ -152,8 +153,11 @@ async def end_trial(hub: HubDep) -> dict:
         raise _busy_or_bad(exc) from None
 
 
-@router.post("/command", responses=errors(400, 422, 503), summary="Send a key or experimenter command to the running scenario, as an operator")
-async def command(body: CommandRequest, hub: HubDep) -> dict:
+@router.post("/command", responses=errors(400, 409, 422, 503), summary="Send a key or experimenter command to the running "
+             "scenario, as an operator; 409 while another lab's trial is recorded")
+async def command(body: CommandRequest, hub: HubDep, request: Request) -> dict:
+    # REST commands are client 0's: its events name the caller (only the lease holder may send them)
+    hub.fanout.event_log.name_actor(0, identity(request))
     try:
         hub.control.command(body.key, body.action, body.value, role="operator")
     except (ParamError, BusyError) as exc:

@@ -55,6 +55,7 @@ class Hub:
         """A client was just welcomed: its `ask`, and if it is a participant connection of a session
         that another connection has, the newer one takes the session (the older only watches)."""
         self.answers.offer_ask(c)
+        self.fanout.event_log.name_actor(c.session.id, c.session.identity)  # its inputs name its token
         session = c.session.asks_for
         if session is None:
             return

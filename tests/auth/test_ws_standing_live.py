@@ -5,11 +5,14 @@ another lab's commands, trackers and join links are refused (409 / forbidden, na
 lab); the holder's own /ws activity and its participant's keep the lease; a trial started after
 Release → Request control has its participant session open; a participant is told in words when
 its session closes; a second tab of one participant session takes it from the first; the
-failed-attempt throttle works per token, not per address."""
+failed-attempt throttle works per token, not per address; recorded input events name the token and
+lab that sent them."""
 
 from __future__ import annotations
 
 import asyncio
+import json
+import sqlite3
 import time
 
 import pytest
@@ -298,3 +301,40 @@ def test_failures_are_throttled_per_token_not_per_address(base):
     assert status == 429 and "too many failed attempts" in answer["detail"], (status, answer)
     other = new_token(base, "observer")
     assert ok(call(base, "GET", "/api/lease", token=other))["you"] == "none"
+
+
+# ---- 35.2: events name who caused them -----------------------------------------------------------------
+def test_recorded_input_events_name_the_token_and_site_that_sent_them(base, data_dir):
+    lab = new_token(base, "experimenter", "lab-e")
+    _take_lease(base, lab)
+    sid, control = _lab_session(base, lab, "P-E1")
+    lab_id = token_id(base, lab)
+    ok(call(base, "POST", f"/api/sessions/{sid}/trials/0/start", token=lab, headers=control))
+    try:
+        ok(call(base, "POST", "/api/command", {"key": "tap_angle", "value": 30}, token=lab))
+
+        async def go():
+            console, _ = await welcomed(ws_url(base), lab, role="operator")
+            await console.send({"type": "input", "key": "tap_angle", "action": "press", "value": 45})
+            deadline = time.monotonic() + 3
+            while True:  # the frame that carries the /ws command's event
+                state = await console.recv_type("state", timeout=max(0.01, deadline - time.monotonic()))
+                mine = [e for e in state["events"] if e.get("name") == "input" and e.get("value") == 45]
+                if mine:
+                    await console.close()
+                    return mine[0]
+
+        event = run(go())
+        assert event["by"] == {"token_id": lab_id, "site": "lab-e"}, event
+        time.sleep(0.6)  # the recorder writes its rows every 0.25 s
+    finally:
+        ok(call(base, "POST", f"/api/sessions/{sid}/trials/0/abort", {"reason": "test"}, token=lab,
+                headers=control))
+        _take_lease(base)
+    db = sqlite3.connect(f"file:{data_dir / 'viestac.sqlite'}?mode=ro", uri=True)
+    rows = [json.loads(body) for (body,) in db.execute("SELECT body_json FROM events WHERE session_id = ? AND "
+                                                       "kind = 'input'", (sid,))]
+    db.close()
+    by_value = {row.get("value"): row.get("by") for row in rows if row.get("key") == "tap_angle"}
+    assert by_value.get(30) == {"token_id": lab_id, "site": "lab-e"}, rows  # the REST command
+    assert by_value.get(45) == {"token_id": lab_id, "site": "lab-e"}, rows  # the /ws command
