@@ -72,7 +72,7 @@ class TokenCreate(BaseModel):
 
 # -- logging in -----------------------------------------------------------------------------------
 def _redeem(access: AccessControl, request: Request, kind: str, code: str, token_ttl_s: float) -> dict:
-    """A single-use code for a token; failures from one peer are throttled (429 with Retry-After)."""
+    """A single-use code for a token; failures per code prefix are throttled (429 with Retry-After)."""
     try:
         token, ident = access.exchange(kind, code, peer(request), token_ttl_s=token_ttl_s)
     except Unauthorized as exc:

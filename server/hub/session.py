@@ -68,7 +68,7 @@ class Gate:
     session makes every decision without doing I/O itself.
 
     authenticate(secret) -> Identity, or raises server.auth.Unauthorized (unknown, expired, revoked
-    or missing token; a peer throttled after failed attempts);
+    or missing token; a token or code throttled after failed attempts with its prefix);
     lease() -> the current control lease (server.auth.lease.Lease);
     admit(identity) -> None, or why this token may not open another connection;
     running() -> the trial being recorded (server.auth.policy.RunningTrial) or None;
