@@ -28,9 +28,9 @@ What a client asks of the loop comes out of `receive` as events (`ToLoop`, `Comm
 forwards them and reports a refusal back with `reply_error`. When the lease changes
 (`set_lease`), a client that drove the HIP and may no longer gets a `tracker_gone` for the loop,
 and a participant whose session closes is told so (`session_closed`). A token revoked or expired
-while connected ends the connection (`lapse`: `unauthorized`, close 1008 with reason "revoked" or
-"expired"); a participant connection of a session opened again elsewhere (another tab) only
-watches from then on (`replaced`: `session_taken`). Activity that reaches the rig renews the
+while connected ends the connection (`withdraw`: `unauthorized`, close 1008 with reason "revoked"
+or "expired"); a participant connection of a session opened again elsewhere (another tab) only
+watches from then on (`withdraw("taken")`: `session_taken`). Activity that reaches the rig renews the
 lease holder's lease (`Gate.keepalive`, at most once a second per connection).
 """
 
