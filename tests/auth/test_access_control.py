@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from server.auth import AccessControl, Unauthorized, open_book
+from server.auth import AccessControl, RunningTrial, Unauthorized, open_book
 from server.auth.tokens import guess_key
 
 
@@ -150,3 +150,38 @@ def test_a_valid_token_passes_while_a_guesser_at_its_address_is_throttled(access
     with pytest.raises(Unauthorized) as refused:  # the guesser still waits
         access.authenticate("not-a-token-" + "y" * 20, "10.2.2.2")
     assert refused.value.retry_after_s
+
+
+def test_a_lab_that_takes_the_lease_back_mid_trial_gets_its_session_back_and_others_do_not(access, clock):
+    _, a = access.book.create("experimenter", "lab-a")
+    _, b = access.book.create("experimenter", "lab-b")
+    access.running = lambda: RunningTrial("s-a", "lab-a")
+    access.lease.request(a)
+    assert access.follow_running() and access.published[-1]["session"] == "s-a"  # starting opened it
+    access.lease.release(a)
+    access.lease.request(b)
+    access.lease_changed()
+    assert access.published[-1]["session"] is None  # not for another lab
+    access.lease.release(b)
+    access.lease.request(a)  # Release → Request control, mid-trial
+    access.lease_changed()
+    assert access.published[-1]["session"] == "s-a"
+    assert access.store.load_lease()["session"] == "s-a"
+
+
+def test_tokens_revoked_here_or_by_another_process_are_announced(access, tmp_path, clock):
+    told = []
+    access.on_tokens_changed = lambda: told.append(True)
+    _, a = access.book.create("observer")
+    _, b = access.book.create("observer")
+    assert access.revoke(a.token_id) and told == [True] and access.standing(a.token_id) == "revoked"
+    access.tick()
+    assert told == [True]  # nothing changed meanwhile: no store reads for the connections
+    store, book = open_book(tmp_path)  # the CLI, on the same data directory
+    assert book.revoke(b.token_id)
+    store.close()
+    access.tick()
+    assert told == [True, True] and access.standing(b.token_id) == "revoked"
+    _, c = access.book.create("observer", ttl_s=5)
+    clock.advance(6)
+    assert access.standing(c.token_id) == "expired"
