@@ -64,6 +64,7 @@ class AccessControl:
         self.running: Callable[[], RunningTrial | None] = lambda: None
         self._published: dict = lease.to_record()  # the lease as last persisted and published
         self._data_version = store.data_version()
+        self._running_seen: RunningTrial | None = None  # the running trial at the last tick
 
     @classmethod
     def open(cls, data_dir: str | Path, *, lease_ttl_s: float = 60.0, clock=time.time) -> "AccessControl":
@@ -183,12 +184,18 @@ class AccessControl:
         return False
 
     def tick(self) -> None:
-        """Periodic (the app calls it every 0.25 s): expiry, and tokens revoked by another process."""
+        """Periodic (the app calls it every 0.25 s): expiry, tokens revoked by another process, and a
+        trial that started or ended (the lease is published again: the running trial's participant may
+        drive whoever holds the lease, and no longer once it ends)."""
         if self._external_change():
             self._drop_inactive()
             self._tokens_changed()
         self.lease.expire()
-        if not self.follow_running():
+        running = self.running()
+        if running != self._running_seen:  # a trial started or ended: who may drive changed, tell every client
+            self._running_seen = running
+            self.lease_changed()
+        elif not self.follow_running():
             self.publish_if_changed()
 
     def _external_change(self) -> bool:

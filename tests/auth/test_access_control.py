@@ -185,3 +185,19 @@ def test_tokens_revoked_here_or_by_another_process_are_announced(access, tmp_pat
     _, c = access.book.create("observer", ttl_s=5)
     clock.advance(6)
     assert access.standing(c.token_id) == "expired"
+
+
+def test_a_trial_that_starts_or_ends_publishes_the_lease_again(access, clock):
+    _, b = access.book.create("experimenter", "lab-b")
+    access.lease.request(b)
+    access.lease_changed()
+    running = [RunningTrial("s-a", "lab-a")]
+    access.running = lambda: running[0]
+    before = len(access.published)
+    access.tick()
+    assert len(access.published) == before + 1  # lab A's participant may drive now: clients re-check
+    access.tick()
+    assert len(access.published) == before + 1
+    running[0] = None
+    access.tick()
+    assert len(access.published) == before + 2  # and may not any more

@@ -159,3 +159,18 @@ def test_the_throttle_keeps_a_blocked_key_when_fresh_guesses_flood_it():
     for i in range(100):  # fresh guesses, each failing once (free): they push each other out, not it
         t.failed(f"guess-{i}", 1.0)
     assert t.blocked_for("known-prefix", 1.0) == pytest.approx(59.0)
+
+
+def test_when_its_trial_ends_under_another_labs_lease_the_participant_lets_go_and_is_told():
+    lease = held_by(EXP_B)
+    running = [LAB_A_TRIAL]
+    g, _ = gate(lease)
+    g = dataclasses.replace(g, running=lambda: running[0])
+    s = Session(7, "msgpack", SERVER, T0, gate=g)
+    s.receive(frame({"type": "hello", "v": 1, "role": "participant", "client": "pytest",
+                     "token": SECRET[PART_1.token_id]}), T0)
+    sent(s)
+    assert s.receive(frame(TRACKER), T0 + 1)  # its own trial: it drives under lab B's lease
+    running[0] = None  # the trial ended; the lease is published again (AccessControl.tick)
+    assert s.set_lease(lease_frames(lease)) == [ToLoop(TrackerGone(7))]
+    assert [m.get("code") for m in sent(s)] == [None, "session_closed"]
