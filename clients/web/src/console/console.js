@@ -864,7 +864,10 @@ function main() {
   let deviceTrouble = [];
   const showBanner = () => renderHealth($('health-banner'), live.stats.health, deviceTrouble);
   $('health-banner')._rerender = showBanner;
-  live.onHealth = showBanner;
+  live.onHealth = () => {
+    showBanner();
+    devices.poll(); // a device change pushed by the server: the panel need not wait for its next poll
+  };
   devices = new DevicesCard($('devices-panel'), api, {
     onTrouble: (items) => { deviceTrouble = items; showBanner(); },
     active: () => !state.paused && !state.loginShown && !!store.token,

@@ -145,6 +145,7 @@ export function deviceTrouble(rows, hostDown) {
 export function renderDevices(el, view, error = '') {
   if (!el) return;
   if (error) {
+    el.dataset.sig = '';
     fill(el, h('div', { class: 'c-msg', dataset: { kind: 'error' } }, error));
     return;
   }
@@ -152,23 +153,27 @@ export function renderDevices(el, view, error = '') {
     fill(el, h('div', { class: 'c-muted' }, 'No tactile device is configured (serve --rig or a rig file).'));
     return;
   }
+  // redrawn only when something shown changed (a poll every 500 ms must not churn the DOM)
+  const sig = JSON.stringify([view.rows.map((r) => ({ ...r, lastErrorAgeMs: age(r.lastErrorAgeMs) })), view.trouble]);
+  if (el.dataset.sig === sig) return;
+  el.dataset.sig = sig;
   const bad = new Set(view.trouble.map((t) => t.device));
   fill(el,
     view.hostDown ? h('div', { class: 'c-msg', dataset: { kind: 'error' } }, view.trouble[0].text) : null,
-    h('table', { class: 'c-table c-devices' },
-      h('thead', {}, h('tr', {}, ['device', 'state', 'link', 'watchdog trips', 'last error', 'the scenario']
-        .map((c) => h('th', { scope: 'col' }, c)))),
-      h('tbody', {}, view.rows.map((r) => h('tr', { dataset: { device: r.name, status: r.connected ? 'ok' : 'bad',
-        trouble: bad.has(r.name) ? 'yes' : 'no' } },
-      h('th', { scope: 'row' }, r.name, h('div', { class: 'c-muted' }, [r.model, r.finger].filter(Boolean).join(' · '))),
-      h('td', {}, h('span', { class: 'c-badge', dataset: { status: r.connected ? 'finished' : 'aborted' } }, r.status)),
-      h('td', {}, `${r.framesOut} out · ${r.framesIn} in`, h('div', { class: 'c-muted' },
-        `${r.errors} errors · ${r.disconnects} disconnects${r.rttMs == null ? '' : ` · rtt ${r.rttMs} ms`}`)),
-      h('td', {}, `${r.recentTrips} in ${RATE_WINDOW_S} s`, h('div', { class: 'c-muted' }, `${r.trips} in all`)),
-      h('td', {}, r.lastError || '–', r.lastError && r.lastErrorAgeMs !== null
-        ? h('div', { class: 'c-muted' }, age(r.lastErrorAgeMs)) : null),
-      h('td', { dataset: { needed: r.need.needed ? 'yes' : 'no' } }, r.need.needed ? h('strong', {}, 'needed') : 'not needed',
-        h('div', { class: 'c-muted' }, r.need.text)))))));
+    h('ul', { class: 'c-devices', 'aria-label': 'devices' }, view.rows.map((r) => h('li', {
+      dataset: { device: r.name, status: r.connected ? 'ok' : 'bad', trouble: bad.has(r.name) ? 'yes' : 'no' },
+    },
+    h('div', { class: 'c-device-head' }, h('strong', {}, r.name), ' ',
+      h('span', { class: 'c-badge', dataset: { status: r.connected ? 'finished' : 'aborted' } }, r.status), ' ',
+      h('span', { class: 'c-muted' }, [r.model !== r.name ? r.model : '', r.finger].filter(Boolean).join(' · '))),
+    h('div', { class: 'c-device-need', dataset: { needed: r.need.needed ? 'yes' : 'no' } },
+      r.need.needed ? h('strong', {}, 'needed: ') : 'not needed: ', r.need.text),
+    h('div', { class: 'c-muted' }, `link: ${r.framesOut} frames out · ${r.framesIn} in · ${r.errors} errors · `
+      + `${r.disconnects} disconnects${r.rttMs == null ? '' : ` · rtt ${r.rttMs} ms`}`),
+    h('div', { class: r.recentTrips ? 'c-device-warn' : 'c-muted' },
+      `watchdog trips: ${r.recentTrips} in the last ${RATE_WINDOW_S} s · ${r.trips} in all`),
+    r.lastError ? h('div', { class: 'c-muted' }, `last error: ${r.lastError}`,
+      r.lastErrorAgeMs !== null ? ` (${age(r.lastErrorAgeMs)})` : '') : null))));
 }
 
 /** The panel's I/O shell: polls GET /api/devices every POLL_MS (and GET /api/scenario every 5th

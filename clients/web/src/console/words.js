@@ -9,7 +9,7 @@ export const BUTTONS = {
 
 const RULES = [
   [/request the control lease first \(POST \/api\/lease\)/i,
-    `press “${BUTTONS.lease}” (Control of the rig) first: this changes the rig`],
+    `press “${BUTTONS.lease}” (in “Control of the rig”) first`],
   [/driving the HIP needs the control lease/i, `driving the HIP needs the rig: press “${BUTTONS.lease}” first`],
   [/has no controlling console; take control first/i, `has no controlling console: press “${BUTTONS.session}”`],
   [/take control again/i, `press “${BUTTONS.session}” again`],
