@@ -90,12 +90,17 @@ async function act(msgEl, fn, okText = '') {
     return out;
   } catch (e) {
     say(msgEl, consoleWords(e.message ?? String(e)), 'error');
-    if (e.status === 403) lostControl(e.detail);
+    if (sessionRefusal(e)) lostControl(e.detail);
     return undefined;
   } finally {
     state.busy--;
     await refresh();
   }
+}
+
+/** A 403 about the session's control token (not the rig's lease, not the role): control is lost. */
+function sessionRefusal(e) {
+  return e?.status === 403 && !/control lease|may not do this/.test(typeof e.detail === 'string' ? e.detail : '');
 }
 
 function lostControl(detail) {
@@ -493,7 +498,7 @@ async function saveAnswers(t, msgEl) {
       form.setError(c.field.id, '');
     } catch (e) {
       form.setError(c.field.id, e.message);
-      if (e.status === 403) lostControl(e.detail);
+      if (sessionRefusal(e)) lostControl(e.detail);
       ok = false;
     }
   }

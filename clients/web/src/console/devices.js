@@ -205,8 +205,13 @@ export class DevicesCard {
   scenarioChanged() { this.polls = 0; }
 
   async poll() {
-    if (this.busy || !this.active()) return;
+    if (!this.active()) return;
+    if (this.busy) { // one in flight: read again right after it (a pushed change must not wait a period)
+      this.again = true;
+      return;
+    }
     this.busy = true;
+    this.again = false;
     try {
       if (this.polls++ % 5 === 0 || !this.scenario) {
         try {
@@ -224,6 +229,7 @@ export class DevicesCard {
       this.onTrouble(e?.status === 0 ? [] : [{ code: 'devices_unknown', device: null, text: why }]);
     } finally {
       this.busy = false;
+      if (this.again) this.poll();
     }
   }
 }
