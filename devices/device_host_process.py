@@ -29,6 +29,7 @@ import threading
 from devices.feed import CUE_QUIET_MS, DeviceFeed
 from devices.manager import DeviceManager
 from server import ipc
+from server.log_repeats import limit_repeats
 from server.ipc.records import (TO_DEVICE_HOST, DeviceProfiles, DeviceStatus, Hello, Record, Snapshot,
                                 SnapshotRequest, Stop)
 
@@ -114,6 +115,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="every actuator off when the cue channel is quiet this long (the loop died or stalls)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    limit_repeats()  # e.g. a watchdog trip every half second: the first at once, then a count
     configs = pickle.loads(sys.stdin.buffer.read())  # from the hub, our parent: trusted
     control = socket.socket(fileno=args.control_fd)
     cues = socket.socket(fileno=args.cues_fd)

@@ -279,6 +279,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="append to an existing timeline file (a restarted emulator) instead of starting it afresh")
     parser.add_argument("--no-wire", action="store_true", help="do not model the 115200-baud wire time")
     parser.add_argument("--exit-with-parent", action="store_true", help="stop when the parent process goes away")
+    parser.add_argument("--realtime", action="store_true",
+                        help=f"run the emulator thread at SCHED_FIFO {EMULATOR_RT_PRIORITY} when allowed (a device has "
+                             "a CPU of its own; starved by a loaded machine, it would stamp frames late and trip its watchdog)")
     args = parser.parse_args(argv)
     # Handlers before the path is printed: whoever reads it may stop us at once, and must get the
     # orderly stop (timeline flushed, pty closed), not the default SIGTERM death.
@@ -288,7 +291,7 @@ def main(argv: list[str] | None = None) -> int:
     # Nothing reads the in-memory history of a separate emulator process (its timeline is the CSV
     # file): keep only a little, or a long session (the simulated rig) grows by ~400 B per frame.
     emulator = Emulator(args.model, link=args.link, timeline=args.timeline, wire=not args.no_wire, history=1000,
-                        append_timeline=args.append_timeline)
+                        append_timeline=args.append_timeline, realtime=args.realtime)
     path = emulator.start()
     print(f"{args.model} emulator on {emulator.pty_path}" + (f" (link {path})" if args.link else ""), flush=True)
     print(path, flush=True)

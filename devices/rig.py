@@ -118,8 +118,12 @@ def emulator_command(model: str, link: Path, timeline: Path, *, append_timeline:
                      exit_with_parent: bool = True) -> list[str]:
     """The command line of one rig emulator (run with the repository root as working directory).
     A restart appends to the timeline, so one file covers the emulator before and after it."""
+    # --realtime: an emulator stamps a frame when it reads it; starved by a loaded machine for more
+    # than the watchdog's 45 ms it trips the watchdog although the host wrote on time (thousands of
+    # trips and "write failed: Write timeout" in a 33-minute run beside a CPU hog): a real device has
+    # a CPU of its own, so the rig's emulators run at SCHED_FIFO 20 when the server may.
     return [sys.executable, "-m", "devices.emulator", model, "--link", str(link), "--timeline", str(timeline),
-            *(["--append-timeline"] if append_timeline else []), *(["--exit-with-parent"] if exit_with_parent else [])]
+            "--realtime", *(["--append-timeline"] if append_timeline else []), *(["--exit-with-parent"] if exit_with_parent else [])]
 
 
 def _link_id(link: Path) -> tuple[int, int] | None:

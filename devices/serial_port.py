@@ -28,6 +28,12 @@ from devices.ports import PortSpec, latency_warning, resolve
 from devices.realtime import fifo_this_thread
 
 log = logging.getLogger("viestac.devices")
+# A write blocks only when the port's output buffer is full: the device (an emulator starved on a
+# loaded machine) has not read for a while. 0.5 s dropped the link 9 times in a 33-minute run beside
+# a CPU hog ("write failed: Write timeout"), each a reconnect and a resend of every layer. Only the
+# writer thread waits this long (the feed never writes to a busy port), and a dead device is found
+# by the reader anyway (a read error, or silence: unresponsive after 1.5 s).
+WRITE_TIMEOUT_S = 2.0
 _ROUTINE = {"Acked", "Pong"}  # counted by the protocol, not kept in the event list
 
 
@@ -47,7 +53,7 @@ class SerialDevice:
         self._target: str | None = None  # what self.path led to when it was opened (a link's target)
         self._target_checked = 0.0
         self.warning: str | None = None
-        self.last_error = ""
+        self.last_error = ""  # with its time, last_error_at (a property below)
         self.connects = 0
         self.disconnects = 0
         self.events: deque[dict] = deque(maxlen=200)  # recent facts, for the console
@@ -139,6 +145,15 @@ class SerialDevice:
         self._cond.notify_all()
 
     @property
+    def last_error(self) -> str:
+        return self._last_error
+
+    @last_error.setter
+    def last_error(self, text: str) -> None:
+        self._last_error = text
+        self.last_error_at = time.time() if text else None  # wall clock: the console shows its age
+
+    @property
     def status(self) -> str:
         return self.protocol.status
 
@@ -151,7 +166,7 @@ class SerialDevice:
                     "identity": _identity_dict(identity), "rtt_ms": None if self.protocol.rtt_s is None
                     else round(self.protocol.rtt_s * 1000, 3), "counters": dict(self.protocol.counters),
                     "connects": self.connects, "disconnects": self.disconnects, "last_error": self.last_error,
-                    "warning": self.warning, "writer_rt": self.writer_rt, "events": list(self.events)[-20:],
+                    "last_error_at": self.last_error_at, "warning": self.warning, "writer_rt": self.writer_rt, "events": list(self.events)[-20:],
                     **({"writes": recent} if recent is not None else {})}
 
     # ---- threads -------------------------------------------------------------------------
@@ -220,7 +235,7 @@ class SerialDevice:
             self.last_error = f"port {self.spec} not present"
             return False
         try:
-            port = self.serial_factory(path, self.baud, timeout=0.1, write_timeout=0.5)
+            port = self.serial_factory(path, self.baud, timeout=0.1, write_timeout=WRITE_TIMEOUT_S)
         except (serial.SerialException, OSError, ValueError) as exc:
             self.last_error = f"cannot open {path}: {exc}"
             return False

@@ -47,17 +47,23 @@ fi
 extras="[analysis,power,bench]"
 [ "$want_test" = 1 ] && extras="[test]"
 stamp=".venv/.installed${extras}"
+# setuptools notes, for the editable install of a project with several top-level packages
+# (server, devices, scenarios), "Editable installation … be careful with folders in your working
+# directory with the same name as your package": information, not a problem (those folders are
+# the packages). It is the only line filtered out; pip's real warnings and errors still show.
+export PYTHONWARNINGS="ignore:Editable installation"
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
-  echo "setup: installing Python packages"
+  echo "setup: installing Python packages ${extras} into .venv (pip is quiet meanwhile: about 90 s the first time)"
   .venv/bin/python -m pip install -q --upgrade pip
   .venv/bin/python -m pip install -q -e ".${extras}"
+  echo "setup: Python packages installed"
   touch "$stamp"
 fi
 # The compiled haptic core again when its C source changed since it was built (a pull, an edit):
 # a stale build is not used (compiled.py warns and falls back to the Python reference).
 core_so=$(ls server/core/haptics/_chaptics.*.so 2>/dev/null | head -n 1 || true)
 if [ -z "$core_so" ] || [ server/core/haptics/_chaptics.c -nt "$core_so" ]; then
-  echo "setup: building the compiled haptic core"
+  echo "setup: building the compiled haptic core (about 20 s)"
   .venv/bin/python -m pip install -q --no-deps -e .
 fi
 

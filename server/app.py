@@ -22,7 +22,7 @@ from server.api.guard import AuditTrail, guard, install_access_doc
 from server.api.routes import router
 from server.api.tracker_routes import router as tracker_router
 from server.auth import AccessControl, RunningTrial
-from server.api.web_client import WebClient
+from server.api.web_client import WebClient, install_docs
 from server.config import Settings
 from server.cpu_plan import CpuPlan, plan_cpus
 from server.experiment.engine import Experiment, NotFound
@@ -195,7 +195,7 @@ def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None =
         store.close()
         access.close()
 
-    app = FastAPI(title="ViESTac", version=__version__, lifespan=lifespan,
+    app = FastAPI(title="ViESTac", version=__version__, lifespan=lifespan, docs_url=None, redoc_url=None,
                   description="Networked evaluation suite for wearable tactile displays. "
                               "WebSocket protocol: /ws (docs/protocol.md).")
     app.state.settings = settings
@@ -213,6 +213,7 @@ def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None =
         app.include_router(api, dependencies=[Depends(guard)], responses=GUARD_ERRORS)  # each router says /api
     app.add_middleware(AuditTrail)
     install_access_doc(app)  # /openapi.json says who may call each operation
+    install_docs(app)  # /docs and /redoc with local assets (they work without the internet)
 
     @app.websocket("/ws")
     async def websocket(ws: WebSocket) -> None:

@@ -16,6 +16,7 @@ from scenarios.registry import UnknownScenario
 from server.config import STUDIES_DIR
 from server.core.haptics import contact_gate as gate_defaults
 from server.cpu_plan import MODES, OWN_FROM_CPUS, keep_off_loop_cpu, plan_cpus
+from server.log_repeats import limit_repeats
 from server.loop.cadence import STATE_HZ
 from server.loop.tracker_udp import is_loopback
 from server.core.scene import SceneError
@@ -912,6 +913,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    limit_repeats()  # a line that keeps coming: the first at once, then a count (server/log_repeats.py)
     args = build_parser().parse_args(argv)
     if getattr(args, "extra", None) and _without_extra(f"viestac {args.command}", args.extra):
         return 2

@@ -60,7 +60,8 @@ class Texture(_Ranged):
 
 @dataclass(frozen=True)
 class Tilt(_Ranged):
-    """FerroVibe-style tilt: 0 = front of the fingerpad, 90 = right, 180 = back, 270 = left."""
+    """FerroVibe-style tilt: 0 = front of the fingerpad, 90 = right, 180 = back, 270 = left. Not
+    the contact angle: the contact-angle task sends (−angle) mod 360, so −10° is 10 (docs/data.md)."""
     kind: ClassVar[str] = "tilt"
     RANGES: ClassVar = {"direction_deg": (0.0, 360.0), "magnitude_pct": (0.0, 100.0)}
     direction_deg: float = 0.0

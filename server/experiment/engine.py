@@ -69,6 +69,8 @@ class HubPort(Protocol):
 
     def require_devices(self, scenario: str | None = None, force: bool = False) -> None: ...
 
+    def devices_needed(self, scenario: str | None = None) -> dict[str, tuple[str, ...]]: ...
+
     def set_recording(self, every_n_ticks: int) -> None: ...
 
 
@@ -171,7 +173,9 @@ class Experiment:
         session = self._visible(session_id, site)
         trials = self.store.trials(session_id)
         session.pop("study_text", None)
-        queue = [{**t.to_dict(), "responses": self.store.responses(t.id)} for t in trials]
+        off = self.store.devices_off(session_id)  # (trial id, attempt) → devices that were off (recorder events)
+        queue = [{**t.to_dict(), "responses": self.store.responses(t.id), "device_off": off.get((t.id, t.attempt), [])}
+                 for t in trials]
         nxt = next((t for t in trials if t.status == "pending"), None)
         running = next((t for t in trials if t.status == "running"), None)
         return {**session, "trials": queue, "next": None if nxt is None else nxt.seq,
@@ -282,8 +286,11 @@ class Experiment:
             self._prepare_loop(trial, force)
             if trial.kind != "questionnaire":  # checked before anything is recorded: a refusal changes nothing
                 self.hub.require_devices(trial.scenario, force or self.force_scenarios)
+            # which devices the trial needs: the recorder flags it while none that shows a dimension is connected
+            needs = self.hub.devices_needed(trial.scenario) if trial.kind != "questionnaire" else {}
             started = self.store.transition(trial.id, "running", expect="pending")
-            self.recorder.begin(session_id, started.id, started.attempt, self._trial_phase(started), started.index)
+            self.recorder.begin(session_id, started.id, started.attempt, self._trial_phase(started), started.index,
+                                needs=needs)
             self.hub.set_recording(self.record_every)
             self._set_trial(started)
         self.on_change(session_id)

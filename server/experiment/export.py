@@ -58,7 +58,7 @@ SESSION_COLUMNS = ("session", "study", "participant", "participant_index", "devi
                    "software_version")
 TRIAL_COLUMNS = ("seq", "task", "kind", "index", "condition", "repetition", "status", "attempt", "started_utc",
                  "ended_utc", "started_tick", "ended_tick", "duration_s", "duration_from", "reason", "scenario",
-                 "trial_device", "planned_duration_s", "trajectory")
+                 "trial_device", "planned_duration_s", "device_off", "trajectory")
 WIDE_COLUMNS = SESSION_COLUMNS + TRIAL_COLUMNS
 WIDE_GROUPS = ("param", "scenario", "response", "metric")  # then one column per name, sorted, per group
 LONG_COLUMNS = ("session", "study", "participant", "participant_index", "seq", "task", "kind", "index", "condition",
@@ -277,6 +277,7 @@ class SessionData:
     folder: str
     wide: list[dict] = field(default_factory=list)  # wide rows (column → value)
     audit: list[dict] | None = None  # the session's audit rows; None: the data directory has no access log
+    devices_off: dict = field(default_factory=dict)  # (trial id, attempt) → devices off while it was recorded
 
     @property
     def trajectories(self) -> list[tuple[dict, dict]]:
@@ -299,6 +300,10 @@ def _load(reader: Reader, session: dict) -> SessionData:
         t["attempts"] = [{**a, "trajectory": trajectory_name(t["seq"], a["attempt"]) if a["samples"] else None}
                          for (trial_id, _), a in sorted(attempts.items()) if trial_id == t["id"]]
     data = SessionData(session, trials, responses, reader.events(sid), reader.cues(sid), tick_hz, folder_name(session))
+    for e in data.events:  # the recorder's flag (server/experiment/recorder.py): a needed device was off
+        if e["kind"] == "device_off":
+            data.devices_off.setdefault((e["trial_id"], e["attempt"]), set()).update(e["body"].get("devices", ()))
+    data.devices_off = {k: sorted(v) for k, v in data.devices_off.items()}
     data.wide = [_wide_row(data, t) for t in trials]
     return data
 
@@ -312,7 +317,8 @@ def _wide_row(data: SessionData, t: dict) -> dict:
            **{k: t[k] for k in ("seq", "task", "kind", "index", "condition", "repetition", "status", "attempt",
                                 "started_utc", "ended_utc", "started_tick", "ended_tick", "duration_s",
                                 "duration_from", "reason", "scenario", "planned_duration_s")},
-           "trial_device": t["device"], "trajectory": current and current["trajectory"]}
+           "trial_device": t["device"], "device_off": ";".join(data.devices_off.get((t["id"], t["attempt"]), ())),
+           "trajectory": current and current["trajectory"]}
     row.update({f"param.{k}": v for k, v in (t["params"] or {}).items()})
     row.update({f"scenario.{k}": v for k, v in (t["scenario_params"] or {}).items()})
     for q in t["questions"] or ():

@@ -11,6 +11,13 @@ record belong to the time before it. A state record of a tick before the first t
 (ticks never go back, not even across a loop restart: server/hub/supervisor.py); if one came, its
 rows are counted and said in a `dropped` event, never lost silently.
 
+A trial whose scenario needs a device that is off is flagged: `begin` gets, per tactile
+dimension the trial's scenario requires, the configured devices that show it; the recorder keeps
+every device's status from the device reports (`DeviceReport`, also between trials) and adds a
+`device_off` event when none of a dimension's devices is connected (at the start, or when it goes
+during the trial) and a `device_back` event when one is again. The session view and the export
+read the flag from those events (docs/data.md "Trials recorded with a device off").
+
 A loop restart (a `hello` from a new loop process) while a trial is recorded interrupts it: the
 rows up to the crash stay with the attempt, and `interrupted` is set so the experiment ends the
 attempt as interrupted and retries the trial (docs/data.md "A loop restart during a trial");
@@ -26,6 +33,7 @@ from __future__ import annotations
 import threading
 from dataclasses import dataclass, field
 
+from devices.capability import missing
 from server.experiment.store import Store
 from server.ipc.records import DeviceReport, FailSafe, Hello, Log, Record, ScenarioAnnounce, State
 
@@ -56,6 +64,8 @@ class Active:
     dropped_records: int = 0             # state records of ticks before first_tick (never expected)
     dropped_samples: int = 0             # trajectory rows in them
     interrupted: str | None = None       # why the attempt stopped before it ended ("loop restart")
+    needs: dict = field(default_factory=dict)  # required dimension → the devices that show it
+    device_off: bool = False             # a needed device is off now (a device_off event without its device_back)
 
 
 class Recorder:
@@ -63,14 +73,19 @@ class Recorder:
         self.store = store
         self.active: Active | None = None
         self.loop_pid: int | None = None  # the loop process whose records these are
+        self.statuses: dict[str, str] = {}  # each device's status, from the device reports
         self._lock = threading.Lock()  # flush() runs in a worker thread, records arrive on the event loop
 
     # -- control (the experiment) -----------------------------------------------------------
-    def begin(self, session_id: str, trial_id: int, attempt: int, phase: str | None = None, index: int = 0) -> None:
+    def begin(self, session_id: str, trial_id: int, attempt: int, phase: str | None = None, index: int = 0,
+              needs: dict | None = None) -> None:
         """Record a trial from the tick the loop announces it: the scenario trial (`phase`,
-        `index`), or no trial (`phase` None: training without a trial, a questionnaire)."""
+        `index`), or no trial (`phase` None: training without a trial, a questionnaire).
+        `needs`: per required dimension, the devices that show it (a `device_off` event when none
+        is connected)."""
         with self._lock:
-            self.active = Active(session_id, trial_id, attempt, phase, index)
+            self.active = Active(session_id, trial_id, attempt, phase, index, needs=dict(needs or {}))
+            self._check_devices(self.active)
 
     def end(self) -> Active | None:
         """Stop recording the trial and write its remaining rows; returns what was recorded."""
@@ -88,6 +103,9 @@ class Recorder:
     def on_record(self, record: Record) -> None:
         if type(record) is Hello:
             self._hello(record.info.get("pid"))
+        if type(record) is DeviceReport:
+            with self._lock:
+                self.statuses.update(record.report.get("status") or {})
         a = self.active
         if a is None or a.interrupted is not None:
             return
@@ -102,9 +120,24 @@ class Recorder:
                     self._state(a, record)
                 case DeviceReport(report):
                     a.events.append((a.session_id, a.trial_id, a.attempt, None, "devices", report))
+                    self._check_devices(a)
                 case FailSafe() | Log():  # stored as the record's fields, in order (docs/data.md)
                     a.events.append((a.session_id, a.trial_id, a.attempt, None, "loop",
                                      {"kind": record.TAG, "detail": record.to_array()[1:]}))
+
+    def _check_devices(self, a: Active) -> None:
+        """With the lock held: a `device_off` event when a needed device went (or was gone at the
+        start), a `device_back` event when every needed dimension has a connected device again."""
+        gone = missing(a.needs, self.statuses)
+        if gone and not a.device_off:
+            a.device_off = True
+            a.events.append((a.session_id, a.trial_id, a.attempt, a.last_tick, "device_off", {
+                "devices": sorted({d for m in gone for d in m.devices}), "missing": [m.to_dict() for m in gone],
+                "at": "start" if a.first_tick is None else "during"}))
+        elif not gone and a.device_off:
+            a.device_off = False
+            a.events.append((a.session_id, a.trial_id, a.attempt, a.last_tick, "device_back",
+                             {"statuses": {d: self.statuses.get(d) for ds in a.needs.values() for d in ds}}))
 
     def _hello(self, pid: int | None) -> None:
         """A loop process started; if it replaces one, the recorded trial (if any) is interrupted."""

@@ -430,6 +430,17 @@ class Store:
             rows = self.db.execute(sql + " ORDER BY id", args).fetchall()
         return [{**{k: r[k] for k in r.keys() if k != "body_json"}, "body": json.loads(r["body_json"])} for r in rows]
 
+    def devices_off(self, session_id: str) -> dict[tuple[int, int], list[str]]:
+        """(trial id, attempt) → the devices a trial needed that were off while it was recorded
+        (the recorder's `device_off` events, docs/data.md), sorted."""
+        with self._lock:
+            rows = self.db.execute("SELECT trial_id, attempt, body_json FROM events WHERE session_id = ? "
+                                   "AND kind = 'device_off'", (session_id,)).fetchall()
+        out: dict[tuple[int, int], set] = {}
+        for r in rows:
+            out.setdefault((r["trial_id"], r["attempt"]), set()).update(json.loads(r["body_json"]).get("devices", ()))
+        return {k: sorted(v) for k, v in out.items()}
+
     def samples(self, trial_id: int, attempt: int | None = None) -> list[dict]:
         sql, args = "SELECT * FROM samples WHERE trial_id = ?", [trial_id]
         if attempt is not None:

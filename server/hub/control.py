@@ -20,7 +20,7 @@ from dataclasses import replace
 from itertools import count
 from typing import Any, Callable, Mapping
 
-from devices.capability import CapabilityReport, check, missing_device_text
+from devices.capability import CapabilityReport, check, missing_device_text, showing
 from scenarios import registry
 from server.core.scenario import ParamError, Trial, describe, find_control
 from server.ipc import records
@@ -124,6 +124,13 @@ class ScenarioControl:
     def capability(self, scenario_cls=None) -> CapabilityReport:
         cls = scenario_cls or self.scenario_cls
         return check(cls.id, tuple(cls.REQUIRES), self.profiles(), self.statuses())
+
+    def devices_needed(self, scenario: str | None = None) -> dict[str, tuple[str, ...]]:
+        """Per tactile dimension `scenario` (default: the running one) requires, the configured
+        devices that show it (devices/capability.py `showing`): the recorder flags a trial while
+        none of a dimension's devices is connected."""
+        cls = registry.resolve(scenario).factory if scenario else self.scenario_cls
+        return {} if cls is None else showing(tuple(cls.REQUIRES), self.profiles())
 
     def require_devices(self, scenario: str | None = None, force: bool = False) -> None:
         """DeviceMissing unless every required dimension of `scenario` (default: the running one)

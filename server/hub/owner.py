@@ -95,5 +95,8 @@ class HubForWorkers:
     def require_devices(self, scenario: str | None = None, force: bool = False) -> None:
         self._owner.call(self._hub.control.require_devices, scenario, force)
 
+    def devices_needed(self, scenario: str | None = None) -> dict[str, tuple[str, ...]]:
+        return self._owner.call(self._hub.control.devices_needed, scenario)
+
     def set_recording(self, every_n_ticks: int) -> None:
         self._owner.call(self._hub.link.set_recording, every_n_ticks)

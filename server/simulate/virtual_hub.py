@@ -67,6 +67,9 @@ class VirtualHub:
     def require_devices(self, scenario: str | None = None, force: bool = False) -> None:
         self.control.require_devices(scenario, force)
 
+    def devices_needed(self, scenario: str | None = None) -> dict[str, tuple[str, ...]]:
+        return self.control.devices_needed(scenario)
+
     def set_recording(self, every_n_ticks: int) -> None:
         self.record_every = every_n_ticks
         self._send(RecordEvery(every_n_ticks))

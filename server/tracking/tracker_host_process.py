@@ -30,6 +30,7 @@ import msgpack
 
 from devices.realtime import fifo_this_thread
 from server import ipc
+from server.log_repeats import limit_repeats
 from server.ipc.records import (TO_TRACKER_HOST, Answer, Calibrate, Capture, Hello, Malformed, Record, SourcesHealth,
                                 Stop)
 from server.tracking import sources, store
@@ -208,6 +209,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--data-dir", required=True)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    limit_repeats()  # a lost source's retries: the first at once, then a count (server/log_repeats.py)
     specs = [SourceSpec.from_dict(t) for t in json.loads(sys.stdin.read() or "[]")]
     host, _, port = args.udp.rpartition(":")
     control = socket.socket(fileno=args.control_fd)

@@ -28,6 +28,9 @@ class RacingHub:
     def require_devices(self, scenario=None, force=False):
         pass
 
+    def devices_needed(self, scenario=None):
+        return {}
+
     def set_recording(self, every_n_ticks):
         pass
 

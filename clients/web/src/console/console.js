@@ -19,6 +19,9 @@ import { renderHealth } from './health.js';
 import { TokenStore, redeemFragment, whoText } from '../auth.js';
 import { leaseView, leaseSummary, renderLease, renewIntervalMs } from './lease.js';
 import { auditRows, renderAudit } from './audit.js';
+import { DevicesCard } from './devices.js';
+import { ScenarioCard } from './scenario.js';
+import { BUTTONS, consoleWords } from './words.js';
 
 const REFRESH_MS = 2000;
 const SESSIONS_REFRESH_MS = 10000;
@@ -86,13 +89,18 @@ async function act(msgEl, fn, okText = '') {
     if (okText) say(msgEl, typeof okText === 'function' ? okText(out) : okText, 'ok');
     return out;
   } catch (e) {
-    say(msgEl, e.message ?? String(e), 'error');
-    if (e.status === 403) lostControl(e.detail);
+    say(msgEl, consoleWords(e.message ?? String(e)), 'error');
+    if (sessionRefusal(e)) lostControl(e.detail);
     return undefined;
   } finally {
     state.busy--;
     await refresh();
   }
+}
+
+/** A 403 about the session's control token (not the rig's lease, not the role): control is lost. */
+function sessionRefusal(e) {
+  return e?.status === 403 && !/control lease|may not do this/.test(typeof e.detail === 'string' ? e.detail : '');
 }
 
 function lostControl(detail) {
@@ -272,7 +280,7 @@ async function takeControl() {
   const who = experimenter();
   if (!who) {
     $('experimenter').focus();
-    say($('run-msg'), 'Fill in the experimenter (top right) to take control.', 'error');
+    say($('run-msg'), 'Fill in the experimenter (top right) to take control of the session.', 'error');
     return;
   }
   const token = await act($('run-msg'), () => api.takeControl(state.sessionId, who),
@@ -333,12 +341,16 @@ function renderControl() {
   box.dataset.state = s ? state.control : 'none';
   box.hidden = !s;
   $('take-control').hidden = !s || state.control === 'yes';
+  // The session's control and the rig's lease are two things (docs/security.md); the header says
+  // both in the same words, and names the button that fixes a missing one.
+  const rig = currentLeaseView().you === 'holder';
   $('control-text').textContent = !s ? 'no session open'
-    : state.control === 'yes' ? 'You control this session'
-      : state.control === 'lost' ? `Control lost: ${state.controlDetail || 'another console took control'}`
-        : 'View only: take control to run this session';
+    : state.control === 'yes' ? (rig ? 'You control this session'
+      : `You control this session, not the rig: press “${BUTTONS.lease}” to run its trials`)
+      : state.control === 'lost' ? `Session control lost: ${consoleWords(state.controlDetail) || 'another console took control'}`
+        : `View only: press “${BUTTONS.session}” to run it`;
   for (const id of ['start', 'finish', 'abort', 'save-answers', 'retry', 'exclude', 'save-notes']) {
-    $(id).title = inControl() ? '' : 'take control of the session first';
+    $(id).title = inControl() ? '' : `press “${BUTTONS.session}” first`;
   }
 }
 
@@ -486,7 +498,7 @@ async function saveAnswers(t, msgEl) {
       form.setError(c.field.id, '');
     } catch (e) {
       form.setError(c.field.id, e.message);
-      if (e.status === 403) lostControl(e.detail);
+      if (sessionRefusal(e)) lostControl(e.detail);
       ok = false;
     }
   }
@@ -645,7 +657,7 @@ async function loggedIn() {
   say($('login-msg'), '');
   renderIdentity();
   live?.conn.setToken(() => store.token);
-  await Promise.all([loadStudies(), loadSessions(), pollLease(), loadAudit()]);
+  await Promise.all([loadStudies(), loadSessions(), pollLease(), loadAudit(), devices.start(), scenarioCard.load()]);
 }
 
 function onLogout() {
@@ -683,7 +695,8 @@ function renderLeaseCard() {
     request: onLeaseRequest, release: onLeaseRelease, forceRelease: onForceRelease, handOver: onHandOver,
   });
   const sum = $('lease-summary');
-  sum.textContent = state.lease ? leaseSummary(view) : 'control: unknown';
+  sum.textContent = state.lease ? leaseSummary(view) : 'Rig control: unknown';
+  renderControl();
   sum.dataset.you = view.you;
   $('join-create').disabled = !view.actions.joinLink;
   $('join-create').title = view.actions.joinLink ? '' : 'hold the control lease first';
@@ -721,7 +734,7 @@ async function leaseAct(fn, okText, msgEl = $('lease-msg')) {
     out = await fn();
     say(msgEl, typeof okText === 'function' ? okText(out) : okText, 'ok');
   } catch (e) {
-    say(msgEl, e.message ?? String(e), 'error');
+    say(msgEl, consoleWords(e.message ?? String(e)), 'error');
   }
   await pollLease();
   return out;
@@ -794,6 +807,8 @@ function wsUrl() {
 }
 
 let live = null;
+let devices = null; // the devices panel (devices.js)
+let scenarioCard = null; // the scenario card (scenario.js)
 
 function main() {
   const exp = $('experimenter');
@@ -849,7 +864,26 @@ function main() {
       ? 'error' : 'warn');
     $('live-status').title = detail ?? '';
   };
-  live.onHealth = (health) => renderHealth($('health-banner'), health);
+  // The banner: the server's health and the devices panel's trouble (devices.js), held a moment
+  // after it cleared (health.js HOLD_MS).
+  let deviceTrouble = [];
+  const showBanner = () => renderHealth($('health-banner'), live.stats.health, deviceTrouble);
+  $('health-banner')._rerender = showBanner;
+  live.onHealth = () => {
+    showBanner();
+    devices.poll(); // a device change pushed by the server: the panel need not wait for its next poll
+  };
+  devices = new DevicesCard($('devices-panel'), api, {
+    onTrouble: (items) => { deviceTrouble = items; showBanner(); },
+    active: () => !state.paused && !state.loginShown && !!store.token,
+  });
+  scenarioCard = new ScenarioCard($('scenario-panel'), api);
+  const onScene = live.conn.onScene;
+  live.conn.onScene = (m) => {
+    onScene?.(m);
+    devices.scenarioChanged();
+    if (!state.loginShown && store.token) scenarioCard.refreshRunning();
+  };
   live.start();
 
   const hook = {
@@ -859,6 +893,9 @@ function main() {
       selected: state.selected, next: state.session?.next ?? null, running: state.session?.running ?? null }),
     live: live.stats,
     health: () => live.stats.health,
+    devices: () => devices.view && { rows: devices.view.rows, trouble: devices.view.trouble,
+      hostDown: devices.view.hostDown },
+    banner: () => ({ hidden: $('health-banner').hidden, text: $('health-banner').innerText }),
     identity: () => state.identity,
     lease: () => ({ ...currentLeaseView(), loginShown: state.loginShown }),
     join: () => state.join && { url: state.join.url, session: state.join.session, qr: !!$('join-qr svg') },
@@ -891,6 +928,7 @@ function main() {
     renderLeaseCard();
     if (!state.loginShown) {
       await pollLease();
+      await Promise.all([devices.start(), scenarioCard.load()]);
       await loadStudies();
       await loadSessions();
     }

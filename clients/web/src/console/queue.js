@@ -47,6 +47,7 @@ export function queueRows(session) {
     answers: formatAnswers(t.responses, t.questions),
     questions: t.questions ?? [],
     reason: t.reason ?? '',
+    deviceOff: t.device_off ?? [], // devices the trial needed that were off while it was recorded (recorder.py)
     isNext: session.next === t.seq,
     isRunning: session.running === t.seq,
     canAnswer: (t.questions?.length ?? 0) > 0 && (t.status === 'running' || t.status === 'answered'),
@@ -94,7 +95,7 @@ export function renderQueue(table, rows, { selected = null, onSelect = () => {} 
   fill(body, rows.map((r) => h('tr', {
     class: ['c-row', `c-status-${r.status}`, r.isNext ? 'c-next' : '', r.isRunning ? 'c-running' : '',
       r.seq === selected ? 'c-selected' : ''].filter(Boolean).join(' '),
-    dataset: { seq: r.seq, status: r.status },
+    dataset: { seq: r.seq, status: r.status, deviceOff: r.deviceOff.join(' ') },
     tabindex: 0,
     onclick: () => onSelect(r.seq),
     onkeydown: (e) => { if (e.key === 'Enter' || e.key === ' ') { e.preventDefault(); onSelect(r.seq); } },
@@ -104,7 +105,9 @@ export function renderQueue(table, rows, { selected = null, onSelect = () => {} 
   h('td', { title: `${r.kind} phase, index ${r.index}` }, `${r.kindLabel} ${r.index + 1}`),
   h('td', { class: 'c-params', title: r.params }, r.params),
   h('td', { class: 'c-status' }, h('span', { class: 'c-badge', dataset: { status: r.status } }, r.status),
-    r.reason ? h('div', { class: 'c-reason', title: r.reason }, r.reason) : null),
+    r.reason ? h('div', { class: 'c-reason', title: r.reason }, r.reason) : null,
+    r.deviceOff.length ? h('div', { class: 'c-device-off', title: `recorded while ${r.deviceOff.join(', ')} (needed `
+      + 'by its scenario) was off: see events.csv' }, `⚠ ${r.deviceOff.join(', ')} off`) : null),
   h('td', { class: 'c-num' }, r.attempt),
   h('td', { class: 'c-answers', title: r.answers }, r.answers))));
 }
