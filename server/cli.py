@@ -264,7 +264,15 @@ def _devices(args: argparse.Namespace) -> int:
     return 0
 
 
+EMULATED = ("fingertac", "ferrovibe", "devkit", "leap")
+
+
 def _emulate(args: argparse.Namespace) -> int:
+    if args.rest[:1] in (["-h"], ["--help"]):  # the kinds; each kind has its own --help
+        print(f"usage: viestac emulate {{{','.join(EMULATED)}}} [options]\n\n"
+              "Emulate a tactile device on a pseudo-terminal (fingertac, ferrovibe, devkit) or the Leap Motion "
+              "service's WebSocket (leap).\nOptions of each: viestac emulate KIND --help")
+        return 0
     if args.rest[:1] == ["leap"]:  # the Leap Motion service's WebSocket (server/tracking/leap_emulator.py)
         from server.tracking.leap_emulator import main as leap_main
 
@@ -912,7 +920,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # argparse.REMAINDER leaves an option it starts with (`emulate --help`) to the extras
+        if args.command != "emulate":
+            parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+        args.rest = unknown + args.rest
     if getattr(args, "extra", None) and _without_extra(f"viestac {args.command}", args.extra):
         return 2
     try:
