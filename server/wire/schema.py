@@ -263,8 +263,8 @@ _DRIVER = fixed([any_of(integer(min=0), string(min_len=1), doc="client_id"), int
 
 _TOOL = mapping(doc="map `{name, hip, proxy, contact, lost}`")
 
-STATE = Message("state", "server_to_client", "per published frame; 60 Hz by default, plus an immediate frame in any "
-                "tick whose device cues changed, so a tactile cue never leads the picture", (
+STATE = Message("state", "server_to_client", "per published frame; 60 Hz by default, plus a frame in any tick whose "
+                "device cues changed; at most `state_hz` + 60 a second per client (\"Frame rate ceiling\")", (
     _type("state"),
     Field("frame", integer(min=0), "publish counter"),
     Field("tick", integer(min=0), "loop tick of this state (sim time = tick / tick_hz)"),
