@@ -103,7 +103,9 @@ def _serve(args: argparse.Namespace) -> int:
         code = _login_code(app, settings)
         print(f"Log in to the console (admin, single use, valid {LOGIN_LINK_TTL_S // 60} min): "
               f"{link_base(settings, port)}/console.html#login={code}", flush=True)
-    config = uvicorn.Config(app, ws="websockets-sansio", ws_max_size=settings.max_frame_bytes,
+    from server.hub.ws_transport import BoundedWebSocketProtocol  # websockets-sansio, its send path bounded
+
+    config = uvicorn.Config(app, ws=BoundedWebSocketProtocol, ws_max_size=settings.max_frame_bytes,
                             ws_per_message_deflate=False, log_level=args.log_level, access_log=False,
                             ssl_certfile=settings.tls_cert, ssl_keyfile=settings.tls_key)
     uvicorn.Server(config).run(sockets=[sock])
