@@ -215,6 +215,10 @@ class Fanout:
                 if not welcomed and session.welcomed:
                     self.on_welcomed(c)
                 c.wake.set()
+                # One message, then the other tasks: one read of the socket holds up to ~1,000 small
+                # messages, which `receive` hands over without yielding, and a flooder would keep the
+                # viewers' senders, the broadcaster and REST (/api/health) waiting for all of them.
+                await asyncio.sleep(0)
             # We are closing (e.g. unsupported version): let the sender flush the error first.
             await asyncio.wait_for(asyncio.shield(sender), FLUSH_BEFORE_CLOSE_S)
         except (WebSocketDisconnect, RuntimeError, asyncio.TimeoutError):
