@@ -559,14 +559,19 @@ def _bench_switch(args: argparse.Namespace) -> int:
 
 
 def _bench_faults(args: argparse.Namespace) -> int:
-    from server.bench.faults import FAULTS, run_fault_bench
+    from server.bench.faults import FAULTS, run_fault_bench, run_loaded_and_unloaded
     from server.bench.faults_measure import table
 
     kinds = tuple(k for k in args.only.split(",") if k) if args.only else FAULTS
     progress = None if args.json else (lambda what: print(f"  {what}", file=sys.stderr, flush=True))
-    result = run_fault_bench(repeat=args.repeat, kinds=kinds, progress=progress,
-                             keep=Path(args.keep) if args.keep else None)
-    print(json.dumps(result) if args.json else table(result))
+    keep = Path(args.keep) if args.keep else None
+    if args.load > 0:
+        result = run_loaded_and_unloaded(args.repeat, kinds, args.load, progress, keep)
+        text = "\n\n".join(f"== {name}\n{table(run)}" for name, run in result["runs"].items())
+    else:
+        result = run_fault_bench(repeat=args.repeat, kinds=kinds, progress=progress, keep=keep)
+        text = table(result)
+    print(json.dumps(result) if args.json else text)
     return 1 if args.check and not result["pass"] else 0
 
 
@@ -890,10 +895,12 @@ def build_parser() -> argparse.ArgumentParser:
     faults.add_argument("--repeat", type=int, default=3, help="repetitions of each fault (default 3)")
     faults.add_argument("--only", default="", metavar="FAULT[,FAULT...]", help="only these faults (default all: "
                         "loop_kill, device_host_kill, emulator_restart, device_unplug, tracker_loss, key_flood, "
-                        "tracker_flood, slow_readers, bad_frames, huge_values_ws, huge_values_udp)")
+                        "tracker_flood, tracker_jitter, slow_readers, bad_frames, huge_values_ws, huge_values_udp)")
     faults.add_argument("--keep", metavar="DIR", help="keep the run's database, study and actuator timelines in "
                         "this new directory")
     faults.add_argument("--check", action="store_true", help="exit 1 when a fault misses its acceptance")
+    faults.add_argument("--load", type=int, default=0, metavar="N", help="run the bench twice: on the machine as "
+                        "it is, then with N CPU hogs beside the server (a busy lab PC); report both")
     faults.add_argument("--json", action="store_true", help="print one JSON object")
     faults.set_defaults(func=_bench_faults)
     tracking = bench_sub.add_parser("tracking", help="tracker filters: jitter against lag and contact chatter on "

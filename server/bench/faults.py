@@ -34,12 +34,13 @@ from pathlib import Path
 from server.bench import faults_measure as fm
 from server.bench.faults_clients import (CONTACT_POS, Participant, Poller, WsClient, health_status, reason_codes,
                                          slow_readers, udp_tracker)
+from server.bench.load import cpu_hogs
 from server.bench.loop_bench import token_option
 from server.launcher import auth_headers, get_json, start_server, stop_server
 from server.hub.child import HEALTHY_S
 
 FAULTS = ("loop_kill", "device_host_kill", "emulator_restart", "device_unplug", "tracker_loss", "key_flood",
-          "tracker_flood", "slow_readers", "bad_frames", "huge_values_ws", "huge_values_udp")
+          "tracker_flood", "tracker_jitter", "slow_readers", "bad_frames", "huge_values_ws", "huge_values_udp")
 RECORD_EVERY = 5
 SETTLE_S = 0.4          # a trial runs and the tilt is on before the fault
 RECOVER_S = 6.0         # give up waiting for a recovery after this long
@@ -47,6 +48,8 @@ HEALTH_OK_S = 4.0       # after recovery: how long health may take to say ok aga
 UNPLUGGED_S = 1.0       # a device stays unplugged this long
 FLOOD_S = 1.0
 FLOOD_RATE = 10_000     # messages per second
+JITTER_RATE = 1000      # tracker samples a second, each 0-1 mm inside the dome somewhere else (issue 35)
+JITTER_S = 2.0
 SLOW_READERS = 8
 SLOW_READERS_S = 2.0
 DEFECT_1 = ((0.0, 1e154, 0.5), (0.0, 1.35e154, 0.5), (0.1, 0.1, 0.5))  # the issue's wedging sequence
@@ -329,12 +332,12 @@ class FaultBench:
         return {"fault_ns": t0, "end_ns": back, "held": held, "actuators_off_ms": off_ms(t0, off_us),
                 "tracker_lost_reported": "tracker_lost" in (codes or ())}
 
-    async def _flood(self, what: str) -> dict:
-        """A second participant, in a process of its own, sends FLOOD_RATE messages a second for
-        FLOOD_S; the viewer's frames before and during."""
+    async def _flood(self, what: str, rate: int = FLOOD_RATE, seconds: float = FLOOD_S) -> dict:
+        """A second participant, in a process of its own, sends `rate` messages a second for
+        `seconds`; the viewer's frames before and during, and how long /api/health took to answer."""
         proc = await asyncio.create_subprocess_exec(
             sys.executable, "-m", "server.bench.faults_clients", "--url", self.ws_url, "--what", what,
-            "--rate", str(FLOOD_RATE), "--seconds", str(FLOOD_S), *token_option(self.ws_url), stdout=asyncio.subprocess.PIPE, cwd=REPO)
+            "--rate", str(rate), "--seconds", str(seconds), *token_option(self.ws_url), stdout=asyncio.subprocess.PIPE, cwd=REPO)
         out, _ = await proc.communicate()
         flood = json.loads(out.decode().strip().splitlines()[-1])
         t0, t1 = flood["t0_ns"], flood["t1_ns"]
@@ -349,6 +352,7 @@ class FaultBench:
                 "frame_growth": round(fm.median(during) / fm.median(before), 2) if before and during else None,
                 "viewer_hz_before": rate_before, "viewer_hz_during": rate_during,
                 "rate_kept": round(rate_during / rate_before, 3) if rate_before and rate_during is not None else None,
+                "health_slowest_ms": self.health.slowest_ms(t0, t1),
                 "flooder_errors": flood["error_codes"], "flooder_closed": flood["closed"]}
 
     async def fault_key_flood(self) -> dict:
@@ -356,6 +360,9 @@ class FaultBench:
 
     async def fault_tracker_flood(self) -> dict:
         return await self._flood("tracker")
+
+    async def fault_tracker_jitter(self) -> dict:
+        return await self._flood("jitter", JITTER_RATE, JITTER_S)
 
     async def fault_slow_readers(self) -> dict:
         times = self.viewer.state_times
@@ -366,6 +373,7 @@ class FaultBench:
         before, during = fm.rate_hz(times(), t0 - int(1e9), t0), fm.rate_hz(times(), t0 + int(0.5e9), t1)
         return {"fault_ns": t0, "end_ns": t1, "viewer_hz_before": before, "viewer_hz_during": during,
                 "rate_kept": round(during / before, 3) if before and during is not None else None,
+                "health_slowest_ms": self.health.slowest_ms(t0, t1),
                 "viewer_frames_lost": fm.frames_lost(times(), t0, t1, 60.0)}
 
     async def fault_bad_frames(self) -> dict:
@@ -559,9 +567,32 @@ async def _run(bench: FaultBench, kinds: tuple[str, ...], repeat: int, progress)
     return reps
 
 
-def run_fault_bench(repeat: int = 3, kinds: tuple[str, ...] = FAULTS, progress=None, keep: Path | None = None) -> dict:
+def run_fault_bench(repeat: int = 3, kinds: tuple[str, ...] = FAULTS, progress=None, keep: Path | None = None,
+                    load: int = 0) -> dict:
     """Run the faults `repeat` times each; `keep`: a new directory that keeps the database, the
-    rig's timelines and the study (else everything goes with the run)."""
+    rig's timelines and the study (else everything goes with the run); `load`: that many CPU hogs
+    run beside the server, from before it starts until it stopped (server/bench/load.py)."""
+    if load < 0:
+        raise ValueError(f"load must be >= 0, got {load}")
+    with cpu_hogs(load):
+        result = _run_fault_bench(repeat, kinds, progress, keep)
+    result["load"] = load
+    return result
+
+
+def run_loaded_and_unloaded(repeat: int, kinds: tuple[str, ...], load: int, progress=None,
+                            keep: Path | None = None) -> dict:
+    """`viestac bench faults --load N`: the bench on a quiet machine, then with N CPU hogs; it
+    passes when both do."""
+    runs = {}
+    for name, hogs in (("unloaded", 0), (f"loaded ({load} CPU hogs)", load)):
+        if progress:
+            progress(name)
+        runs[name] = run_fault_bench(repeat, kinds, progress, None if keep is None else keep / name.split()[0], hogs)
+    return {"pass": all(r["pass"] for r in runs.values()), "load": load, "runs": runs}
+
+
+def _run_fault_bench(repeat: int, kinds: tuple[str, ...], progress, keep: Path | None) -> dict:
     if repeat < 1:
         raise ValueError(f"repeat must be >= 1, got {repeat}")
     unknown = [k for k in kinds if k not in FAULTS]
