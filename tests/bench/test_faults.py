@@ -144,3 +144,14 @@ def test_a_live_tracker_loss_is_reported_degraded_and_recovers():
     assert rep["held"] and rep["actuators_off_ms"] is not None, rep
     assert rep["tracker_lost_reported"] and "tracker_lost" in rep["reasons"], rep
     assert rep["degraded_ms"] is not None and rep["ok_ms"] is not None, rep
+
+
+def test_the_load_of_bench_faults_runs_beside_and_is_stopped_however_the_run_ends():
+    from server.bench.load import cpu_hogs
+
+    with pytest.raises(RuntimeError), cpu_hogs(2) as hogs:
+        assert len(hogs) == 2 and all(h.poll() is None for h in hogs)
+        raise RuntimeError("the bench failed")
+    assert all(h.poll() is not None for h in hogs)
+    with pytest.raises(ValueError, match="load"):
+        run_fault_bench(repeat=1, kinds=("loop_kill",), load=-1)
