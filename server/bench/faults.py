@@ -37,6 +37,7 @@ from server.bench.faults_clients import (CONTACT_POS, Participant, Poller, WsCli
 from server.bench.load import cpu_hogs
 from server.bench.loop_bench import token_option
 from server.launcher import auth_headers, get_json, start_server, stop_server
+from server.core.tool import DRIVER_QUIET_S
 from server.hub.child import HEALTHY_S
 
 FAULTS = ("loop_kill", "device_host_kill", "emulator_restart", "device_unplug", "tracker_loss", "key_flood",
@@ -49,7 +50,7 @@ UNPLUGGED_S = 1.0       # a device stays unplugged this long
 FLOOD_S = 1.0
 FLOOD_RATE = 10_000     # messages per second
 JITTER_RATE = 1000      # tracker samples a second, each 0-1 mm inside the dome somewhere else (issue 35)
-JITTER_S = 2.0
+JITTER_S = 3.0          # the first DRIVER_QUIET_S of it is the takeover (the tracker rule), the rest is measured
 SLOW_READERS = 8
 SLOW_READERS_S = 2.0
 DEFECT_1 = ((0.0, 1e154, 0.5), (0.0, 1.35e154, 0.5), (0.1, 0.1, 0.5))  # the issue's wedging sequence
@@ -332,7 +333,7 @@ class FaultBench:
         return {"fault_ns": t0, "end_ns": back, "held": held, "actuators_off_ms": off_ms(t0, off_us),
                 "tracker_lost_reported": "tracker_lost" in (codes or ())}
 
-    async def _flood(self, what: str, rate: int = FLOOD_RATE, seconds: float = FLOOD_S) -> dict:
+    async def _flood(self, what: str, rate: int = FLOOD_RATE, seconds: float = FLOOD_S, skip_s: float = 0.0) -> dict:
         """A second participant, in a process of its own, sends `rate` messages a second for
         `seconds`; the viewer's frames before and during, and how long /api/health took to answer."""
         proc = await asyncio.create_subprocess_exec(
@@ -342,15 +343,18 @@ class FaultBench:
         flood = json.loads(out.decode().strip().splitlines()[-1])
         t0, t1 = flood["t0_ns"], flood["t1_ns"]
         window = int(1e9)
+        before_t0 = t0 - window  # the viewer's rate before: the second before the flood
+        t0 += int(skip_s * 1e9)  # the flood's effect from here on (the jitter's takeover)
         states = self.viewer.states
-        before = [s[3] for s in states if t0 - window <= s[0] < t0]
+        before = [s[3] for s in states if before_t0 <= s[0] < before_t0 + window]
         during = [s[3] for s in states if t0 <= s[0] <= t1]
         times = self.viewer.state_times()
-        rate_before, rate_during = fm.rate_hz(times, t0 - window, t0), fm.rate_hz(times, t0, t1)
+        rate_before, rate_during = fm.rate_hz(times, before_t0, before_t0 + window), fm.rate_hz(times, t0, t1)
         return {"fault_ns": t0, "end_ns": t1, "sent_per_s": round(flood["sent"] / ((t1 - t0) / 1e9)),
                 "frame_bytes_before": fm.median(before), "frame_bytes_during": fm.median(during),
                 "frame_growth": round(fm.median(during) / fm.median(before), 2) if before and during else None,
                 "viewer_hz_before": rate_before, "viewer_hz_during": rate_during,
+                "loop_states_per_s": _published_per_s(self.viewer.published, t0, t1),
                 "rate_kept": round(rate_during / rate_before, 3) if rate_before and rate_during is not None else None,
                 "health_slowest_ms": self.health.slowest_ms(t0, t1),
                 "flooder_errors": flood["error_codes"], "flooder_closed": flood["closed"]}
@@ -362,7 +366,15 @@ class FaultBench:
         return await self._flood("tracker")
 
     async def fault_tracker_jitter(self) -> dict:
-        return await self._flood("jitter", JITTER_RATE, JITTER_S)
+        """The jittering tracker must drive the HIP (the storm is the driver's): the participant
+        goes quiet first, so the jitter takes over after DRIVER_QUIET_S (the tracker rule); the
+        window is from then on."""
+        self.participant.paused = True
+        try:
+            rep = await self._flood("jitter", JITTER_RATE, JITTER_S, skip_s=DRIVER_QUIET_S)
+        finally:
+            self.participant.paused = False
+        return rep
 
     async def fault_slow_readers(self) -> dict:
         times = self.viewer.state_times
@@ -466,6 +478,15 @@ class FaultBench:
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
+
+
+def _published_per_s(published: list[tuple[int, int]], t0_ns: int, t1_ns: int) -> float | None:
+    """State records the loop published a second between t0 and t1, from the publish counter of
+    the frames a viewer got (frames the hub held back count too)."""
+    inside = [(t, n) for t, n in published if t0_ns <= t <= t1_ns]
+    if len(inside) < 2 or inside[-1][0] <= inside[0][0]:
+        return None
+    return round((inside[-1][1] - inside[0][1]) / ((inside[-1][0] - inside[0][0]) / 1e9), 1)
 
 
 def _get_or_none(url: str) -> dict | None:

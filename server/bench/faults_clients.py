@@ -34,13 +34,15 @@ TRACKER_HZ = 100.0
 
 class WsClient:
     """A /ws client that records every state and health message it receives:
-    states: (recv ns, tick, tick's t in ns, frame bytes, hip); health: (recv ns, status, codes)."""
+    states: (recv ns, tick, tick's t in ns, frame bytes, hip); health: (recv ns, status, codes);
+    published: (recv ns, the state's `frame`, the loop's publish counter)."""
 
     def __init__(self, url: str, role: str, fmt: str = "msgpack", name: str = "bench-faults",
                  token: str | None = None):
         self.url, self.role, self.fmt, self.name = url, role, fmt, name
         self.token = token or admin_token(url)  # the bench server's admin token unless given
         self.states: list[tuple[int, int, int, int, tuple]] = []
+        self.published: list[tuple[int, int]] = []  # (recv ns, the loop's publish counter `frame`)
         self.health: list[tuple[int, str, tuple | None]] = []
         self.errors: list[tuple[int, str]] = []
         self.unreadable: list[str] = []
@@ -80,6 +82,7 @@ class WsClient:
         kind = message.get("type")
         if kind == "state":
             self.states.append((now, message["tick"], round(message["t"] * 1e9), len(data), tuple(message["hip"])))
+            self.published.append((now, message["frame"]))
         elif kind == "health":
             reasons = message.get("reasons")
             codes = tuple(r.get("code") for r in reasons) if isinstance(reasons, list) else None
