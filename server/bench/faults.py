@@ -18,6 +18,7 @@ report. Times are CLOCK_MONOTONIC of this machine throughout.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import os
 import shutil
@@ -30,6 +31,8 @@ import time
 import urllib.error
 import urllib.request
 from pathlib import Path
+
+import websockets
 
 from server.bench import faults_measure as fm
 from server.bench.faults_clients import (CONTACT_POS, Participant, Poller, WsClient, health_status, reason_codes,
@@ -238,6 +241,20 @@ class FaultBench:
         if trial is not None:
             rep["trial"] = {"seq": trial[0], "attempt": trial[1], "status": await self.finish_trial(trial[0])}
         return rep
+
+    async def guarded_repetition(self, kind: str) -> dict:
+        """A repetition; one the server did not answer in (a REST call past its 10 s timeout, a
+        client's connection closed by its keepalive: both seen on a machine loaded far past its
+        cores) is recorded with its error, so its checks fail and the run goes on to report."""
+        try:
+            return await self.repetition(kind)
+        except (TimeoutError, OSError, websockets.ConnectionClosed) as exc:
+            self.notes.append(f"{kind}: the repetition failed: {exc!r}")
+            for client in (self.participant, self.viewer):
+                if client.closed_at is not None:
+                    with contextlib.suppress(OSError, TimeoutError, websockets.WebSocketException):
+                        await client.connect()
+            return {"error": repr(exc)}
 
     # ---- the faults: each returns its measurements with fault_ns and end_ns ----------------------
 
@@ -582,7 +599,7 @@ async def _run(bench: FaultBench, kinds: tuple[str, ...], repeat: int, progress)
                 for i in range(repeat):
                     if progress:
                         progress(f"{kind} {i + 1}/{repeat}")
-                    reps.setdefault(kind, []).append(await bench.repetition(kind))
+                    reps.setdefault(kind, []).append(await bench.guarded_repetition(kind))
         finally:
             await bench.close()
     return reps

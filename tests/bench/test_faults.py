@@ -155,3 +155,8 @@ def test_the_load_of_bench_faults_runs_beside_and_is_stopped_however_the_run_end
     assert all(h.poll() is not None for h in hogs)
     with pytest.raises(ValueError, match="load"):
         run_fault_bench(repeat=1, kinds=("loop_kill",), load=-1)
+
+
+def test_a_repetition_the_server_did_not_answer_in_fails_every_kind():
+    for kind in FAULTS:
+        assert not fm.passed(fm.judge(kind, [{"error": "TimeoutError('timed out')"}])), kind
