@@ -48,6 +48,7 @@ FAULTS = ("loop_kill", "device_host_kill", "emulator_restart", "device_unplug", 
 RECORD_EVERY = 5
 SETTLE_S = 0.4          # a trial runs and the tilt is on before the fault
 RECOVER_S = 6.0         # give up waiting for a recovery after this long
+START_S = 120.0         # the server's start-up: a loaded machine (load average 25 and hogs) took over 30 s
 HEALTH_OK_S = 4.0       # after recovery: how long health may take to say ok again
 UNPLUGGED_S = 1.0       # a device stays unplugged this long
 FLOOD_S = 1.0
@@ -626,7 +627,12 @@ def run_loaded_and_unloaded(repeat: int, kinds: tuple[str, ...], load: int, prog
     for name, hogs in (("unloaded", 0), (f"loaded ({load} CPU hogs)", load)):
         if progress:
             progress(name)
-        runs[name] = run_fault_bench(repeat, kinds, progress, None if keep is None else keep / name.split()[0], hogs)
+        try:
+            runs[name] = run_fault_bench(repeat, kinds, progress, None if keep is None else keep / name.split()[0],
+                                         hogs)
+        except RuntimeError as exc:  # e.g. the server did not start in time: the other run still reports
+            runs[name] = {"pass": False, "error": str(exc), "load": hogs, "faults": {}, "samples": {},
+                          "repeat": repeat, "seconds": 0.0}
     return {"pass": all(r["pass"] for r in runs.values()), "load": load, "runs": runs}
 
 
@@ -648,7 +654,8 @@ def _run_fault_bench(repeat: int, kinds: tuple[str, ...], progress, keep: Path |
     proc = None
     try:
         proc, base = start_server("contact-angle", extra=["--data-dir", str(data_dir), "--studies", str(studies),
-                                                          "--record-every", str(RECORD_EVERY)])
+                                                          "--record-every", str(RECORD_EVERY)],
+                                  timeout_s=START_S)
         tick_hz = get_json(base + "/api/health")["loop"]["tick_hz"]
         bench = FaultBench(base, rig_dir, data_dir)
         reps = asyncio.run(_run(bench, tuple(kinds), repeat, progress))

@@ -253,6 +253,8 @@ def table(report: dict) -> str:
     """The human-readable report: one line per fault and check."""
     lines = [f"viestac bench faults: {report['repeat']} repetitions, {report['seconds']} s, "
              f"overall {'PASS' if report['pass'] else 'FAIL'}"]
+    if report.get("error"):
+        lines.append(f"the run failed: {report['error']}")
     for kind, fault in report["faults"].items():
         lines.append(f"{kind:18s} {'pass' if fault['pass'] else 'FAIL'}")
         for c in fault["checks"]:
