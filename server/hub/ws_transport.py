@@ -7,9 +7,10 @@ wait never came: the kernel's send buffer grows by autotuning to megabytes, so a
 stopped reading for 30 s was "sent" 3,302 frames with none dropped and on resume read 3 MB of
 them, the first 33.8 s old, before a current one (issue 35 point 4). Here every WebSocket
 connection gets a small kernel send buffer (SO_SNDBUF, which also ends its autotuning) and a
-write high-water mark of one frame's size: the sender blocks after a few frames, and while it
-does the client's outbox keeps only the newest state frame (latest-wins, its events carried). On
-resume the client reads what was already in flight, then the current frame. Plain HTTP
+write high-water mark of about two state frames: the sender blocks after a few frames, and while
+it does the client's outbox keeps only the newest state frame (latest-wins, its events carried).
+On resume the client reads what was already in flight (the server's few KiB and its own receive
+buffer, which only the client sizes), then the current frame. Plain HTTP
 connections (the pages' scripts) keep the kernel's defaults: only an upgraded connection comes
 here (uvicorn's `ws` protocol class).
 """
