@@ -104,7 +104,9 @@ def _serve(args: argparse.Namespace) -> int:
         code = _login_code(app, settings)
         print(f"Log in to the console (admin, single use, valid {LOGIN_LINK_TTL_S // 60} min): "
               f"{link_base(settings, port)}/console.html#login={code}", flush=True)
-    config = uvicorn.Config(app, ws="websockets-sansio", ws_max_size=settings.max_frame_bytes,
+    from server.hub.ws_transport import BoundedWebSocketProtocol  # websockets-sansio, its send path bounded
+
+    config = uvicorn.Config(app, ws=BoundedWebSocketProtocol, ws_max_size=settings.max_frame_bytes,
                             ws_per_message_deflate=False, log_level=args.log_level, access_log=False,
                             ssl_certfile=settings.tls_cert, ssl_keyfile=settings.tls_key)
     uvicorn.Server(config).run(sockets=[sock])
@@ -265,7 +267,15 @@ def _devices(args: argparse.Namespace) -> int:
     return 0
 
 
+EMULATED = ("fingertac", "ferrovibe", "devkit", "leap")
+
+
 def _emulate(args: argparse.Namespace) -> int:
+    if args.rest[:1] in (["-h"], ["--help"]):  # the kinds; each kind has its own --help
+        print(f"usage: viestac emulate {{{','.join(EMULATED)}}} [options]\n\n"
+              "Emulate a tactile device on a pseudo-terminal (fingertac, ferrovibe, devkit) or the Leap Motion "
+              "service's WebSocket (leap).\nOptions of each: viestac emulate KIND --help")
+        return 0
     if args.rest[:1] == ["leap"]:  # the Leap Motion service's WebSocket (server/tracking/leap_emulator.py)
         from server.tracking.leap_emulator import main as leap_main
 
@@ -550,14 +560,19 @@ def _bench_switch(args: argparse.Namespace) -> int:
 
 
 def _bench_faults(args: argparse.Namespace) -> int:
-    from server.bench.faults import FAULTS, run_fault_bench
+    from server.bench.faults import FAULTS, run_fault_bench, run_loaded_and_unloaded
     from server.bench.faults_measure import table
 
     kinds = tuple(k for k in args.only.split(",") if k) if args.only else FAULTS
     progress = None if args.json else (lambda what: print(f"  {what}", file=sys.stderr, flush=True))
-    result = run_fault_bench(repeat=args.repeat, kinds=kinds, progress=progress,
-                             keep=Path(args.keep) if args.keep else None)
-    print(json.dumps(result) if args.json else table(result))
+    keep = Path(args.keep) if args.keep else None
+    if args.load > 0:
+        result = run_loaded_and_unloaded(args.repeat, kinds, args.load, progress, keep)
+        text = "\n\n".join(f"== {name}\n{table(run)}" for name, run in result["runs"].items())
+    else:
+        result = run_fault_bench(repeat=args.repeat, kinds=kinds, progress=progress, keep=keep)
+        text = table(result)
+    print(json.dumps(result) if args.json else text)
     return 1 if args.check and not result["pass"] else 0
 
 
@@ -881,10 +896,12 @@ def build_parser() -> argparse.ArgumentParser:
     faults.add_argument("--repeat", type=int, default=3, help="repetitions of each fault (default 3)")
     faults.add_argument("--only", default="", metavar="FAULT[,FAULT...]", help="only these faults (default all: "
                         "loop_kill, device_host_kill, emulator_restart, device_unplug, tracker_loss, key_flood, "
-                        "tracker_flood, slow_readers, bad_frames, huge_values_ws, huge_values_udp)")
+                        "tracker_flood, tracker_jitter, slow_readers, bad_frames, huge_values_ws, huge_values_udp)")
     faults.add_argument("--keep", metavar="DIR", help="keep the run's database, study and actuator timelines in "
                         "this new directory")
     faults.add_argument("--check", action="store_true", help="exit 1 when a fault misses its acceptance")
+    faults.add_argument("--load", type=int, default=0, metavar="N", help="run the bench twice: on the machine as "
+                        "it is, then with N CPU hogs beside the server (a busy lab PC); report both")
     faults.add_argument("--json", action="store_true", help="print one JSON object")
     faults.set_defaults(func=_bench_faults)
     tracking = bench_sub.add_parser("tracking", help="tracker filters: jitter against lag and contact chatter on "
@@ -914,7 +931,12 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     limit_repeats()  # a line that keeps coming: the first at once, then a count (server/log_repeats.py)
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # argparse.REMAINDER leaves an option it starts with (`emulate --help`) to the extras
+        if args.command != "emulate":
+            parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+        args.rest = unknown + args.rest
     if getattr(args, "extra", None) and _without_extra(f"viestac {args.command}", args.extra):
         return 2
     try:

@@ -154,3 +154,18 @@ def test_serve_with_a_scene_file_runs_free_v1_on_it_and_a_named_scenario_over_it
     core = build_core(_served_settings(monkeypatch, "--scenario", "stiffness", "--scene", str(path)).loop_config())
     assert (core.sim.scenario.id, core.sim.scene) == ("stiffness-v1", Scene.load(path))
     assert _served_settings(monkeypatch).scenario == "contact-angle-v1"
+
+
+@pytest.mark.parametrize("flag", ["--help", "-h"])
+def test_viestac_emulate_help_prints_the_usage_and_exits_0(flag):
+    result = subprocess.run([sys.executable, "-m", "server.cli", "emulate", flag], capture_output=True, text=True,
+                            timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith("usage: viestac emulate {fingertac,ferrovibe,devkit,leap}")
+    assert "viestac emulate KIND --help" in result.stdout
+
+
+def test_other_commands_still_refuse_unknown_options():
+    result = subprocess.run([sys.executable, "-m", "server.cli", "devices", "--no-such-option"], capture_output=True,
+                            text=True, timeout=60)
+    assert result.returncode == 2 and "unrecognized arguments: --no-such-option" in result.stderr

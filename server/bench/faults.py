@@ -18,6 +18,7 @@ report. Times are CLOCK_MONOTONIC of this machine throughout.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import os
 import shutil
@@ -31,22 +32,29 @@ import urllib.error
 import urllib.request
 from pathlib import Path
 
+import websockets
+
 from server.bench import faults_measure as fm
 from server.bench.faults_clients import (CONTACT_POS, Participant, Poller, WsClient, health_status, reason_codes,
                                          slow_readers, udp_tracker)
+from server.bench.load import cpu_hogs
 from server.bench.loop_bench import token_option
 from server.launcher import auth_headers, get_json, start_server, stop_server
+from server.core.tool import DRIVER_QUIET_S
 from server.hub.child import HEALTHY_S
 
 FAULTS = ("loop_kill", "device_host_kill", "emulator_restart", "device_unplug", "tracker_loss", "key_flood",
-          "tracker_flood", "slow_readers", "bad_frames", "huge_values_ws", "huge_values_udp")
+          "tracker_flood", "tracker_jitter", "slow_readers", "bad_frames", "huge_values_ws", "huge_values_udp")
 RECORD_EVERY = 5
 SETTLE_S = 0.4          # a trial runs and the tilt is on before the fault
 RECOVER_S = 6.0         # give up waiting for a recovery after this long
+START_S = 120.0         # the server's start-up: a loaded machine (load average 25 and hogs) took over 30 s
 HEALTH_OK_S = 4.0       # after recovery: how long health may take to say ok again
 UNPLUGGED_S = 1.0       # a device stays unplugged this long
 FLOOD_S = 1.0
 FLOOD_RATE = 10_000     # messages per second
+JITTER_RATE = 1000      # tracker samples a second, each 0-1 mm inside the dome somewhere else (issue 35)
+JITTER_S = 3.0          # the first DRIVER_QUIET_S of it is the takeover (the tracker rule), the rest is measured
 SLOW_READERS = 8
 SLOW_READERS_S = 2.0
 DEFECT_1 = ((0.0, 1e154, 0.5), (0.0, 1.35e154, 0.5), (0.1, 0.1, 0.5))  # the issue's wedging sequence
@@ -235,6 +243,20 @@ class FaultBench:
             rep["trial"] = {"seq": trial[0], "attempt": trial[1], "status": await self.finish_trial(trial[0])}
         return rep
 
+    async def guarded_repetition(self, kind: str) -> dict:
+        """A repetition; one the server did not answer in (a REST call past its 10 s timeout, a
+        client's connection closed by its keepalive: both seen on a machine loaded far past its
+        cores) is recorded with its error, so its checks fail and the run goes on to report."""
+        try:
+            return await self.repetition(kind)
+        except (TimeoutError, OSError, websockets.ConnectionClosed) as exc:
+            self.notes.append(f"{kind}: the repetition failed: {exc!r}")
+            for client in (self.participant, self.viewer):
+                if client.closed_at is not None:
+                    with contextlib.suppress(OSError, TimeoutError, websockets.WebSocketException):
+                        await client.connect()
+            return {"error": repr(exc)}
+
     # ---- the faults: each returns its measurements with fault_ns and end_ns ----------------------
 
     @staticmethod
@@ -329,26 +351,30 @@ class FaultBench:
         return {"fault_ns": t0, "end_ns": back, "held": held, "actuators_off_ms": off_ms(t0, off_us),
                 "tracker_lost_reported": "tracker_lost" in (codes or ())}
 
-    async def _flood(self, what: str) -> dict:
-        """A second participant, in a process of its own, sends FLOOD_RATE messages a second for
-        FLOOD_S; the viewer's frames before and during."""
+    async def _flood(self, what: str, rate: int = FLOOD_RATE, seconds: float = FLOOD_S, skip_s: float = 0.0) -> dict:
+        """A second participant, in a process of its own, sends `rate` messages a second for
+        `seconds`; the viewer's frames before and during, and how long /api/health took to answer."""
         proc = await asyncio.create_subprocess_exec(
             sys.executable, "-m", "server.bench.faults_clients", "--url", self.ws_url, "--what", what,
-            "--rate", str(FLOOD_RATE), "--seconds", str(FLOOD_S), *token_option(self.ws_url), stdout=asyncio.subprocess.PIPE, cwd=REPO)
+            "--rate", str(rate), "--seconds", str(seconds), *token_option(self.ws_url), stdout=asyncio.subprocess.PIPE, cwd=REPO)
         out, _ = await proc.communicate()
         flood = json.loads(out.decode().strip().splitlines()[-1])
         t0, t1 = flood["t0_ns"], flood["t1_ns"]
         window = int(1e9)
+        before_t0 = t0 - window  # the viewer's rate before: the second before the flood
+        t0 += int(skip_s * 1e9)  # the flood's effect from here on (the jitter's takeover)
         states = self.viewer.states
-        before = [s[3] for s in states if t0 - window <= s[0] < t0]
+        before = [s[3] for s in states if before_t0 <= s[0] < before_t0 + window]
         during = [s[3] for s in states if t0 <= s[0] <= t1]
         times = self.viewer.state_times()
-        rate_before, rate_during = fm.rate_hz(times, t0 - window, t0), fm.rate_hz(times, t0, t1)
+        rate_before, rate_during = fm.rate_hz(times, before_t0, before_t0 + window), fm.rate_hz(times, t0, t1)
         return {"fault_ns": t0, "end_ns": t1, "sent_per_s": round(flood["sent"] / ((t1 - t0) / 1e9)),
                 "frame_bytes_before": fm.median(before), "frame_bytes_during": fm.median(during),
                 "frame_growth": round(fm.median(during) / fm.median(before), 2) if before and during else None,
                 "viewer_hz_before": rate_before, "viewer_hz_during": rate_during,
+                "loop_states_per_s": _published_per_s(self.viewer.published, t0, t1),
                 "rate_kept": round(rate_during / rate_before, 3) if rate_before and rate_during is not None else None,
+                "health_slowest_ms": self.health.slowest_ms(t0, t1),
                 "flooder_errors": flood["error_codes"], "flooder_closed": flood["closed"]}
 
     async def fault_key_flood(self) -> dict:
@@ -356,6 +382,17 @@ class FaultBench:
 
     async def fault_tracker_flood(self) -> dict:
         return await self._flood("tracker")
+
+    async def fault_tracker_jitter(self) -> dict:
+        """The jittering tracker must drive the HIP (the storm is the driver's): the participant
+        goes quiet first, so the jitter takes over after DRIVER_QUIET_S (the tracker rule); the
+        window is from then on."""
+        self.participant.paused = True
+        try:
+            rep = await self._flood("jitter", JITTER_RATE, JITTER_S, skip_s=DRIVER_QUIET_S)
+        finally:
+            self.participant.paused = False
+        return rep
 
     async def fault_slow_readers(self) -> dict:
         times = self.viewer.state_times
@@ -366,6 +403,7 @@ class FaultBench:
         before, during = fm.rate_hz(times(), t0 - int(1e9), t0), fm.rate_hz(times(), t0 + int(0.5e9), t1)
         return {"fault_ns": t0, "end_ns": t1, "viewer_hz_before": before, "viewer_hz_during": during,
                 "rate_kept": round(during / before, 3) if before and during is not None else None,
+                "health_slowest_ms": self.health.slowest_ms(t0, t1),
                 "viewer_frames_lost": fm.frames_lost(times(), t0, t1, 60.0)}
 
     async def fault_bad_frames(self) -> dict:
@@ -458,6 +496,15 @@ class FaultBench:
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
+
+
+def _published_per_s(published: list[tuple[int, int]], t0_ns: int, t1_ns: int) -> float | None:
+    """State records the loop published a second between t0 and t1, from the publish counter of
+    the frames a viewer got (frames the hub held back count too)."""
+    inside = [(t, n) for t, n in published if t0_ns <= t <= t1_ns]
+    if len(inside) < 2 or inside[-1][0] <= inside[0][0]:
+        return None
+    return round((inside[-1][1] - inside[0][1]) / ((inside[-1][0] - inside[0][0]) / 1e9), 1)
 
 
 def _get_or_none(url: str) -> dict | None:
@@ -553,15 +600,43 @@ async def _run(bench: FaultBench, kinds: tuple[str, ...], repeat: int, progress)
                 for i in range(repeat):
                     if progress:
                         progress(f"{kind} {i + 1}/{repeat}")
-                    reps.setdefault(kind, []).append(await bench.repetition(kind))
+                    reps.setdefault(kind, []).append(await bench.guarded_repetition(kind))
         finally:
             await bench.close()
     return reps
 
 
-def run_fault_bench(repeat: int = 3, kinds: tuple[str, ...] = FAULTS, progress=None, keep: Path | None = None) -> dict:
+def run_fault_bench(repeat: int = 3, kinds: tuple[str, ...] = FAULTS, progress=None, keep: Path | None = None,
+                    load: int = 0) -> dict:
     """Run the faults `repeat` times each; `keep`: a new directory that keeps the database, the
-    rig's timelines and the study (else everything goes with the run)."""
+    rig's timelines and the study (else everything goes with the run); `load`: that many CPU hogs
+    run beside the server, from before it starts until it stopped (server/bench/load.py)."""
+    if load < 0:
+        raise ValueError(f"load must be >= 0, got {load}")
+    with cpu_hogs(load):
+        result = _run_fault_bench(repeat, kinds, progress, keep)
+    result["load"] = load
+    return result
+
+
+def run_loaded_and_unloaded(repeat: int, kinds: tuple[str, ...], load: int, progress=None,
+                            keep: Path | None = None) -> dict:
+    """`viestac bench faults --load N`: the bench on a quiet machine, then with N CPU hogs; it
+    passes when both do."""
+    runs = {}
+    for name, hogs in (("unloaded", 0), (f"loaded ({load} CPU hogs)", load)):
+        if progress:
+            progress(name)
+        try:
+            runs[name] = run_fault_bench(repeat, kinds, progress, None if keep is None else keep / name.split()[0],
+                                         hogs)
+        except RuntimeError as exc:  # e.g. the server did not start in time: the other run still reports
+            runs[name] = {"pass": False, "error": str(exc), "load": hogs, "faults": {}, "samples": {},
+                          "repeat": repeat, "seconds": 0.0}
+    return {"pass": all(r["pass"] for r in runs.values()), "load": load, "runs": runs}
+
+
+def _run_fault_bench(repeat: int, kinds: tuple[str, ...], progress, keep: Path | None) -> dict:
     if repeat < 1:
         raise ValueError(f"repeat must be >= 1, got {repeat}")
     unknown = [k for k in kinds if k not in FAULTS]
@@ -579,7 +654,8 @@ def run_fault_bench(repeat: int = 3, kinds: tuple[str, ...] = FAULTS, progress=N
     proc = None
     try:
         proc, base = start_server("contact-angle", extra=["--data-dir", str(data_dir), "--studies", str(studies),
-                                                          "--record-every", str(RECORD_EVERY)])
+                                                          "--record-every", str(RECORD_EVERY)],
+                                  timeout_s=START_S)
         tick_hz = get_json(base + "/api/health")["loop"]["tick_hz"]
         bench = FaultBench(base, rig_dir, data_dir)
         reps = asyncio.run(_run(bench, tuple(kinds), repeat, progress))

@@ -11,6 +11,7 @@ import http.client
 import json
 import math
 import os
+import random
 import socket
 import threading
 import time
@@ -33,13 +34,15 @@ TRACKER_HZ = 100.0
 
 class WsClient:
     """A /ws client that records every state and health message it receives:
-    states: (recv ns, tick, tick's t in ns, frame bytes, hip); health: (recv ns, status, codes)."""
+    states: (recv ns, tick, tick's t in ns, frame bytes, hip); health: (recv ns, status, codes);
+    published: (recv ns, the state's `frame`, the loop's publish counter)."""
 
     def __init__(self, url: str, role: str, fmt: str = "msgpack", name: str = "bench-faults",
                  token: str | None = None):
         self.url, self.role, self.fmt, self.name = url, role, fmt, name
         self.token = token or admin_token(url)  # the bench server's admin token unless given
         self.states: list[tuple[int, int, int, int, tuple]] = []
+        self.published: list[tuple[int, int]] = []  # (recv ns, the loop's publish counter `frame`)
         self.health: list[tuple[int, str, tuple | None]] = []
         self.errors: list[tuple[int, str]] = []
         self.unreadable: list[str] = []
@@ -79,6 +82,7 @@ class WsClient:
         kind = message.get("type")
         if kind == "state":
             self.states.append((now, message["tick"], round(message["t"] * 1e9), len(data), tuple(message["hip"])))
+            self.published.append((now, message["frame"]))
         elif kind == "health":
             reasons = message.get("reasons")
             codes = tuple(r.get("code") for r in reasons) if isinstance(reasons, list) else None
@@ -177,6 +181,7 @@ class Poller:
         self.host, self.port, self.path, self.interval_s = parts.hostname, parts.port, path, interval_s
         self.headers = auth_headers(base)
         self.samples: list[tuple[int, dict | None]] = []
+        self.answer_ms: list[tuple[int, float]] = []  # (t ns, how long the request took, ms; a failed one too)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name=f"poll {path}", daemon=True)
 
@@ -196,7 +201,9 @@ class Poller:
                 if conn is not None:
                     conn.close()
                 conn = None
-            self.samples.append((time.monotonic_ns(), answer))
+            now_ns = time.monotonic_ns()
+            self.samples.append((now_ns, answer))
+            self.answer_ms.append((now_ns, round((now_ns / 1e9 - t0) * 1000.0, 3)))
             self._stop.wait(max(0.0, self.interval_s - (time.monotonic() - t0)))
         if conn is not None:
             conn.close()
@@ -208,6 +215,10 @@ class Poller:
     def __exit__(self, *exc) -> None:
         self._stop.set()
         self._thread.join(timeout=5)
+
+    def slowest_ms(self, t0_ns: int, t1_ns: int) -> float | None:
+        """The slowest answer that came between t0 and t1 (ms); None: none came."""
+        return max((ms for t, ms in self.answer_ms if t0_ns <= t <= t1_ns), default=None)
 
     def latest(self) -> dict | None:
         return next((a for _, a in reversed(self.samples) if a is not None), None)
@@ -225,27 +236,42 @@ def reason_codes(answer: dict | None) -> tuple | None:
 
 
 FLOOD_MESSAGES = {"key": {"type": "input", "key": "a", "action": "press"},
-                  "tracker": {"type": "tracker", "seq": 1, "t": 0.0, "pos": list(CONTACT_POS)}}
+                  "tracker": {"type": "tracker", "seq": 1, "t": 0.0, "pos": list(CONTACT_POS)},
+                  "jitter": {"type": "tracker", "seq": 1, "t": 0.0, "pos": list(CONTACT_POS)}}  # moved each send
+JITTER_SURFACE = LATENCY_IN + 0.003  # the dilated dome's surface (the contact-angle dome + the proxy radius)
+
+
+def jittered(rng: random.Random, seq: int) -> dict:
+    """A tracker sample 0-1 mm inside the dome at 25-35°: the cues change almost every tick (issue 35)."""
+    angle, r = math.radians(rng.uniform(25.0, 35.0)), JITTER_SURFACE - rng.uniform(0.0, 0.001)
+    return {"type": "tracker", "seq": seq, "t": time.monotonic() * 1000.0,
+            "pos": [0.0, round(-r * math.sin(angle), 9), round(r * math.cos(angle), 9)]}
 
 
 async def flood(url: str, what: str, rate: int, seconds: float, token: str | None = None) -> dict:
     """A participant that sends FLOOD_MESSAGES[what] `rate` times a second for `seconds`, in
     batches every 10 ms; run in a process of its own (`python -m server.bench.faults_clients`) so
-    the bench's viewer is not starved by its own sends."""
+    the bench's viewer is not starved by its own sends. `jitter`: a tracker held 0-1 mm inside the
+    dome at a new point each send, one send a millisecond at 1000 a second (the loop takes one
+    sample a tick: a batch would change the cues once)."""
     client = WsClient(url, "participant", name=f"bench-faults-{what}-flood", token=token)
     await client.connect()
     await asyncio.sleep(0.5)
     data = codec.encode(FLOOD_MESSAGES[what], client.fmt)
+    rng = random.Random(35)
+    every_s = 0.001 if what == "jitter" else 0.01
     t0 = time.monotonic_ns()
     sent = 0
     error = None
     next_t = time.monotonic()
     try:
         while time.monotonic_ns() - t0 < seconds * 1e9:
-            for _ in range(max(1, rate // 100)):
+            for _ in range(max(1, round(rate * every_s))):
+                if what == "jitter":
+                    data = codec.encode(jittered(rng, sent + 1), client.fmt)
                 await client.ws.send(data)
                 sent += 1
-            next_t += 0.01
+            next_t += every_s
             await asyncio.sleep(max(0.0, next_t - time.monotonic()))
     except websockets.ConnectionClosed as exc:  # the server may close a flooding connection: an answer too
         error = repr(exc)

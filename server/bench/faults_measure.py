@@ -13,6 +13,8 @@ import io
 from dataclasses import dataclass
 
 from server.bench.quantiles import percentile
+from server.hub.frame_ceiling import BURST, frames_per_s
+from server.loop.cadence import STATE_HZ
 
 # The issue's acceptance (docs/reliability.md "Acceptance").
 LOOP_FIRST_STATE_MS = 1500.0   # loop killed -> first state frame on the participant's socket again
@@ -27,6 +29,8 @@ TRACKER_LOSS_DEGRADED_MS = TRACKER_TTL_MS + DEGRADED_MS
 FRAME_GROWTH_MAX = 2.0         # a key flood may not grow the viewers' median frame more than this
 FRAME_RATE_KEEP = 0.8          # floods and slow readers: viewers keep this share of their frame rate
 RESUME_MS = 1000.0             # huge values: state frames from ticks after the bad samples within this
+HEALTH_ANSWER_MS = 100.0       # floods and slow readers: /api/health answers within this (issue 35)
+FRAME_CEILING_HZ = frames_per_s(STATE_HZ) + BURST  # tracker jitter: a viewer gets at most this (docs/protocol.md)
 
 
 @dataclass(frozen=True)
@@ -190,6 +194,7 @@ def all_true(name: str, values: list[bool | None]) -> Check:
 # must show in health; an input fault must be refused at the edge without harming anyone else.
 PROCESS_FAULTS = ("loop_kill", "device_host_kill", "emulator_restart", "device_unplug")
 HEALTH_FAULTS = PROCESS_FAULTS + ("tracker_loss",)  # must show in health: degraded, then ok again
+FLOOD_FAULTS = ("key_flood", "tracker_flood", "tracker_jitter", "slow_readers")  # /api/health must stay quick
 
 
 def judge(kind: str, reps: list[dict]) -> list[Check]:
@@ -216,8 +221,10 @@ def judge(kind: str, reps: list[dict]) -> list[Check]:
         checks.append(all_true("health names tracker_lost", col("tracker_lost_reported")))
     elif kind == "key_flood":
         checks.append(at_most("viewer frame median growth (x)", col("frame_growth"), FRAME_GROWTH_MAX))
-    elif kind in ("tracker_flood", "slow_readers"):
+    elif kind in ("tracker_flood", "tracker_jitter", "slow_readers"):
         checks.append(at_least("viewer frame rate kept (share)", col("rate_kept"), FRAME_RATE_KEEP))
+        if kind == "tracker_jitter":
+            checks.append(at_most("viewer frames a second (the ceiling)", col("viewer_hz_during"), FRAME_CEILING_HZ))
     elif kind in ("huge_values_ws", "huge_values_udp"):
         checks.append(at_most("state frames resume (ms)", col("resume_ms"), RESUME_MS))
         checks.append(all_true("recovered on the next sane sample", col("recovered")))
@@ -225,6 +232,8 @@ def judge(kind: str, reps: list[dict]) -> list[Check]:
                               [r.get("degraded_ms") for r in reps if not r.get("recovered")], DEGRADED_MS))
     elif kind == "bad_frames":
         checks.append(all_true("connection open with an error reply", col("stayed_open")))
+    if kind in FLOOD_FAULTS:
+        checks.append(at_most("/api/health answered (ms, slowest)", col("health_slowest_ms"), HEALTH_ANSWER_MS))
     if kind in HEALTH_FAULTS:
         checks.append(at_most("health degraded (ms)", col("degraded_ms"),
                               TRACKER_LOSS_DEGRADED_MS if kind == "tracker_loss" else DEGRADED_MS))
@@ -244,6 +253,8 @@ def table(report: dict) -> str:
     """The human-readable report: one line per fault and check."""
     lines = [f"viestac bench faults: {report['repeat']} repetitions, {report['seconds']} s, "
              f"overall {'PASS' if report['pass'] else 'FAIL'}"]
+    if report.get("error"):
+        lines.append(f"the run failed: {report['error']}")
     for kind, fault in report["faults"].items():
         lines.append(f"{kind:18s} {'pass' if fault['pass'] else 'FAIL'}")
         for c in fault["checks"]:

@@ -1,4 +1,5 @@
-"""Load generator for `viestac bench loop`: N viewers at 60 Hz plus tracker clients at 120 Hz.
+"""Load generator for `viestac bench loop`: N viewers at 60 Hz plus tracker clients at 120 Hz;
+and `cpu_hogs(n)`, the busy machine of `viestac bench faults --load N`.
 
 Runs in its own process (so it does not share a GIL with the bench driver) with real
 `websockets` clients. Viewers only receive and count state frames; trackers send positions
@@ -40,6 +41,24 @@ from server.cpu_plan import pin_process
 from server.wire import codec
 
 TOKEN: str | None = None  # --token: this process's clients all use it
+HOG = "while True: pass"  # one CPU's worth of work at normal priority: a headset runtime, a screen recorder
+
+
+@contextlib.contextmanager
+def cpu_hogs(n: int):
+    """`n` processes that each keep a CPU busy beside the server while the block runs (a lab PC is
+    often busy, issue 35); stopped when it ends, however it ends."""
+    import subprocess
+    import sys
+
+    hogs = [subprocess.Popen([sys.executable, "-c", HOG]) for _ in range(n)]
+    try:
+        yield hogs
+    finally:
+        for hog in hogs:
+            hog.kill()
+        for hog in hogs:
+            hog.wait()
 
 
 class Window:

@@ -4,7 +4,10 @@ sent (state, scene, health, lease frames), never in the loop's way.
 - Each client has a sender task that takes what its session has queued: control messages in
   order, then the latest state frame (latest-wins). A slow client only drops its own frames: its
   sender waits on its own socket, nobody else's (websockets' broadcast guide; issue #1071 upstream).
-- A frame is encoded once per format, not per client.
+- A frame is encoded once per format, not per client, and at most as often as the frame ceiling
+  lets (server/hub/frame_ceiling.py: `state_hz` + 60 a second): a loop publishing every tick
+  (cues changing in a storm of contacts) costs the hub one encode per ceiling slot, not one per
+  tick and viewer.
 - Broadcasting wakes the senders in slices of `SLICE` clients and yields to the event loop in
   between, so tracker messages that arrive during a broadcast are read after at most one slice
   instead of after all 64 sends (the design measurements, docs/reference.md, saw tracker → device
@@ -29,6 +32,7 @@ from typing import Callable
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from server.hub.event_log import EventLog
+from server.hub.frame_ceiling import FrameCeiling
 from server.hub.owner import Owner
 from server.hub.outbox import Close
 from server.hub.session import CLOSED, Gate, ServerInfo, Session, gate_of
@@ -68,10 +72,10 @@ class Fanout:
         self._lease_frames: dict[str, bytes | str] = {}
         self.event_log = EventLog()  # the state frames' events, numbered (server/hub/event_log.py)
         self._state: dict | None = None  # the latest state message
-        self._frames: dict[str, bytes | str] = {}
-        self._frames_scene = ""  # the scene the current state frames name
-        self._frames_events = 0  # the number of the current state frames' last event
+        self._frames_events = 0  # the number of the latest state message's last event
+        self._broadcast_events = 0  # the number of the last event a broadcast carried
         self._frame_seq = 0
+        self.ceiling = FrameCeiling(server.state_hz, time.monotonic_ns())
         self._broadcaster: asyncio.Task | None = None
         if access is not None:  # its lease changes (from any thread: REST runs lease calls on workers)
             access.on_lease_change = self._lease_changed_anywhere
@@ -79,31 +83,52 @@ class Fanout:
 
     # ---- what every client is sent ---------------------------------------------------------------
     def publish_state(self, message: dict) -> None:
-        """The loop's latest state message: encoded once per format in use, offered to every
-        welcomed client by the broadcaster."""
+        """The loop's latest state message, offered to every welcomed client by the broadcaster, at
+        most as often as the frame ceiling lets (server/hub/frame_ceiling.py): one that comes
+        sooner waits, and a newer one replaces it (its events go with the newer)."""
         self._state = message
         self._frames_events = self.event_log.add(message["events"])  # a client that misses it still gets these
-        formats = {c.session.fmt for c in self.connections.values() if c.session.welcomed}
-        self._frames = {fmt: codec.encode(message, fmt) for fmt in formats}
-        self._frames_scene = message["scene"]  # the scene the frame names, known without decoding it
         self._frame_seq += 1
-        if self._frames and (self._broadcaster is None or self._broadcaster.done()):
+        if self._broadcaster is None or self._broadcaster.done():
             self._broadcaster = asyncio.get_running_loop().create_task(self._broadcast())
 
     async def _broadcast(self) -> None:
         delivered = 0
         while delivered != self._frame_seq:
+            wait_ns = self.ceiling.wait_ns(time.monotonic_ns())
+            if wait_ns:
+                await asyncio.sleep(wait_ns / 1e9)
+                continue
+            self.ceiling.spend(time.monotonic_ns())
             delivered = self._frame_seq
+            message, frames, upto = self._latest_frames()
+            scene = message["scene"]  # the scene the frame names, known without decoding it
             # Participants and operators first: the frame showing their own hand must not wait behind
             # every viewer's send (docs/performance.md, "Tracker → state round trip (/ws)").
             for i, c in enumerate(sorted(self.connections.values(), key=lambda c: c.session.role == "observer")):
-                frame = self._frames.get(c.session.fmt)
+                frame = frames.get(c.session.fmt)
                 if not c.session.welcomed or frame is None:
                     continue
-                c.session.offer_state(frame, self._frames_scene, self._state, self._frames_events)
+                c.session.offer_state(frame, scene, message, upto)
                 c.wake.set()
                 if (i + 1) % SLICE == 0:
                     await asyncio.sleep(0)  # let tracker reads in between slices
+
+    def _latest_frames(self) -> tuple[dict, dict[str, bytes | str], int]:
+        """The latest state message with the events of every message the ceiling held back since the
+        last broadcast in front of its own, encoded once per format in use, and its last event's
+        number. The message returned lists those events uncapped (Outbox counts from them); the
+        frames carry at most MAX_WIRE_EVENTS."""
+        message, upto = self._state, self._frames_events
+        own = message["events"]
+        held_back = self.event_log.between(self._broadcast_events, upto - len(own))
+        self._broadcast_events = upto
+        wire = message
+        if held_back:
+            message = {**message, "events": [*held_back, *own]}
+            wire = {**message, "events": messages.wire_events(message["events"])}
+        formats = {c.session.fmt for c in self.connections.values() if c.session.welcomed}
+        return message, {fmt: codec.encode(wire, fmt) for fmt in formats}, upto
 
     def set_scene(self, scene: dict, scene_hash: str) -> None:
         self.scene, self.scene_hash = scene, scene_hash
@@ -190,6 +215,10 @@ class Fanout:
                 if not welcomed and session.welcomed:
                     self.on_welcomed(c)
                 c.wake.set()
+                # One message, then the other tasks: one read of the socket holds up to ~1,000 small
+                # messages, which `receive` hands over without yielding, and a flooder would keep the
+                # viewers' senders, the broadcaster and REST (/api/health) waiting for all of them.
+                await asyncio.sleep(0)
             # We are closing (e.g. unsupported version): let the sender flush the error first.
             await asyncio.wait_for(asyncio.shield(sender), FLUSH_BEFORE_CLOSE_S)
         except (WebSocketDisconnect, RuntimeError, asyncio.TimeoutError):

@@ -21,7 +21,7 @@ from functools import lru_cache
 from typing import Any, Callable
 
 from server.core.numbers import is_finite_number, is_number
-from server.wire.codec import WireError
+from server.wire.codec import WireError, echo
 from server.wire.schema import MAX_SAFE_INT, MESSAGES, Message
 
 Check = Callable[[Any, str], Any]  # (value, path) -> receiver-side value
@@ -233,7 +233,7 @@ def check_message(body: dict, message: Message | None = None) -> dict[str, Any]:
     `unknown_type` for a type that is not declared."""
     name = body.get("type") if message is None else message.name
     if name not in MESSAGES:
-        raise WireError("unknown_type", f"unknown message type {name!r}; expected one of {', '.join(MESSAGES)}")
+        raise WireError("unknown_type", f"unknown message type {echo(name)}; expected one of {', '.join(MESSAGES)}")
     out: dict[str, Any] = {}
     for field, required, default, check, expected in _compiled(name):
         value = body.get(field)

@@ -36,6 +36,18 @@ _MAX_INT_DIGITS = len(str(_MAX_FLOAT_INT)) + 1  # JSON integer text longer than 
 TOO_DEEP = f"maps and arrays may nest at most {MAX_DEPTH} deep"
 
 
+MAX_ECHO_CHARS = 64  # a client's value quoted in an error: enough to recognise it, never all of a flood
+
+
+def echo(value: Any) -> str:
+    """`value` as an error text quotes it back to its sender (repr), cut to MAX_ECHO_CHARS
+    characters: a reply never grows with what the client sent."""
+    if isinstance(value, (str, bytes)) and len(value) > MAX_ECHO_CHARS:
+        return f"{value[:MAX_ECHO_CHARS]!r}… ({len(value)} characters)"
+    text = repr(value)
+    return text if len(text) <= MAX_ECHO_CHARS else f"{text[:MAX_ECHO_CHARS]}… ({len(text)} characters)"
+
+
 class WireError(Exception):
     """A frame the protocol refuses; `code` is one of the protocol's error codes."""
 

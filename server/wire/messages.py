@@ -13,8 +13,9 @@ from typing import Any, Mapping
 
 from server.ipc.records import TrackerSample
 from server.wire.check import check_message
-from server.wire.codec import WireError
-from server.wire.schema import (ANSWER, CLIENT_MESSAGE_NAMES, HELLO, INPUT, INPUT_ACTIONS, PROTOCOL_MINOR,
+from server.wire.codec import WireError, echo
+from server.wire.schema import (ANSWER, CLIENT_MESSAGE_NAMES, HELLO, INPUT, INPUT_ACTIONS, MAX_ERROR_MESSAGE_CHARS,
+                                PROTOCOL_MINOR,
                                 PROTOCOL_VERSION, ROLES, SCENE_FORMAT_VERSION, STATE, TRACKER)
 
 __all__ = ["PROTOCOL_VERSION", "PROTOCOL_MINOR", "ROLES", "INPUT_ACTIONS", "Hello", "Tracker", "Input", "Answer",
@@ -118,7 +119,7 @@ def parse_client_message(body: dict) -> Hello | Tracker | Input | Answer:
     kind = body["type"]
     parser = CLIENT_MESSAGES.get(kind)
     if parser is None:
-        raise WireError("unknown_type", f"unknown message type {kind!r}; expected one of {', '.join(CLIENT_MESSAGES)}")
+        raise WireError("unknown_type", f"unknown message type {echo(kind)}; expected one of {', '.join(CLIENT_MESSAGES)}")
     return parser.parse(body)
 
 
@@ -175,6 +176,11 @@ def state_message(view: Mapping[str, Any], telemetry: dict) -> dict:
 
 
 def error(code: str, message: str) -> dict:
+    """The `error` message; every error text a client is sent is built here, so its bound holds for
+    all of them: a text longer than MAX_ERROR_MESSAGE_CHARS is cut (values quoted from the client
+    are cut shorter already, codec.echo)."""
+    if len(message) > MAX_ERROR_MESSAGE_CHARS:
+        message = message[:MAX_ERROR_MESSAGE_CHARS - 1] + "…"
     return {"type": "error", "code": code, "message": message}
 
 

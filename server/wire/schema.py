@@ -49,6 +49,7 @@ MAX_T_MS = float(MAX_SAFE_INT)  # a sender's timestamp in ms: epoch ms are ~1.7e
 QUAT_NORM = (0.5, 2.0)  # a tracker quaternion's norm must lie here; it is then normalised
 DIRECTIONS = ("client_to_server", "server_to_client")
 MAX_TOKEN_CHARS = 200  # a token is 43 characters (32 random bytes, base64url); the bound only limits abuse
+MAX_ERROR_MESSAGE_CHARS = 500  # an error's text: a sentence or two; a value quoted from the client is cut first
 TTL_MS = (1.0, 10000.0)  # a tracker sample's ttl: a streaming source sends clamp(4 × period, 20, 60) ms
 
 
@@ -262,8 +263,8 @@ _DRIVER = fixed([any_of(integer(min=0), string(min_len=1), doc="client_id"), int
 
 _TOOL = mapping(doc="map `{name, hip, proxy, contact, lost}`")
 
-STATE = Message("state", "server_to_client", "per published frame; 60 Hz by default, plus an immediate frame in any "
-                "tick whose device cues changed, so a tactile cue never leads the picture", (
+STATE = Message("state", "server_to_client", "per published frame; 60 Hz by default, plus a frame in any tick whose "
+                "device cues changed; at most `state_hz` + 60 a second per client (\"Frame rate ceiling\")", (
     _type("state"),
     Field("frame", integer(min=0), "publish counter"),
     Field("tick", integer(min=0), "loop tick of this state (sim time = tick / tick_hz)"),
@@ -321,7 +322,8 @@ ERROR = Message("error", "server_to_client", "", (
     _type("error"),
     Field("code", string(min_len=1), "one of the codes below (a client treats a code it does not know as a "
           "generic error)"),
-    Field("message", string(), "a sentence for a person"),
+    Field("message", string(max_len=MAX_ERROR_MESSAGE_CHARS), "a sentence for a person; a value it quotes from "
+          "the client is cut to 64 characters"),
 ))
 
 HEALTH_STATUSES = ("ok", "degraded", "starting")

@@ -77,9 +77,17 @@ def test_judgement_follows_the_acceptance_and_a_value_never_measured_fails_it():
     silent = fm.judge("emulator_restart", [{"reconnect_ms": 300.0, "cue_reapplied": True, "degraded_ms": None,
                                             "ok_ms": None, "samples_lost": 0}])
     assert not fm.passed(silent), "a device fault health did not show fails"
-    lost = fm.judge("key_flood", [{"frame_growth": 1.1, "ok_after": True, "samples_lost": 3}])
+    lost = fm.judge("key_flood", [{"frame_growth": 1.1, "ok_after": True, "samples_lost": 3, "health_slowest_ms": 4.0}])
     assert not fm.passed(lost)
-    assert fm.passed(fm.judge("key_flood", [{"frame_growth": 1.1, "ok_after": True}])), "no completed trial: not judged"
+    assert fm.passed(fm.judge("key_flood", [{"frame_growth": 1.1, "ok_after": True, "health_slowest_ms": 4.0}])), \
+        "no completed trial: not judged"
+    # issue 35: /api/health answers within 100 ms under every flood; none answered in it fails too
+    for slowest in (150.0, None):
+        assert not fm.passed(fm.judge("key_flood", [{"frame_growth": 1.1, "ok_after": True,
+                                                     "health_slowest_ms": slowest}]))
+    jitter = {"rate_kept": 1.9, "viewer_hz_during": 118.0, "ok_after": True, "health_slowest_ms": 8.0}
+    assert fm.passed(fm.judge("tracker_jitter", [jitter]))
+    assert not fm.passed(fm.judge("tracker_jitter", [{**jitter, "viewer_hz_during": 600.0}])), "over the ceiling"
 
 
 def test_stats_and_the_table():
@@ -95,7 +103,9 @@ def test_the_cli_knows_the_faults_and_check():
     assert (args.repeat, args.only, args.check) == (2, "loop_kill", True)
     with pytest.raises(ValueError, match="unknown fault"):
         run_fault_bench(repeat=1, kinds=("loop_crash",))
-    assert len(set(FAULTS)) == len(FAULTS) == 11
+    assert len(set(FAULTS)) == len(FAULTS) == 12  # issue 35 added tracker_jitter
+    loaded = build_parser().parse_args(["bench", "faults", "--check", "--load", "2"])
+    assert loaded.load == 2 and loaded.check
 
 
 @pytest.mark.slow
@@ -134,3 +144,19 @@ def test_a_live_tracker_loss_is_reported_degraded_and_recovers():
     assert rep["held"] and rep["actuators_off_ms"] is not None, rep
     assert rep["tracker_lost_reported"] and "tracker_lost" in rep["reasons"], rep
     assert rep["degraded_ms"] is not None and rep["ok_ms"] is not None, rep
+
+
+def test_the_load_of_bench_faults_runs_beside_and_is_stopped_however_the_run_ends():
+    from server.bench.load import cpu_hogs
+
+    with pytest.raises(RuntimeError), cpu_hogs(2) as hogs:
+        assert len(hogs) == 2 and all(h.poll() is None for h in hogs)
+        raise RuntimeError("the bench failed")
+    assert all(h.poll() is not None for h in hogs)
+    with pytest.raises(ValueError, match="load"):
+        run_fault_bench(repeat=1, kinds=("loop_kill",), load=-1)
+
+
+def test_a_repetition_the_server_did_not_answer_in_fails_every_kind():
+    for kind in FAULTS:
+        assert not fm.passed(fm.judge(kind, [{"error": "TimeoutError('timed out')"}])), kind

@@ -51,7 +51,7 @@ def test_records_the_hub_never_offered_on_their_own_still_give_their_events():
             assert [m["tick"] for m in got] == [5], "only the newest frame is offered"
             assert got[0]["events"] == [tap, release, go_]
         hub.link.on_loop_record(loop_state(record(6, [])))
-        await asyncio.sleep(0)
+        await asyncio.sleep(0.05)  # two frames went just now: the frame ceiling's next slot (frame_ceiling.py)
         assert [[m["events"] for m in taken(s)] for s in sessions] == [[[]], [[]]], "each event once"
 
     asyncio.run(go())

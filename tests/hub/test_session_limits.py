@@ -173,3 +173,25 @@ def test_a_position_outside_the_workspace_is_refused_and_never_reaches_the_loop(
     assert [m["code"] for m in drain(s)] == ["out_of_range"]
     inside = s.receive(msgpack.packb({"type": "tracker", "seq": 2, "t": 0, "pos": [0.1, 0.1, 0.5]}), T0)
     assert isinstance(inside[0], ToLoop) and inside[0].record.pos == [0.1, 0.1, 0.5]
+
+
+@pytest.mark.parametrize("fmt", codec.FORMATS)
+def test_an_error_reply_never_echoes_a_huge_value_whole(fmt):
+    """Issue 35 point 7: an `unknown_type` reply repeated a 60,000-character type (60,111 bytes)."""
+    s = welcomed(fmt)
+    huge = "x" * 60_000
+    frame = {"type": huge, "seq": 1}
+    s.receive(msgpack.packb(frame) if fmt == "msgpack" else json.dumps(frame), T0 + MS)
+    [reply] = drain(s)
+    assert reply["type"] == "error" and reply["code"] == "unknown_type"
+    assert len(reply["message"]) <= 200 and "60000 characters" in reply["message"]
+    assert "expected one of" in reply["message"], "the useful part of the text survives the cut"
+    assert len(codec.encode(reply, fmt)) < 300
+
+
+def test_every_error_text_is_bounded_where_error_messages_are_built():
+    from server.wire.schema import MAX_ERROR_MESSAGE_CHARS
+
+    message = messages.error("bad_message", "y" * 10_000)
+    assert len(message["message"]) == MAX_ERROR_MESSAGE_CHARS and message["message"].endswith("…")
+    assert messages.error("bad_message", "short")["message"] == "short"

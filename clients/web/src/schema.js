@@ -1047,11 +1047,12 @@ export const SCHEMA = {
      "name": "message",
      "type": {
       "kind": "string",
-      "doc": "string"
+      "max_len": 500,
+      "doc": "string ≤ 500 characters"
      },
      "required": true,
      "since": 0,
-     "meaning": "a sentence for a person"
+     "meaning": "a sentence for a person; a value it quotes from the client is cut to 64 characters"
     }
    ]
   },
