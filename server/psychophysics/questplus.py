@@ -105,8 +105,7 @@ class QuestPlus:
         r, x = self.grid.likelihood.shape[:2]
         # einsum, not @: a matrix-vector product through OpenBLAS spreads over threads that spin
         # against every other process on a small machine (p50 5 ms, p99 70 ms on 2 loaded cores,
-        # against 0.6 ms and 13 ms single-threaded); einsum's own loop is one thread, and the same
-        # sum in the same order on every machine
+        # against 0.6 ms and 13 ms for einsum's own loop, which runs in one thread)
         product = np.einsum("ij,j->i", self.grid._table, self.posterior)
         z = product[: (r - 1) * x].reshape(r - 1, x)
         z = np.concatenate([z, 1.0 - z.sum(axis=0, keepdims=True)])
