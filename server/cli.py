@@ -559,6 +559,12 @@ def _bench_switch(args: argparse.Namespace) -> int:
     return _print_bench(result, args.json)
 
 
+def _bench_psychophysics(args: argparse.Namespace) -> int:
+    from server.bench.psychophysics import run_psychophysics_bench
+
+    return _print_bench(run_psychophysics_bench(quick=args.quick), args.json)
+
+
 def _bench_faults(args: argparse.Namespace) -> int:
     from server.bench.faults import FAULTS, run_fault_bench, run_loaded_and_unloaded
     from server.bench.faults_measure import table
@@ -904,6 +910,12 @@ def build_parser() -> argparse.ArgumentParser:
                         "it is, then with N CPU hogs beside the server (a busy lab PC); report both")
     faults.add_argument("--json", action="store_true", help="print one JSON object")
     faults.set_defaults(func=_bench_faults)
+    psy = bench_sub.add_parser("psychophysics", help="staircase convergence, QUEST+ against 1-up/3-down, QUEST+ "
+                                                     "choice time, bootstrap coverage, information-transfer bias "
+                                                     "(docs/psychophysics.md)")
+    psy.add_argument("--quick", action="store_true", help="a tenth of the runs (well under a minute)")
+    psy.add_argument("--json", action="store_true", help="print one JSON object")
+    psy.set_defaults(func=_bench_psychophysics)
     tracking = bench_sub.add_parser("tracking", help="tracker filters: jitter against lag and contact chatter on "
                                     "noisy finger paths (raw, 1€, moving average; chart), and Leap sample -> device "
                                     "command through the whole server")

@@ -24,7 +24,6 @@ Theory of operation:
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import math
 import re
@@ -35,6 +34,7 @@ from types import MappingProxyType
 from typing import Any, Callable, Mapping
 
 from devices.profiles import PROFILES
+from server.core.did_you_mean import did_you_mean as _did_you_mean
 from server.core.scenario import ParamError, Param, SubTask, Trial
 from scenarios.registry import UnknownScenario, check_scenario_params, resolve
 from server.experiment.order import ORDERS
@@ -191,11 +191,6 @@ class _Table:
 
     def tables(self, name: str) -> list:
         return self.get(name, _is(list), "an array of tables", [])
-
-
-def _did_you_mean(name: str, known) -> str:
-    close = difflib.get_close_matches(name, list(known), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else f" (known: {', '.join(map(str, known))})"
 
 
 def _is(kind: type) -> Callable[[Any], Any]:
