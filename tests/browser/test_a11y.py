@@ -45,7 +45,7 @@ order = "fixed"
 instructions = "Touch the dome, then say the angle and how sure you are."
 
 [[tasks.questions]]
-id = "angle"
+id = "answer_deg"
 kind = "number"
 text = "Which angle do you feel?"
 low = -90
@@ -130,8 +130,35 @@ def join_link(console: Console) -> str:
     return page.input_value("#join-url")
 
 
-def join(page, server: LiveServer, url: str) -> Client:
-    return Client(page, server).open(url.split(server.http_url + "/", 1)[1])
+NOT_ADMITTED = "not admitted"  # the participant page's words when its hello came too late (issue 34.1)
+
+
+READY_JS = "window.__viestac && window.__viestac.ready && window.__viestac.clientId !== null"
+LOADED_MS = 60_000  # the machine is shared and loaded: a page may take this long to get ready
+
+
+def join(page, server: LiveServer, url: str, *, reload_unadmitted: bool = True) -> Client:
+    """Open a join link in `page`. On a loaded machine the page's hello may miss the server's
+    deadline (issue 34.1, the pages' part); then, unless told not to, reload once as a participant
+    would (the page keeps its token): these tests are about something else. test_lab_day.py
+    asserts that no page is left unadmitted."""
+    client = Client(page, server)
+    page.goto(url)
+    for attempt in (1, 2):
+        try:
+            page.wait_for_function(f"({READY_JS}) || (document.getElementById('waiting')?.innerText ?? '')"
+                                   f".includes({NOT_ADMITTED!r})", timeout=LOADED_MS)
+        except Exception:
+            said = page.evaluate("[document.getElementById('status')?.innerText, JSON.stringify({ready: "
+                                 "window.__viestac?.ready, id: window.__viestac?.clientId})]")
+            raise AssertionError(f"the participant page did not get ready in {LOADED_MS} ms: {said}") from None
+        if page.evaluate(READY_JS):
+            return client
+        waiting = page.evaluate("document.getElementById('waiting').innerText")
+        if not reload_unadmitted or attempt == 2:
+            raise AssertionError(f"the participant page was not admitted; it says {waiting!r}")
+        page.reload()
+    return client
 
 
 def trial_of(server: LiveServer, sid: str, seq: int) -> dict:
@@ -301,7 +328,7 @@ def test_every_control_of_the_participant_page_works_from_the_keyboard(pages, la
     question_shown(participant, "Which angle")
     controls = assert_keyboard_reaches_everything(page, "the participant page")
     keys = [c["key"] for c in controls]
-    assert "#view" in keys and any(k.startswith("input[angle]") for k in keys) and "button[]Answer" in keys, keys
+    assert "#view" in keys and any(k.startswith("input[answer_deg]") for k in keys) and "button[]Answer" in keys, keys
 
     # answer with the keyboard only: type the angle, Enter on "Answer"; Space on a rating
     focus_by_tab(page, "#answer input")
@@ -312,7 +339,7 @@ def test_every_control_of_the_participant_page_works_from_the_keyboard(pages, la
     assert_keyboard_reaches_everything(page, "the participant page, a rating shown")
     focus_by_tab(page, '#answer button[data-value="5"]')
     page.keyboard.press("Space")  # the button's, not the scenario's key (input.js KeyForwarder)
-    wait_for(lambda: trial_of(lab, sid, 0)["responses"] == {"angle": -30, "sure": 5}, timeout=10,
+    wait_for(lambda: trial_of(lab, sid, 0)["responses"] == {"answer_deg": -30, "sure": 5}, timeout=10,
              what=f"both answers recorded (recorded: {trial_of(lab, sid, 0)['responses']})")
     assert not participant.page_errors
 
@@ -330,9 +357,9 @@ def test_every_control_of_the_console_works_from_the_keyboard(pages, lab):
     wait_for(lambda: trial_of(lab, sid, 0)["status"] == "running", timeout=10, what="trial 0 running")
     page.wait_for_selector('#queue tr.c-running[data-seq="0"]')
     assert_keyboard_reaches_everything(page, "the console, a trial running")
-    number = page.locator('fieldset[data-question="angle"] input[type="number"]')
+    number = page.locator('fieldset[data-question="answer_deg"] input[type="number"]')
     number.wait_for()
-    focus_by_tab(page, 'fieldset[data-question="angle"] input[type="number"]')
+    focus_by_tab(page, 'fieldset[data-question="answer_deg"] input[type="number"]')
     page.keyboard.type("50")
     focus_by_tab(page, 'fieldset[data-question="sure"] input[type="radio"]')
     page.keyboard.press("ArrowRight")  # a radio group moves with the arrows (and Space checks)
