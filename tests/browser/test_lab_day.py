@@ -177,7 +177,7 @@ def test_a_lab_day(browser, rig, cpu_hog):
                 if shown_s is None or shown_s > FAULT_SHOWN_S:
                     failures.append(f"trial {seq}: the killed ferrovibe emulator was not shown in the console within "
                                     f"{FAULT_SHOWN_S} s (shown after {shown_s} s; looked for "
-                                    f"{DEVICE_ELEMENT.format(name='ferrovibe')} [{DEVICE_STATE_ATTR}])")
+                                    f"{DEVICE_ELEMENT.format(name='ferrovibe')!r} and its {DEVICE_STATE_ATTR})")
             # mid-trial: reload both pages; each is admitted again on its own
             reload_admitted(participant.page, f"trial {seq}, participant", failures)
             reload_admitted_console(console, sid, f"trial {seq}, console", failures)
