@@ -33,6 +33,7 @@ centre to the target's, on the table), drops.
 from __future__ import annotations
 
 import math
+from types import MappingProxyType
 from typing import Any
 
 from server.core.cues import Vibration
@@ -54,6 +55,7 @@ RELEASE_FRACTION = 0.5          # the grasp holds while the grip keeps this part
 OPPOSITE_DEG = 45.0
 TOLERANCE = 0.1
 TOUCH_PCT, GRIP_PCT = 40.0, 100.0  # vibration while a finger touches the block / while it is held
+THUMB_QUIET = MappingProxyType({THUMB: ()})  # no cue on the thumb's devices (shared: the loop compares by identity first)
 
 
 def press_depth(tool) -> float:
@@ -70,6 +72,12 @@ def opposite_angle_deg(centre, a, b) -> float:
         return 0.0
     cos = sum(x * y for x, y in zip(u, v)) / (nu * nv)
     return math.degrees(math.acos(max(-1.0, min(1.0, cos))))
+
+
+def needs_two_fingers(untracked: list[str]) -> str:
+    """The HUD on a rig that does not track both fingers (docs/scenarios.md, pick-place-v1)."""
+    return (f"Pick and place needs two tracked fingers ({INDEX}, {THUMB}); not tracked: {', '.join(untracked)}. "
+            "A mouse moves one point only: use a hand tracker.")
 
 
 def touches(tool, body: str) -> bool:
@@ -151,10 +159,14 @@ class PickPlace:
             self.t_start = ctx.t_s
         tools = {t.name: t for t in ctx.tools}
         index, thumb = tools.get(INDEX), tools.get(THUMB)
-        if index is None or thumb is None:
-            return self.pending.flush(hud=f"Pick and place needs two tracked fingers ({INDEX}, {THUMB})",
-                                      values={"phase": self.phase, "missing": [n for n in self.fingers
-                                                                               if n not in tools]})
+        # The thumb's tool exists on every rig (the scenario declares it), but a one-point rig (a
+        # mouse, a single tracked point) never drives it: it rests at home. Say so, as the grasp
+        # cannot happen; a held block is still released below when the thumb's tracker goes.
+        untracked = [n for n, t in ((INDEX, index), (THUMB, thumb)) if t is None or (n != INDEX and not t.driven)]
+        if untracked and not (self.phase == "held" and index is not None and thumb is not None):
+            quiet = THUMB_QUIET if thumb is not None else {}  # the thumb's device: nothing stays on
+            return self.pending.flush(hud=needs_two_fingers(untracked), tool_cues=quiet,
+                                      values={"phase": self.phase, "missing": untracked})
         if self.phase == "idle" and self._grasps(index, thumb):
             self._grasp(ctx.t_s, index, thumb)
         elif self.phase == "held":

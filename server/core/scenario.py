@@ -190,6 +190,7 @@ class ToolView(NamedTuple):
     touching: frozenset[str]  # bodies its proxy touches this tick (raw)
     force: Vec3            # k·(proxy − hip), newtons
     lost: bool             # its tracker source stopped (ttl passed): the tool is home, out of contact
+    driven: bool = True    # a tracker source drives it now (False: it rests at home; a mouse drives one point)
 
 
 class _NoToolCues(Mapping):

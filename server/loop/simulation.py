@@ -167,13 +167,15 @@ class Simulation:
         contacts = proxy_step.contacts
         contact = tool.gate.update(t_s, bool(contacts), proxy_step.separation)
         last = data.primary_view
-        if proxy_step is data.primary_step and last.contact == contact and last.hip is hip and last.lost == tool.lost:
+        driven = tool.driver is not None
+        if proxy_step is data.primary_step and last.contact == contact and last.hip is hip and last.lost == tool.lost \
+                and last.driven == driven:
             # Held between tracker samples at a fixed point of the god-object (Tool.proxy_step
             # returned the same step): the view of the last tick is this tick's, built once.
             view, touching = last, last.touching
         else:
             touching = frozenset(c.body_id for c in contacts)
-            view = ToolView(tool.name, hip, proxy_step.proxy, contact, touching, proxy_step.force, tool.lost)
+            view = ToolView(tool.name, hip, proxy_step.proxy, contact, touching, proxy_step.force, tool.lost, driven)
             data.primary_view, data.primary_step = view, proxy_step
         others = data.others
         if others:
@@ -215,10 +217,11 @@ class Simulation:
             contacts = step.contacts
             contact = tool.gate.update(t_s, bool(contacts), step.separation)
             last = views[i]
+            driven = tool.driver is not None
             if last is None or last[0] is not step or last[1].contact != contact or last[1].hip is not hip \
-                    or last[1].lost != tool.lost:
+                    or last[1].lost != tool.lost or last[1].driven != driven:
                 view = ToolView(tool.name, hip, step.proxy, contact, frozenset(c.body_id for c in contacts),
-                                step.force, tool.lost)
+                                step.force, tool.lost, driven)
                 last = views[i] = (step, view)
             out.append(last[1])
         return out

@@ -19,11 +19,12 @@ R = 0.06  # proxy radius
 START = (*BLOCK_START, HALF)
 
 
-def tool(name, proxy, press=0.0, towards=(0.0, 0.0, 0.0), contact=True, touching=(BLOCK,), lost=False):
-    """A tool whose proxy rests at `proxy` and whose HIP is pressed `press` further along `towards`."""
+def tool(name, proxy, press=0.0, towards=(0.0, 0.0, 0.0), contact=True, touching=(BLOCK,), lost=False, driven=None):
+    """A tool whose proxy rests at `proxy` and whose HIP is pressed `press` further along `towards`
+    (driven by a tracker unless lost, as server/core/tool.py has it)."""
     hip = tuple(p + press * d for p, d in zip(proxy, towards))
     return SimpleNamespace(name=name, hip=hip, proxy=proxy, contact=contact, touching=frozenset(touching),
-                           force=(0.0, 0.0, 0.0), lost=lost)
+                           force=(0.0, 0.0, 0.0), lost=lost, driven=not lost if driven is None else driven)
 
 
 def grip(centre, press, angle_deg=180.0, **kw):
@@ -195,6 +196,21 @@ def test_without_a_thumb_the_hud_says_what_is_missing():
     out = Driver(sc).step([tool(INDEX, START)])
     assert "two tracked fingers" in out.hud and out.values["missing"] == [THUMB]
     assert out.cues == () and out.tool_cues == {}
+
+
+def test_a_thumb_no_tracker_drives_is_named_in_the_hud_and_nothing_is_grasped():
+    """A one-point rig (a mouse): the thumb's tool rests at home, undriven. Even pressed into the
+    block (as home could be), it grasps nothing, and the HUD says why instead of "Grasp …"."""
+    sc = PickPlace()
+    d = Driver(sc)
+    for _ in range(3):
+        out = d.step(grip(START, 0.03, **{THUMB: {"driven": False}}))
+    assert sc.phase == "idle" and not out.events
+    assert "two tracked fingers" in out.hud and "not tracked: right.thumb.tip" in out.hud and "mouse" in out.hud
+    assert out.values["missing"] == [THUMB]
+    # once a tracker drives the thumb, the grasp works
+    d.step(grip(START, 0.03))
+    assert sc.phase == "held"
 
 
 def test_space_puts_the_block_back_after_a_placement_outside_trials():

@@ -147,3 +147,18 @@ def test_the_grip_cue_stays_steady_through_a_fast_carry():
     assert {r.output.tool_cues[THUMB] for r in results} == {(Vibration(100.0),)}
     assert sc.phase == "held"
     assert any(BLOCK not in r.tools[1].touching for r in results), "the thumb did leave the face (the case)"
+
+
+def test_a_one_point_rig_moves_the_index_only_and_the_hud_says_the_thumb_is_not_tracked():
+    """A mouse sends the primary point only: the thumb's tool rests at home, undriven. The HUD must
+    not ask for a grasp the rig cannot make (issue 34.6); a tracker that sends the thumb too lifts it."""
+    sim, sc, hand = make()
+    for k in range(20):
+        sim.offer("mouse", k, (X0, Y0 + TOUCH - 0.03, HALF))  # the index pressed into the block
+        out = sim.step()
+    assert [v.driven for v in out.tools] == [True, False]
+    assert "not tracked: right.thumb.tip" in out.output.hud and out.output.values["missing"] == [THUMB]
+    assert sc.phase == "idle" and not sim.data.events
+    sim.release("mouse")
+    grasp(hand)
+    assert sc.phase == "held" and sim.step().output.hud == "Place it on the green target"

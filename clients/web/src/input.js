@@ -140,7 +140,9 @@ function isFormField(target) {
   if (!target || typeof target !== 'object') return false;
   if (target.isContentEditable) return true;
   const tag = (target.tagName || '').toUpperCase();
-  return tag === 'INPUT' || tag === 'TEXTAREA' || tag === 'SELECT';
+  // a focused button or link owns its Enter / Space (the answer buttons: keyboard users answer so)
+  return tag === 'INPUT' || tag === 'TEXTAREA' || tag === 'SELECT' || tag === 'BUTTON' || tag === 'A'
+    || tag === 'SUMMARY';
 }
 
 /**
@@ -177,7 +179,7 @@ export class KeyForwarder {
   _key(e, action) {
     if (isFormField(e.target)) return;
     const key = e.key;
-    if (!key || key.length > 32) return;
+    if (!key || key.length > 32 || key === 'Tab') return; // Tab moves the focus, it is no scenario key
     if (key in this.consume) {
       if (action === 'down') {
         e.preventDefault();

@@ -198,6 +198,7 @@ async function main() {
       const input = document.createElement('input');
       input.type = 'number';
       input.name = q.id;
+      input.setAttribute('aria-label', q.text);
       const ok = document.createElement('button');
       ok.textContent = 'Answer';
       ok.addEventListener('click', () => input.value !== '' && send(Number(input.value)));

@@ -120,6 +120,18 @@ describe('KeyForwarder', () => {
     assert.deepStrictEqual(sent, []);
   });
 
+  test('Enter and Space on a focused button are the button\'s; Tab moves the focus (issue 34: keyboard)', () => {
+    const { sent, key } = keys();
+    for (const tagName of ['BUTTON', 'A', 'SUMMARY']) {
+      const ev = { target: { tagName } };
+      key('keydown', ' ', ev);
+      key('keydown', 'Enter', ev);
+    }
+    key('keydown', 'Tab');
+    key('keyup', 'Tab');
+    assert.deepStrictEqual(sent, []);
+  });
+
   test('consumed keys run their handler and send nothing', () => {
     let depth = 0;
     const { sent, key } = keys({ PageUp: () => depth--, PageDown: () => depth++ });

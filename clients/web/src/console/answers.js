@@ -213,12 +213,14 @@ export class AnswerForm {
         }));
     } else if (f.control === 'number') {
       const input = h('input', { type: 'number', name, value: raw, step: f.step, min: f.min ?? null,
-        max: f.max ?? null, disabled: readOnly, inputmode: 'decimal', oninput: () => this._changed(f, input.value) });
+        max: f.max ?? null, disabled: readOnly, inputmode: 'decimal', 'aria-label': f.text,
+        oninput: () => this._changed(f, input.value) });
       inputs.push(input);
       const hint = f.min != null || f.max != null ? `${rangeText(f).trim()}${f.integer ? ', whole' : ''}` : '';
       control = h('div', { class: 'c-number' }, input, hint ? h('span', { class: 'c-muted' }, hint) : null);
     } else {
       const input = h('textarea', { name, rows: 2, maxlength: TEXT_MAX, value: raw, disabled: readOnly,
+        'aria-label': f.text,
         oninput: () => this._changed(f, input.value) });
       inputs.push(input);
       control = input;
