@@ -95,8 +95,9 @@ async function act(msgEl, fn, okText = '') {
     if (e.status === 403) lostControl(e.detail);
     return undefined;
   } finally {
+    await refresh(); // still busy: no periodic refresh overtakes this one, so the new state is drawn
     state.busy--;
-    await refresh();
+    renderRun();
     // said once the server's new state is drawn, never beside the old one
     if (done && okText) say(msgEl, typeof okText === 'function' ? okText(out) : okText, 'ok');
   }
