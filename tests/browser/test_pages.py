@@ -110,12 +110,33 @@ def contexts(browser):
         ctx = new_context(browser, server.http_url, token=token, viewport=viewport)
         if init:
             ctx.add_init_script(init)
+        ctx.set_default_navigation_timeout(120_000)  # a loaded machine: these tests are about it
+        ctx.set_default_timeout(30_000)
         made.append(ctx)
         return ctx.new_page()
 
     yield make
     for ctx in made:
         ctx.close()
+
+
+@pytest.fixture
+def sessions(rig):
+    """new(study, participant) -> session; its running trial is aborted afterwards (the rig runs one
+    trial at a time, across sessions)."""
+    made = []
+
+    def new(study: str, participant: str) -> dict:
+        made.append(new_session(rig, study, participant))
+        return made[-1]
+
+    yield new
+    get_json(f"{rig.http_url}/api/lease", "POST")  # aborting needs the lease
+    for s in made:
+        running = session_view(rig, s["id"])["running"]
+        if running is not None:
+            call(rig, "POST", f"/api/sessions/{s['id']}/trials/{running}/abort", {"reason": "test over"},
+                 control=s["token"])
 
 
 @pytest.fixture
@@ -198,10 +219,37 @@ def test_a_page_whose_hello_never_came_connects_again_by_itself(contexts, rig):
     assert "not admitted" not in page.inner_text("body")
 
 
+def test_the_participant_view_never_freezes_on_a_stale_frame(contexts, rig):
+    """The console's participant view (an observer page): a socket that stays open but goes silent
+    shows "reconnecting", is dropped, and the page is live again on a new one."""
+    page = contexts(rig)
+    sockets = []
+    silent = {"on": False}
+
+    def route(ws):
+        first = not sockets
+        server = ws.connect_to_server()
+        server.on_message(lambda m: None if silent["on"] and first else ws.send(m))
+        sockets.append(ws)
+
+    page.route_web_socket("**/ws", route)
+    view = Client(page, rig).open("?role=observer")
+    frames = view.hook("stats.framesReceived")
+    wait_for(lambda: view.hook("stats.framesReceived") > frames, what="state frames")
+    silent["on"] = True  # the first socket stays open but nothing comes through any more
+    page.wait_for_function("document.getElementById('waiting').innerText.includes('reconnecting')",
+                           timeout=10_000)
+    shot(page, "observer-stale")
+    wait_for(lambda: (page.wait_for_timeout(100), len(sockets) >= 2)[1], timeout=30, what="a new connection")
+    page.wait_for_function("document.getElementById('waiting').hidden", timeout=20_000)
+    frames = view.hook("stats.framesReceived")
+    wait_for(lambda: view.hook("stats.framesReceived") > frames, what="state frames on the new connection")
+
+
 # ---- points 2 and 9: one clear state on the participant's page ----------------------------------
 
-def test_a_participant_whose_session_closes_mid_trial_sees_one_state(contexts, rig, lease_back):
-    session = new_session(rig, "xr-answers", "P21")
+def test_a_participant_whose_session_closes_mid_trial_sees_one_state(contexts, rig, lease_back, sessions):
+    session = sessions("xr-answers", "P21")
     sid, control = session["id"], session["token"]
     page = contexts(rig, token=None)
     participant = Client(page, rig).open(join_url(rig, sid))
@@ -269,8 +317,8 @@ def test_a_superseded_tab_says_so_and_stops(contexts, rig):
 
 # ---- points 2 and 8: the lease card ---------------------------------------------------------------
 
-def test_the_lease_card_stays_put_and_warns_before_closing_a_session_mid_trial(contexts, rig, lease_back):
-    session = new_session(rig, "xr-answers", "P22")
+def test_the_lease_card_stays_put_and_warns_before_closing_a_session_mid_trial(contexts, rig, lease_back, sessions):
+    session = sessions("xr-answers", "P22")
     sid, control = session["id"], session["token"]
     join_url(rig, sid)  # the participant session is open
     page = contexts(rig, viewport={"width": 1440, "height": 900})
@@ -362,7 +410,10 @@ def test_console_messages_and_buttons_follow_the_server(contexts, rig):
     # trial 0: a note saved ("Saved 1 answer."), then finished while the server answers slowly
     page.wait_for_selector("#start:not([disabled])")
     page.click("#start")
-    wait_status(rig, sid, 0, "running")
+    try:
+        wait_for(lambda: session_view(rig, sid)["trials"][0]["status"] == "running", timeout=30, what="trial 0 running")
+    except AssertionError as exc:
+        raise AssertionError(f"{exc}; the console says {console.text('#run-msg')!r}") from None
     note = page.locator('fieldset[data-question="note"] textarea, fieldset[data-question="note"] input')
     note.first.wait_for()
     note.first.fill("fine")
