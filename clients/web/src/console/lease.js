@@ -106,7 +106,7 @@ export function closedWarning(before, after, sessionId, runningSeq) {
   if (!was || was === (after?.session ?? null) || was !== sessionId) return null;
   if (runningSeq === null || runningSeq === undefined) return null;
   return `Participant session ${was} was closed while trial #${runningSeq} runs: the participant waits and cannot `
-    + 'answer. Create a join link again to reopen it.';
+    + 'answer. To reopen it, hold the lease (Request control) and create a join link for it again.';
 }
 
 /** What the card shows, without the seconds that tick: it is drawn again only when this changes. */
