@@ -62,7 +62,8 @@ ERRORS = (ExperimentError, StoreError, ParamError, UnknownScenario, ScenarioRefu
 
 class SessionCreate(BaseModel):
     study: str = Field(description="a study id (GET /api/studies)")
-    participant: str = Field(description="pseudonymous participant code (letters, digits, '-', '_'; never a name)")
+    participant: str = Field(description="pseudonymous participant code: 1-32 letters, digits, '-' or '_' with at "
+                                         "least one digit, such as P07 (never a name)")
     experimenter: str
     device: str | None = Field(None, description="the device worn (model or name), recorded with the session")
     notes: str = ""

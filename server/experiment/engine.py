@@ -26,21 +26,19 @@ during a trial"); finishing or aborting it in the meantime gets 409 and does the
 
 from __future__ import annotations
 
-import re
 import secrets
 import threading
 import uuid
 from pathlib import Path
 from typing import Any, Protocol
 
-from server.experiment.participant import participant_view
+from server.experiment.participant import participant_code_problem, participant_view
 from server.experiment.plan import plan_session
 from server.experiment.recorder import Recorder
 from server.experiment.store import Conflict, Store, StoreError, TrialRow
 from server.experiment.question import AnswerError
 from server.experiment.study import Study, StudyError, load_study
 
-PARTICIPANT_CODE = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
 SCENARIO_TRIAL_KINDS = ("trial", "main")  # training and questionnaires set no scenario trial
 
 
@@ -136,9 +134,8 @@ class Experiment:
     def create_session(self, *, study_id: str, participant: str, experimenter: str, device: str | None = None,
                        notes: str = "", participant_index: int | None = None, site: str | None = None) -> dict:
         """A new session with its plan; returns it with the control token."""
-        if not PARTICIPANT_CODE.match(participant or ""):
-            raise ExperimentError("participant must be a pseudonymous code of 1-32 letters, digits, '-' or '_' "
-                                  "(no names are stored)")
+        if (problem := participant_code_problem(participant)) is not None:
+            raise ExperimentError(problem)
         if not experimenter or len(experimenter) > 64:
             raise ExperimentError("experimenter must be 1-64 characters")
         study = self.study(study_id)

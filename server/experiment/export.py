@@ -285,9 +285,16 @@ class SessionData:
         return [(t, a) for t in self.trials for a in t["attempts"] if a["samples"]]
 
 
+# The plan's kind of a practice trial is `trial` (the thesis's phase name, server/experiment/plan.py);
+# in the exported files it says what it is.
+EXPORTED_KIND = {"trial": "practice"}
+
+
 def _load(reader: Reader, session: dict) -> SessionData:
     sid = session["id"]
     trials, responses = reader.trials(sid), reader.responses(sid)
+    for t in trials:
+        t["kind"] = EXPORTED_KIND.get(t["kind"], t["kind"])
     attempts = reader.attempts(sid)
     tick_hz = session_tick_hz(session.get("config") or {})
     by_trial: dict[int, list[dict]] = {}

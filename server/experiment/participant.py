@@ -8,10 +8,24 @@ study's spoken instructions are on before its first trial starts)."""
 
 from __future__ import annotations
 
+import re
 from typing import Any, Mapping, Sequence
 
 from server.experiment.study import NO_AUDIO, Study
 from server.experiment.store import TrialRow
+
+# A pseudonymous code, never a name (docs/data.md): with a digit, so "Anna" is refused as "Anna
+# Schmidt" is. The console checks the same rule (clients/web/src/console/console.js).
+PARTICIPANT_CODE = re.compile(r"^(?=[^0-9]*[0-9])[A-Za-z0-9_-]{1,32}$")
+PARTICIPANT_CODE_RULE = ("a pseudonymous code of 1-32 letters, digits, '-' or '_' with at least one digit, "
+                         "such as P07 (never a name: no names are stored)")
+
+
+def participant_code_problem(code: str | None) -> str | None:
+    """None for a valid participant code, else what is wrong, in words that say what is allowed."""
+    if PARTICIPANT_CODE.match(code or ""):
+        return None
+    return f"participant must be {PARTICIPANT_CODE_RULE}; got {code!r}"
 
 
 def participant_view(session_id: str, study: Study | None, trials: Sequence[TrialRow],

@@ -68,7 +68,7 @@ RIG_ATTEMPTS = [("POST", "/api/scenario", {"name": "texture"}), ("POST", "/api/t
 
 
 def test_the_outsiders_attempts_fail_and_change_nothing(base):
-    created = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "P-out",
+    created = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "P-out1",
                                                       "experimenter": "ann", "notes": "real"}), 201)
     sid, control = created["id"], created["token"]
     scenario = ok(call(base, "GET", "/api/scenario"))["id"]
@@ -129,7 +129,7 @@ def test_a_lab_that_lost_the_lease_mid_trial_still_closes_its_trial(base):
     ok(call(base, "DELETE", "/api/lease"))
     try:
         assert ok(call(base, "POST", "/api/lease", token=lab))["status"] == "granted"
-        created = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "P-lost",
+        created = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "P-lost1",
                                                           "experimenter": "al"}, token=lab), 201)
         sid, control = created["id"], {"X-Control-Token": created["token"]}
         ok(call(base, "POST", f"/api/sessions/{sid}/trials/0/start", token=lab, headers=control))
@@ -159,13 +159,13 @@ def test_two_labs_share_the_rig(tmp_path):
         queued = ok(call(base, "POST", "/api/lease", token=b))
         assert (queued["status"], queued["position"]) == ("queued", 1)
         # queued, b prepares its session (its own records) but may not run a trial on the rig
-        created = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "PB", "experimenter": "bo"},
+        created = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "PB2", "experimenter": "bo"},
                           token=b), 201)
         sb, b_control = created["id"], {"X-Control-Token": created["token"]}
         start_b = f"/api/sessions/{sb}/trials/0/start"
         assert call(base, "POST", start_b, token=b, headers=b_control)[0] == 403  # queued is not holding
         assert call(base, "POST", "/api/scenario", {"name": "texture"}, token=b)[0] == 403
-        sa = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "PA", "experimenter": "al"},
+        sa = ok(call(base, "POST", "/api/sessions", {"study": STUDY, "participant": "PA1", "experimenter": "al"},
                      token=a), 201)["id"]
         ok(call(base, "POST", "/api/lease/renew", token=b))
         ok(call(base, "DELETE", "/api/lease", token=a))  # released: the next in the queue has it

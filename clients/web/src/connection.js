@@ -1,12 +1,35 @@
 // WebSocket adapter: turns socket events into protocol messages and back. No rendering, no
 // scenario logic. Reconnects with capped exponential backoff; the tracker path drops samples
 // instead of queueing them when the link is slow (ws.bufferedAmount > 0). The access token goes
-// in `hello.token` (never in the URL); a server that refuses it (error `unauthorized`, close 1008)
-// is not retried until the page has a new token (`setToken`).
+// in `hello.token` (never in the URL).
+//
+// A refused token (error `unauthorized`, close 1008) is not retried until the page has a new
+// token (`setToken`), with one exception: a refusal because the hello came after the server's
+// grace period (its message says "no hello …"; a loaded machine can be that slow) is retried with
+// the stored token, at most AUTH_RETRIES times in a row, with the same backoff. A close whose
+// reason says the token is dead (`revoked`, `expired`) or that another tab took over
+// (`superseded`) is final at once.
 
 import * as protocol from './protocol.js';
 
 const noop = () => {};
+
+/** Late-hello refusals retried with the stored token before the page gives up. */
+export const AUTH_RETRIES = 5;
+/** The server's refusal of a hello that came after its grace period (server/hub/session.py). */
+const LATE_HELLO = /\bno hello\b/i;
+/** Close reasons (sent with close 1008) that retrying cannot help, in words for the page. */
+export const FINAL_CLOSE_REASONS = {
+  revoked: 'your access was revoked',
+  expired: 'your access has expired',
+  superseded: 'this page was opened in another tab, which now takes part instead',
+};
+
+/** The final close reason named by a close event's reason text (null: none of them). */
+export function finalCloseReason(reason) {
+  const m = /^\s*(revoked|expired|superseded)\b/i.exec(String(reason ?? ''));
+  return m ? m[1].toLowerCase() : null;
+}
 
 export class Connection {
   /**
@@ -38,7 +61,8 @@ export class Connection {
     this.onHealth = noop; // the server's health: {status, reasons: [{code, message}]}
     this.onLease = noop; // the control lease: {holder, queue, session, ttl_s} (protocol v1.3)
     this.onAsk = noop; // what the study asks of this participant: {session, seq, task, questions, audio, instructions} (v1.5)
-    this.onUnauthorized = noop; // (message): the token was refused; connect() again with a new one
+    this.onUnauthorized = noop; // (message, reason): refused for good (reason: a FINAL_CLOSE_REASONS key or
+    // 'unauthorized'); the page needs a new token (setToken)
     this.onError = noop; // (ProtocolError-like {code, message}, source: 'server' | 'client')
     this.onStatus = noop; // (status string, detail string)
 
@@ -52,6 +76,9 @@ export class Connection {
     this.closedByUser = false;
     this.status = 'idle';
     this.unauthorized = null; // the server's reason once it refused the token
+    this.authRetries = 0; // refusals retried since the last welcome
+    this.finalReason = null; // why the page was refused for good (FINAL_CLOSE_REASONS key, 'unauthorized')
+    this.refusal = null; // … in words
   }
 
   /** The token hello carries (a function is asked at each connect, so a new login applies). */
@@ -63,8 +90,11 @@ export class Connection {
   /** A new token (after a log-in): reconnect with it if the old one was refused. */
   setToken(token) {
     this.token = token;
-    if (this.unauthorized !== null) {
+    if (this.finalReason !== null) {
       this.unauthorized = null;
+      this.finalReason = null;
+      this.refusal = null;
+      this.authRetries = 0;
       this.attempt = 0;
       this.connect();
     }
@@ -97,6 +127,12 @@ export class Connection {
     if (this.ws) this.ws.close(1000, 'client closing');
     this.ws = null;
     this._setStatus('closed', 'by client');
+  }
+
+  /** Drop a connection that went silent and connect again (the usual backoff). */
+  restart(why = 'no frames') {
+    if (this.closedByUser || this.finalReason !== null || !this.ws) return;
+    this.ws.close(4000, why.slice(0, 100));
   }
 
   get isOpen() {
@@ -174,6 +210,8 @@ export class Connection {
       case 'welcome':
         this.welcome = msg;
         this.attempt = 0;
+        this.authRetries = 0;
+        this.unauthorized = null;
         this._setStatus('ready', `client ${msg.client_id} (${msg.role}, ${msg.format})`);
         this.onWelcome(msg);
         break;
@@ -206,11 +244,24 @@ export class Connection {
     this.ws = null;
     this.welcome = null;
     if (this.closedByUser) return;
-    if (this.unauthorized !== null || (ev.code === 1008 && /unauthori[sz]ed/i.test(ev.reason ?? ''))) {
+    const final = finalCloseReason(ev.reason); // whatever the code (1008 today)
+    const refused = final !== null || this.unauthorized !== null
+      || (ev.code === 1008 && /unauthori[sz]ed/i.test(ev.reason ?? ''));
+    if (refused) {
+      const why = final !== null ? FINAL_CLOSE_REASONS[final] : (this.unauthorized ?? (ev.reason || 'unauthorized'));
+      this.unauthorized = null;
+      if (final === null && LATE_HELLO.test(why) && this.authRetries < AUTH_RETRIES) {
+        // Only slow, not refused: the same token gets in on the next attempt.
+        this.authRetries++;
+        this._setStatus('closed', `refused (${why}); trying again (${this.authRetries} of ${AUTH_RETRIES})`);
+        this._scheduleReconnect();
+        return;
+      }
       // The same token would be refused again: wait for setToken().
-      this.unauthorized = this.unauthorized ?? (ev.reason || 'unauthorized');
-      this._setStatus('unauthorized', this.unauthorized);
-      this.onUnauthorized(this.unauthorized);
+      this.finalReason = final ?? 'unauthorized';
+      this.refusal = why;
+      this._setStatus('unauthorized', why);
+      this.onUnauthorized(why, this.finalReason);
       return;
     }
     if (ev.code === 1002) {

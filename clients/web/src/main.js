@@ -15,13 +15,15 @@ import { Hud } from './hud.js';
 import { OperatorPanel, httpBase } from './operator_panel.js';
 import { ROLES } from './protocol.js';
 import { TokenStore, redeemFragment, authHeaders } from './auth.js';
-import { waitingState } from './waiting.js';
+import { pageState } from './waiting.js';
 import { lostSources, toolsOf } from './tools_view.js';
 import { XrSession, supportedModes, MODES } from './xr_session.js';
 import { questionOf } from './xr_panels.js';
 import { AudioPlan, Clicker, Speaker, audioSettings } from './audio.js';
 
 const CLIENT_NAME = 'viestac-web/0.1';
+const STALE_S = 3; // an open connection without a state frame this long shows "reconnecting"
+const RESTART_S = 10; // … and this long is dropped and opened again
 
 function options(search) {
   const q = new URLSearchParams(search);
@@ -90,7 +92,7 @@ async function main() {
     identity: null, // welcome.identity: {token_id, role, site, session}
     lease: null, // the last `lease` message
     ask: null, // the last `ask` message: what the study asks of this participant (v1.5)
-    waiting: () => waiting.waiting,
+    waiting: () => page.kind === 'waiting', // the page waits for the experimenter (pageState)
     stats,
     renderer: view.rendererInfo(),
     memory: () => ({ ...view.renderer.info.memory }),
@@ -149,6 +151,8 @@ async function main() {
   const clicker = new Clicker();
   hook.audio = { speaker, clicker };
   let lastHud = '';
+  let sceneBuilt = false;
+  let sceneHudText = '';
   let lastLost = [];
 
   let statusText = 'connecting';
@@ -161,16 +165,20 @@ async function main() {
   conn.onStatus = (status, detail) => {
     statusText = detail ? `${status} (${detail})` : status;
     showStatus();
+    updateWaiting();
   };
   conn.onWelcome = (w) => {
     hook.clientId = w.client_id;
     hook.identity = w.identity ?? null;
+    stats.lastError = null; // admitted again: an old refusal no longer applies
+    lastStateAt = performance.now();
     showStatus();
     updateWaiting();
   };
   conn.onLease = (l) => {
     hook.lease = l;
     leaseAt = performance.now();
+    if (hook.identity?.session && l.session === hook.identity.session) admittedBefore = true;
     updateWaiting();
   };
   // What the study asks (v1.5 `ask`): its audio, and the participant's questions — in XR on a
@@ -184,11 +192,12 @@ async function main() {
     const q = questionOf(a);
     xr.ask(q);
     showQuestion(q);
+    updateWaiting();
   };
   function showQuestion(q) {
     if (!answerEl) return;
     answerEl.replaceChildren();
-    answerEl.hidden = q === null;
+    answerEl.hidden = q === null || !page.showQuestion;
     if (q === null) return;
     const text = document.createElement('p');
     text.textContent = q.text;
@@ -217,11 +226,7 @@ async function main() {
       answerEl.append(b);
     }
   }
-  conn.onUnauthorized = (why) => {
-    showWaiting(joinError ?? (opts.role === 'participant'
-      ? `This page is not admitted (${why}). Open the join link the experimenter gives you.`
-      : `Not logged in (${why}). Log in at the console (console.html), then reload.`));
-  };
+  conn.onUnauthorized = () => updateWaiting(); // pageState says it in words
   conn.onScene = (m) => {
     view.build(m.scene, m.hash);
     view.resize();
@@ -229,7 +234,7 @@ async function main() {
     pointer.reset();
     hook.sceneHash = m.hash;
     sceneHudText = m.scene.hud?.text ?? '';
-    hud.setText(sceneHudText);
+    hud.setText(page.showQuestion ? sceneHudText : '');
     sceneBuilt = true;
     if (panel) refreshPanel();
   };
@@ -238,8 +243,9 @@ async function main() {
     stats.lastStateFrame = s.frame;
     stateCount++;
     if (view.built) view.applyState(s);
-    hud.setText(s.hud || sceneHudText); // an empty state hud shows the scene's hud text
-    lastHud = s.hud || sceneHudText;
+    lastStateAt = performance.now();
+    lastHud = s.hud || sceneHudText; // an empty state hud shows the scene's hud text
+    hud.setText(page.showQuestion ? lastHud : ''); // no task text while the page waits or reconnects
     lastLost = lostSources(s);
     if (xr.active) xr.onState(s);
     const say = audioPlan.say(lastHud);
@@ -266,23 +272,46 @@ async function main() {
 
   window.addEventListener('resize', () => view.resize());
 
-  // "Waiting for the experimenter": shown while this page may not drive the HIP.
+  // The one state the page shows over the scene (waiting.js pageState): refused, reconnecting,
+  // waiting for the experimenter, or nothing (live). The question and the HUD text show only then.
   let forbiddenAt = -Infinity;
   let leaseAt = -Infinity;
-  let waiting = { waiting: false, reason: '' };
+  let admittedBefore = false; // the lease named this page's session once (it may be closed since)
+  let lastStateAt = performance.now();
+  let page = { kind: '', text: '', showQuestion: true };
+  hook.page = () => page;
   function showWaiting(text) {
     if (!waitingEl) return;
     waitingEl.hidden = !text;
     waitingEl.textContent = text ?? '';
   }
   function updateWaiting() {
-    waiting = waitingState({ role: conn.welcome?.role ?? opts.role, identity: hook.identity, lease: hook.lease,
-      leaseAt, forbiddenAt, nowMs: performance.now() });
-    if (conn.status === 'unauthorized' || (joinError && !hook.identity)) return; // that message stays
-    showWaiting(waiting.waiting ? waiting.reason : '');
+    const before = page;
+    page = pageState({ role: conn.welcome?.role ?? opts.role, identity: hook.identity, lease: hook.lease, leaseAt,
+      forbiddenAt, nowMs: performance.now(), conn, joinError, ask: hook.ask, admittedBefore });
+    const silentS = (performance.now() - lastStateAt) / 1000;
+    if (page.kind === '' && conn.status === 'ready' && sceneBuilt && silentS > STALE_S) {
+      // open but silent: a frozen picture would look live; say so, and connect again
+      page = { kind: 'reconnecting', text: `No updates from the server for ${Math.round(silentS)} s: reconnecting…`,
+        showQuestion: false };
+      if (silentS > RESTART_S) {
+        lastStateAt = performance.now();
+        conn.restart('no state frames');
+      }
+    }
+    if (page.kind === '' && stats.lastError?.code === 'forbidden') { // recovered: the refusal is history
+      stats.lastError = null;
+      showStatus();
+    }
+    document.body.dataset.page = page.kind;
+    showWaiting(page.text);
+    if (before.showQuestion !== page.showQuestion) {
+      showQuestion(hook.ask ? questionOf(hook.ask) : null);
+      hud.setText(page.showQuestion ? lastHud || sceneHudText : '');
+    }
   }
   setInterval(updateWaiting, 1000); // a refusal that stopped coming no longer holds the page
-  if (joinError) showWaiting(joinError);
+  updateWaiting();
 
   const api = httpBase(opts.url);
   let panelRequests = 0;
@@ -299,8 +328,6 @@ async function main() {
     }
   }
 
-  let sceneBuilt = false;
-  let sceneHudText = '';
   let stateCount = 0;
   let lastTelemetry = {};
   let frames = 0;

@@ -29,3 +29,46 @@ export function waitingState({ role, identity, lease = null, leaseAt = -Infinity
   }
   return { waiting: false, reason: '' };
 }
+
+/**
+ * The one state the page shows over the scene, in one place (the lead adapts the words here):
+ * {kind, text, showQuestion}. kind: 'refused' (for good: a dead token, a used-up join link, another
+ * tab took over) | 'reconnecting' | 'waiting' | '' (nothing: the page is live). The participant's
+ * question and the scene's HUD text show only when nothing else does, so a page never says
+ * "Trial 4: which angle…" and "Waiting for the experimenter" at once.
+ *
+ * `conn`: {status, finalReason, refusal, attempt} of connection.js; `joinError`: why a join link
+ * could not be used; `ask`: the last `ask` (its `seq`: the running trial); `admittedBefore`: the
+ * lease named this page's session earlier (the session was closed since).
+ */
+export function pageState({ role, identity = null, lease = null, leaseAt = -Infinity, forbiddenAt = -Infinity,
+  nowMs = 0, conn = {}, joinError = null, ask = null, admittedBefore = false } = {}) {
+  const participant = role === 'participant';
+  if (joinError && !identity) return { kind: 'refused', text: joinError, showQuestion: false };
+  if (conn.finalReason) {
+    const why = conn.refusal ?? conn.finalReason;
+    let text;
+    if (conn.finalReason === 'superseded') {
+      text = 'This page was opened in another tab, which takes part now; this one has stopped. You can close it.';
+    } else if (participant) {
+      text = `This page is not admitted (${why}). Ask the experimenter for a new join link (each join link works once).`;
+    } else {
+      text = `Not logged in (${why}). Log in at the console (console.html), then reload.`;
+    }
+    return { kind: 'refused', text, showQuestion: false };
+  }
+  const down = ['reconnecting', 'closed', 'failed'].includes(conn.status)
+    || (conn.status === 'connecting' && (conn.attempt ?? 0) > 0);
+  if (down) return { kind: 'reconnecting', text: 'Connection lost: reconnecting…', showQuestion: false };
+  const w = waitingState({ role, identity, lease, leaseAt, forbiddenAt, nowMs });
+  if (!w.waiting) return { kind: '', text: '', showQuestion: true };
+  if (identity?.role === 'participant' && Number.isInteger(ask?.seq)) {
+    return { kind: 'waiting', showQuestion: false, text: `Waiting for the experimenter: your session is paused `
+      + `while trial ${ask.seq} runs. It goes on when the experimenter reopens your session.` };
+  }
+  if (identity?.role === 'participant' && admittedBefore) {
+    return { kind: 'waiting', showQuestion: false,
+      text: 'Waiting for the experimenter: your session was closed for now; it goes on when it is reopened.' };
+  }
+  return { kind: 'waiting', text: w.reason, showQuestion: false };
+}

@@ -1,7 +1,7 @@
 // Connection adapter (src/connection.js) against an in-memory fake WebSocket.
 import { test, describe, beforeEach, afterEach, mock } from 'node:test';
 import assert from 'node:assert/strict';
-import { Connection } from '../src/connection.js';
+import { AUTH_RETRIES, Connection, FINAL_CLOSE_REASONS } from '../src/connection.js';
 import * as P from '../src/protocol.js';
 
 class FakeSocket {
@@ -270,6 +270,54 @@ describe('access token', () => {
     mock.timers.tick(20000);
     assert.equal(FakeSocket.instances.length, 1);
   });
+
+  test('a hello refused as late is retried with the stored token, a bounded number of times', { skip: !P.ERROR_CODES.includes('unauthorized') }, () => {
+    const { c, seen } = make({ token: 'slow' });
+    const why = [];
+    c.onUnauthorized = (w, reason) => why.push([w, reason]);
+    c.connect();
+    for (let i = 0; i < AUTH_RETRIES; i++) {
+      const ws = FakeSocket.instances.at(-1);
+      ws.open();
+      ws.receive({ type: 'error', code: 'unauthorized', message: 'no hello with a token within 1 s of connecting' });
+      ws.drop(1008);
+      assert.equal(c.status, 'reconnecting');
+      mock.timers.tick(1000);
+      assert.equal(FakeSocket.instances.length, i + 2);
+      assert.equal(FakeSocket.instances.at(-1).url, 'ws://x/ws');
+    }
+    FakeSocket.instances.at(-1).open();
+    assert.equal(FakeSocket.instances.at(-1).decoded()[0].token, 'slow');
+    FakeSocket.instances.at(-1).receive({ type: 'error', code: 'unauthorized', message: 'no hello with a token within 1 s' });
+    FakeSocket.instances.at(-1).drop(1008);
+    assert.equal(c.status, 'unauthorized'); // bounded: the page stops and says so
+    assert.deepStrictEqual(why, [['no hello with a token within 1 s', 'unauthorized']]);
+    assert.ok(seen.status.includes('reconnecting'));
+    // a welcome starts the count again
+    c.setToken('slow');
+    const ws = FakeSocket.instances.at(-1);
+    ws.open();
+    ws.receive(WELCOME);
+    assert.equal(c.authRetries, 0);
+  });
+
+  for (const reason of ['revoked', 'expired', 'superseded']) {
+    test(`a close 1008 '${reason}' is final and said in words`, () => {
+      const { c } = make({ token: 't' });
+      const why = [];
+      c.onUnauthorized = (w, r) => why.push([w, r]);
+      c.connect();
+      const ws = FakeSocket.instances[0];
+      ws.open();
+      ws.receive(WELCOME);
+      ws.readyState = 3;
+      ws.onclose({ code: 1008, reason });
+      assert.equal(c.status, 'unauthorized');
+      assert.deepStrictEqual(why, [[FINAL_CLOSE_REASONS[reason], reason]]);
+      mock.timers.tick(20000);
+      assert.equal(FakeSocket.instances.length, 1);
+    });
+  }
 
   test('lease messages reach onLease', { skip: !P.MESSAGE_TYPES.includes('lease') }, () => {
     const { c } = make();

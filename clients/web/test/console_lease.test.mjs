@@ -86,3 +86,16 @@ test('remainingS uses the server clock offset and never goes below 0', () => {
   assert.equal(remainingS(100, 200_000, 0), 0);
   assert.equal(remainingS(null, 0), null);
 });
+
+test('a Release that closes the open participant session mid-trial is warned about, before and after', async () => {
+  const { releaseWarning, closedWarning } = await import('../src/console/lease.js');
+  const open = { holder: { token_id: 'a' }, queue: [], session: 's1' };
+  const closed = { holder: null, queue: [], session: null };
+  assert.match(releaseWarning(open, 's1', 3), /closes participant session s1 while trial #3 runs/);
+  assert.equal(releaseWarning(open, 's1', null), null); // no trial runs
+  assert.equal(releaseWarning(open, 's2', 3), null); // another session
+  assert.equal(releaseWarning(closed, 's1', 3), null);
+  assert.match(closedWarning(open, closed, 's1', 3), /s1 was closed while trial #3 runs/);
+  assert.equal(closedWarning(open, open, 's1', 3), null);
+  assert.equal(closedWarning(open, closed, 's1', null), null);
+});

@@ -35,3 +35,34 @@ test('observers and pages without an identity never wait', () => {
   assert.equal(waitingState({ role: 'observer', identity: P, lease: lease(null) }).waiting, false);
   assert.equal(waitingState({ role: 'participant', identity: null, lease: lease(null) }).waiting, false);
 });
+
+test('pageState: one state at a time, the question only when nothing else shows', async () => {
+  const { pageState } = await import('../src/waiting.js');
+  const open = lease('free-ab12');
+  const live = pageState({ role: 'participant', identity: P, lease: open, leaseAt: 0, nowMs: 10, conn: { status: 'ready' } });
+  assert.deepStrictEqual(live, { kind: '', text: '', showQuestion: true });
+  // the session closed while trial 4 runs: waiting, and says which trial waits; no question
+  const paused = pageState({ role: 'participant', identity: P, lease: lease(null), leaseAt: 0, nowMs: 10,
+    conn: { status: 'ready' }, ask: { seq: 4 } });
+  assert.equal(paused.kind, 'waiting');
+  assert.equal(paused.showQuestion, false);
+  assert.match(paused.text, /Waiting for the experimenter.*trial 4/);
+  assert.match(pageState({ role: 'participant', identity: P, lease: lease(null), conn: { status: 'ready' },
+    admittedBefore: true }).text, /Waiting for the experimenter: your session was closed/);
+  // the connection is down: reconnecting, not waiting
+  for (const status of ['reconnecting', 'closed']) {
+    assert.equal(pageState({ role: 'participant', identity: P, lease: open, conn: { status } }).kind, 'reconnecting');
+  }
+  assert.equal(pageState({ role: 'observer', conn: { status: 'connecting', attempt: 0 } }).kind, '');
+  // refused for good, in words; never the old "open the join link" advice
+  const refused = pageState({ role: 'participant', conn: { status: 'unauthorized', finalReason: 'unauthorized',
+    refusal: 'unknown token' } });
+  assert.equal(refused.kind, 'refused');
+  assert.match(refused.text, /not admitted \(unknown token\)\. Ask the experimenter for a new join link/);
+  assert.doesNotMatch(refused.text, /Open the join link/);
+  assert.match(pageState({ role: 'participant', conn: { finalReason: 'superseded' } }).text, /opened in another tab/);
+  assert.match(pageState({ role: 'observer', conn: { finalReason: 'revoked', refusal: 'your access was revoked' } }).text,
+    /^Not logged in \(your access was revoked\)/);
+  assert.equal(pageState({ role: 'participant', joinError: 'This join link is not valid any more.' }).text,
+    'This join link is not valid any more.');
+});

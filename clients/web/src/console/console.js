@@ -11,13 +11,13 @@
 // URL: console.html[?ws=ws://host:port/ws][#session=ID][#login=CODE]. Test hook: window.__console.
 
 import { Api } from './api.js';
-import { h, fill, say } from './dom.js';
+import { h, fill, fillOnChange, say } from './dom.js';
 import { AnswerForm, changedAnswers, fieldFor, missingAnswers, questionsFor } from './answers.js';
 import { formatAnswers, formatParams, progress, queueRows, renderQueue, trialBySeq, trialName } from './queue.js';
 import { LivePanels } from './live.js';
 import { renderHealth } from './health.js';
 import { TokenStore, redeemFragment, whoText } from '../auth.js';
-import { leaseView, leaseSummary, renderLease, renewIntervalMs } from './lease.js';
+import { closedWarning, leaseView, leaseSummary, releaseWarning, renderLease, renewIntervalMs } from './lease.js';
 import { auditRows, renderAudit } from './audit.js';
 import { DevicesCard } from './devices.js';
 import { ScenarioCard } from './scenario.js';
@@ -25,7 +25,8 @@ import { BUTTONS, consoleWords } from './words.js';
 
 const REFRESH_MS = 2000;
 const SESSIONS_REFRESH_MS = 10000;
-const PARTICIPANT_CODE = /^[A-Za-z0-9_-]{1,32}$/;
+// The server's rule (server/experiment/participant.py): a pseudonymous code with a digit, never a name.
+const PARTICIPANT_CODE = /^(?=[^0-9]*[0-9])[A-Za-z0-9_-]{1,32}$/;
 const $ = (id) => document.getElementById(id);
 
 const store = new TokenStore();
@@ -33,6 +34,7 @@ const api = new Api({ bearer: () => store.token });
 const state = {
   identity: null, // GET /api/auth/me
   lease: null, // the last snapshot (GET /api/lease or the `lease` message)
+  leaseWarning: null, // the open participant session was closed mid-trial (lease.js closedWarning)
   join: null, // the last join link made here
   loginShown: false,
   studies: [],
@@ -84,17 +86,23 @@ const inControl = () => state.control === 'yes';
 async function act(msgEl, fn, okText = '') {
   say(msgEl, '');
   state.busy++;
+  renderRun();
+  let out;
+  let done = false;
   try {
-    const out = await fn();
-    if (okText) say(msgEl, typeof okText === 'function' ? okText(out) : okText, 'ok');
+    out = await fn();
+    done = true;
     return out;
   } catch (e) {
     say(msgEl, consoleWords(e.message ?? String(e)), 'error');
     if (sessionRefusal(e)) lostControl(e.detail);
     return undefined;
   } finally {
+    await refresh(); // still busy: no periodic refresh overtakes this one, so the new state is drawn
     state.busy--;
-    await refresh();
+    renderRun();
+    // said once the server's new state is drawn, never beside the old one
+    if (done && okText) say(msgEl, typeof okText === 'function' ? okText(out) : okText, 'ok');
   }
 }
 
@@ -221,9 +229,8 @@ async function createSession(ev) {
   const participant = $('participant').value.trim();
   if (!state.studyId) return say(msg, 'Choose a study first.', 'error');
   if (!PARTICIPANT_CODE.test(participant)) {
-    return say(msg, /\s/.test(participant)
-      ? 'The participant code must not be a name: use a pseudonymous code such as P07 (letters, digits, - and _).'
-      : 'Give a participant code of 1-32 letters, digits, - or _ (e.g. P07).', 'error');
+    return say(msg, 'The participant code must not be a name: use a pseudonymous code of 1-32 letters, digits, '
+      + '- or _ with at least one digit, such as P07.', 'error');
   }
   if (!experimenter()) {
     $('experimenter').focus();
@@ -393,23 +400,28 @@ function renderRun() {
   const running = s && s.running !== null ? trialBySeq(s, s.running) : null;
   const next = s && s.next !== null ? trialBySeq(s, s.next) : null;
   const now = $('run-now');
-  if (!s) fill(now, 'open or create a session');
+  // rebuilt only when the trial changes; the running clock ticks in place
+  if (!s) fillOnChange(now, 'none', () => 'open or create a session');
   else if (running) {
     const e = elapsed(running);
     const limit = running.duration_s;
     const over = limit && e > limit;
-    fill(now, h('div', {}, h('span', { class: 'c-badge', dataset: { status: 'running' } }, 'running'), ' ',
-      h('strong', {}, trialName(running))),
-    h('div', { class: 'c-muted' }, formatParams(running.params) || 'no trial parameters'),
-    h('div', { class: over ? 'c-timer c-over' : 'c-timer' }, `${fmtClock(e)}${limit ? ` of ${fmtClock(limit)}` : ''}`,
-      over ? ' — time is up' : ''));
+    fillOnChange(now, JSON.stringify(['running', running.seq, running.attempt, trialName(running), running.params]),
+      () => [h('div', {}, h('span', { class: 'c-badge', dataset: { status: 'running' } }, 'running'), ' ',
+        h('strong', {}, trialName(running))),
+      h('div', { class: 'c-muted' }, formatParams(running.params) || 'no trial parameters'),
+      h('div', { class: 'c-timer', id: 'run-timer' })]);
+    const timer = $('run-timer');
+    timer.className = over ? 'c-timer c-over' : 'c-timer';
+    timer.textContent = `${fmtClock(e)}${limit ? ` of ${fmtClock(limit)}` : ''}${over ? ' — time is up' : ''}`;
   } else if (next) {
-    fill(now, h('div', {}, h('span', { class: 'c-badge', dataset: { status: 'pending' } }, 'next'), ' ',
-      h('strong', {}, trialName(next))), h('div', { class: 'c-muted' }, formatParams(next.params) || 'no trial parameters'));
+    fillOnChange(now, JSON.stringify(['next', next.seq, trialName(next), next.params]), () => [
+      h('div', {}, h('span', { class: 'c-badge', dataset: { status: 'pending' } }, 'next'), ' ',
+        h('strong', {}, trialName(next))), h('div', { class: 'c-muted' }, formatParams(next.params) || 'no trial parameters')]);
   } else {
-    fill(now, 'No pending trial: the session is complete.');
+    fillOnChange(now, 'complete', () => 'No pending trial: the session is complete.');
   }
-  const canRun = inControl();
+  const canRun = inControl() && !state.busy; // an action on its way: the buttons wait for the server's answer
   $('start').disabled = !canRun || !next || !!running;
   $('start').textContent = next ? `Start #${next.seq}` : 'Start next';
   $('finish').disabled = !canRun || !running;
@@ -436,10 +448,15 @@ function renderTrial() {
   $('exclude-actions').hidden = true;
   if (!t) {
     $('trial-title').textContent = 'Trial';
-    fill($('trial-meta'), s ? 'Select a trial in the queue.' : '');
+    fillOnChange($('trial-meta'), s ? 'select' : 'none', () => (s ? 'Select a trial in the queue.' : ''));
     $('trial-instructions').hidden = true;
     form.clear();
     return;
+  }
+  const shown = `${state.sessionId}:${t.seq}:${t.attempt}`;
+  if (state.trialShown !== shown) { // another trial: the last one's messages do not apply to it
+    state.trialShown = shown;
+    for (const id of ['answers-msg', 'trial-msg']) say($(id), '');
   }
   $('trial-title').textContent = trialName(t);
   const study = studyOfSession();
@@ -455,11 +472,11 @@ function renderTrial() {
     t.reason ? ['reason', t.reason] : null,
     Object.keys(t.metrics ?? {}).length ? ['metrics', formatAnswers(t.metrics)] : null,
   ].filter(Boolean);
-  fill($('trial-meta'), h('dl', {}, meta.map(([k, v]) => [h('dt', {}, k), h('dd', {}, v)])));
-  if (study && s.study_hash && study.source_hash !== s.study_hash) {
-    $('trial-meta').append(h('p', { class: 'c-warn' },
-      'The study file has changed since this session was created; the questions shown are today\'s.'));
-  }
+  const changed = study && s.study_hash && study.source_hash !== s.study_hash;
+  fillOnChange($('trial-meta'), JSON.stringify([shown, t.status, t.params, t.started_utc, t.ended_utc, t.reason, t.metrics,
+    t.scenario, t.duration_s, changed]), () => [h('dl', {}, meta.map(([k, v]) => [h('dt', {}, k), h('dd', {}, v)])),
+    changed ? h('p', { class: 'c-warn' },
+      'The study file has changed since this session was created; the questions shown are today\'s.') : null]);
   $('trial-instructions').hidden = !task?.instructions;
   $('instructions-text').textContent = task?.instructions?.trim() ?? '';
 
@@ -670,6 +687,10 @@ function onLogout() {
 }
 
 function setLease(snapshot) {
+  const running = state.session?.running ?? null;
+  const closed = closedWarning(state.lease, snapshot, state.sessionId, running);
+  if (closed) state.leaseWarning = closed; // stays until a session is open again or the trial ended
+  else if (snapshot?.session || running === null) state.leaseWarning = null;
   state.lease = snapshot;
   renderLeaseCard();
   scheduleRenew();
@@ -693,7 +714,7 @@ function renderLeaseCard() {
   if (!state.identity || !state.lease) fill($('lease'), h('div', { class: 'c-muted' }, 'log in to see who controls the rig'));
   else renderLease($('lease'), view, {
     request: onLeaseRequest, release: onLeaseRelease, forceRelease: onForceRelease, handOver: onHandOver,
-  });
+  }, state.leaseWarning);
   const sum = $('lease-summary');
   sum.textContent = state.lease ? leaseSummary(view) : 'Rig control: unknown';
   renderControl();
@@ -747,6 +768,8 @@ function onLeaseRequest() {
 }
 
 function onLeaseRelease() {
+  const warning = releaseWarning(state.lease, state.sessionId, state.session?.running ?? null);
+  if (warning && !window.confirm(warning)) return undefined;
   return leaseAct(() => api.releaseLease(), 'Released.');
 }
 

@@ -42,3 +42,14 @@ export function say(el, text, kind = 'info') {
   el.textContent = text ?? '';
   el.dataset.kind = text ? kind : '';
 }
+
+/**
+ * fill(el, ...build()) only when `sig` (what the content says) differs from what `el` shows: a
+ * periodically refreshed part is not rebuilt under the user's pointer. True when it was rebuilt.
+ */
+export function fillOnChange(el, sig, build) {
+  if (el.dataset.sig === sig) return false;
+  el.dataset.sig = sig;
+  fill(el, ...[build()].flat());
+  return true;
+}

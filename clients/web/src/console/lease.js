@@ -89,14 +89,52 @@ function fmtS(s) {
 }
 
 /**
- * Draw the lease card into `el` (DOM). `on` = {request, release, leave, forceRelease, handOver(tokenId)}.
+ * Releasing would close the open participant session while one of its trials runs: the words of
+ * the warning before (null: nothing to warn about). `runningSeq`: the running trial of the
+ * session this console has open (null: none), `sessionId` that session.
  */
-export function renderLease(el, view, on) {
+export function releaseWarning(lease, sessionId, runningSeq) {
+  const open = lease?.session ?? null;
+  if (!open || open !== sessionId || runningSeq === null || runningSeq === undefined) return null;
+  return `Releasing closes participant session ${open} while trial #${runningSeq} runs: the participant's page `
+    + 'stops driving and cannot answer until the session is opened again (Create join link). Release anyway?';
+}
+
+/** The participant session the lease had open was closed while a trial of it ran: the card's words. */
+export function closedWarning(before, after, sessionId, runningSeq) {
+  const was = before?.session ?? null;
+  if (!was || was === (after?.session ?? null) || was !== sessionId) return null;
+  if (runningSeq === null || runningSeq === undefined) return null;
+  return `Participant session ${was} was closed while trial #${runningSeq} runs: the participant waits and cannot `
+    + 'answer. To reopen it, hold the lease (Request control) and create a join link for it again.';
+}
+
+/** What the card shows, without the seconds that tick: it is drawn again only when this changes. */
+function cardSignature(view, warning) {
+  return JSON.stringify({ ...view, holder: view.holder && { ...view.holder, remainingS: null }, warning });
+}
+
+const expiresText = (holder) => (holder?.remainingS !== null && holder?.remainingS !== undefined
+  ? ` · expires in ${fmtS(holder.remainingS)} unless renewed` : '');
+
+/**
+ * Draw the lease card into `el` (DOM). `on` = {request, release, leave, forceRelease, handOver(tokenId)}.
+ * The card is built again only when what it says changes (a button that is replaced under a click
+ * is lost); the expiry countdown is updated in place. `warning`: a participant session closed mid-trial.
+ */
+export function renderLease(el, view, on, warning = null) {
+  const sig = cardSignature(view, warning);
+  if (el.dataset.sig === sig) {
+    const exp = el.querySelector('#lease-expires');
+    if (exp) exp.textContent = expiresText(view.holder);
+    return;
+  }
+  el.dataset.sig = sig;
   const holder = view.holder
     ? h('div', { class: 'c-lease-holder', dataset: { mine: view.holder.mine ? 'yes' : 'no' } },
       h('span', { class: 'c-muted' }, 'holder '), h('strong', { id: 'lease-holder' }, view.holder.who),
       view.holder.mine ? ' (you)' : '',
-      view.holder.remainingS !== null ? h('span', { class: 'c-muted' }, ` · expires in ${fmtS(view.holder.remainingS)} unless renewed`) : null)
+      h('span', { class: 'c-muted', id: 'lease-expires' }, expiresText(view.holder)))
     : h('div', { class: 'c-lease-holder' }, h('strong', { id: 'lease-holder' }, 'nobody'),
       h('span', { class: 'c-muted' }, ' holds the lease'));
   const queue = view.queue.length
@@ -114,5 +152,6 @@ export function renderLease(el, view, on) {
   ].filter(Boolean);
   fill(el, holder, queue,
     view.session ? h('div', { class: 'c-muted' }, 'participant session open: ', h('code', {}, view.session)) : null,
+    warning ? h('div', { class: 'c-warn', id: 'lease-warning', role: 'alert' }, warning) : null,
     buttons.length ? h('div', { class: 'c-actions' }, buttons) : null);
 }

@@ -226,7 +226,9 @@ export function drawTrajectory(ctx, samples, view, { width, height, now, windowS
   if (!samples.length) {
     ctx.textBaseline = 'middle';
     ctx.textAlign = 'center';
-    ctx.fillText('no HIP samples in the last 10 s', width / 2, height / 2);
+    // two short lines: one long one was cut off on a plot narrower than it
+    ctx.fillText('no HIP samples', width / 2, height / 2 - 7);
+    ctx.fillText('in the last 10 s', width / 2, height / 2 + 7);
   }
   ctx.textBaseline = 'alphabetic';
   return bounds;
