@@ -7,8 +7,9 @@
 // token (`setToken`), with one exception: a refusal because the hello came after the server's
 // grace period (its message says "no hello …"; a loaded machine can be that slow) is retried with
 // the stored token, at most AUTH_RETRIES times in a row, with the same backoff. A close whose
-// reason says the token is dead (`revoked`, `expired`) or that another tab took over
-// (`superseded`) is final at once.
+// reason says the token is dead (`revoked`, `expired`) is final at once. A participant connection
+// told `session_taken` (another tab or device of its session drives now) stays open and only
+// watches until its next welcome (a reload takes the session back).
 
 import * as protocol from './protocol.js';
 
@@ -22,12 +23,11 @@ const LATE_HELLO = /\bno hello\b/i;
 export const FINAL_CLOSE_REASONS = {
   revoked: 'your access was revoked',
   expired: 'your access has expired',
-  superseded: 'this page was opened in another tab, which now takes part instead',
 };
 
 /** The final close reason named by a close event's reason text (null: none of them). */
 export function finalCloseReason(reason) {
-  const m = /^\s*(revoked|expired|superseded)\b/i.exec(String(reason ?? ''));
+  const m = /^\s*(revoked|expired)\b/i.exec(String(reason ?? ''));
   return m ? m[1].toLowerCase() : null;
 }
 
@@ -79,6 +79,7 @@ export class Connection {
     this.authRetries = 0; // refusals retried since the last welcome
     this.finalReason = null; // why the page was refused for good (FINAL_CLOSE_REASONS key, 'unauthorized')
     this.refusal = null; // … in words
+    this.watchOnly = false; // told `session_taken`: another connection of the session drives
   }
 
   /** The token hello carries (a function is asked at each connect, so a new login applies). */
@@ -141,7 +142,7 @@ export class Connection {
 
   /** Whether this connection may send tracker/input (observers may not); the server's role wins. */
   get canSend() {
-    return (this.welcome?.role ?? this.role) !== 'observer';
+    return (this.welcome?.role ?? this.role) !== 'observer' && !this.watchOnly;
   }
 
   /**
@@ -209,6 +210,7 @@ export class Connection {
     switch (msg.type) {
       case 'welcome':
         this.welcome = msg;
+        this.watchOnly = false; // a new welcome takes the session (the server tells the other one)
         this.attempt = 0;
         this.authRetries = 0;
         this.unauthorized = null;
@@ -232,6 +234,7 @@ export class Connection {
         break;
       case 'error':
         if (msg.code === 'unauthorized') this.unauthorized = msg.message ?? 'unauthorized';
+        if (msg.code === 'session_taken') this.watchOnly = true;
         this.onError(msg, 'server');
         break;
       default:

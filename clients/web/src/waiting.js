@@ -11,10 +11,12 @@ const FORBIDDEN_HOLD_MS = 3000; // the server repeats a refusal at most once a s
  * last forbidden error and the last lease message came.
  */
 export function waitingState({ role, identity, lease = null, leaseAt = -Infinity, forbiddenAt = -Infinity,
-  nowMs = 0 } = {}) {
+  nowMs = 0, ask = null } = {}) {
   if (role === 'observer' || !identity) return { waiting: false, reason: '' };
   let leaseSays = null; // true: may drive, false: may not, null: no lease message yet
-  if (lease) {
+  if (identity.role === 'participant' && Number.isInteger(ask?.seq)) {
+    leaseSays = true; // its session's trial runs: that is its permission, whoever holds the lease
+  } else if (lease) {
     if (identity.role === 'participant') leaseSays = !!identity.session && lease.session === identity.session;
     else leaseSays = !!lease.holder && lease.holder.token_id === identity.token_id;
   }
@@ -32,8 +34,9 @@ export function waitingState({ role, identity, lease = null, leaseAt = -Infinity
 
 /**
  * The one state the page shows over the scene, in one place (the lead adapts the words here):
- * {kind, text, showQuestion}. kind: 'refused' (for good: a dead token, a used-up join link, another
- * tab took over) | 'reconnecting' | 'waiting' | '' (nothing: the page is live). The participant's
+ * {kind, text, showQuestion}. kind: 'refused' (for good: a dead token, a used-up join link) |
+ * 'taken' (another tab or device of the session drives: the server said `session_taken`) |
+ * 'reconnecting' | 'waiting' | '' (nothing: the page is live). The participant's
  * question and the scene's HUD text show only when nothing else does, so a page never says
  * "Trial 4: which angle…" and "Waiting for the experimenter" at once.
  *
@@ -48,9 +51,7 @@ export function pageState({ role, identity = null, lease = null, leaseAt = -Infi
   if (conn.finalReason) {
     const why = conn.refusal ?? conn.finalReason;
     let text;
-    if (conn.finalReason === 'superseded') {
-      text = 'This page was opened in another tab, which takes part now; this one has stopped. You can close it.';
-    } else if (participant) {
+    if (participant) {
       text = `This page is not admitted (${why}). Ask the experimenter for a new join link (each join link works once).`;
     } else {
       text = `Not logged in (${why}). Log in at the console (console.html), then reload.`;
@@ -60,12 +61,12 @@ export function pageState({ role, identity = null, lease = null, leaseAt = -Infi
   const down = ['reconnecting', 'closed', 'failed'].includes(conn.status)
     || (conn.status === 'connecting' && (conn.attempt ?? 0) > 0);
   if (down) return { kind: 'reconnecting', text: 'Connection lost: reconnecting…', showQuestion: false };
-  const w = waitingState({ role, identity, lease, leaseAt, forbiddenAt, nowMs });
-  if (!w.waiting) return { kind: '', text: '', showQuestion: true };
-  if (identity?.role === 'participant' && Number.isInteger(ask?.seq)) {
-    return { kind: 'waiting', showQuestion: false, text: `Waiting for the experimenter: your session is paused `
-      + `while trial ${ask.seq} runs. It goes on when the experimenter reopens your session.` };
+  if (conn.watchOnly) {
+    return { kind: 'taken', showQuestion: false, text: 'This session was opened in another tab or on another '
+      + 'device, which takes part now; this page only watches. Reload it to take part here again.' };
   }
+  const w = waitingState({ role, identity, lease, leaseAt, forbiddenAt, nowMs, ask });
+  if (!w.waiting) return { kind: '', text: '', showQuestion: true };
   if (identity?.role === 'participant' && admittedBefore) {
     return { kind: 'waiting', showQuestion: false,
       text: 'Waiting for the experimenter: your session was closed for now; it goes on when it is reopened.' };

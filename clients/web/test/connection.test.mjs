@@ -301,7 +301,22 @@ describe('access token', () => {
     assert.equal(c.authRetries, 0);
   });
 
-  for (const reason of ['revoked', 'expired', 'superseded']) {
+  test('a session_taken error makes the connection watch only until its next welcome', () => {
+    const { c } = make({ token: 't' });
+    c.connect();
+    const ws = FakeSocket.instances[0];
+    ws.open();
+    ws.receive(WELCOME);
+    assert.equal(c.canSend, true);
+    ws.receive({ type: 'error', code: 'session_taken', message: 'another tab drives' });
+    assert.equal(c.watchOnly, true);
+    assert.equal(c.canSend, false);
+    assert.equal(c.sendTracker([0, 0.2, 0.9]), false);
+    ws.receive(WELCOME);
+    assert.equal(c.canSend, true);
+  });
+
+  for (const reason of ['revoked', 'expired']) {
     test(`a close 1008 '${reason}' is final and said in words`, () => {
       const { c } = make({ token: 't' });
       const why = [];

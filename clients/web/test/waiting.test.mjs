@@ -41,12 +41,11 @@ test('pageState: one state at a time, the question only when nothing else shows'
   const open = lease('free-ab12');
   const live = pageState({ role: 'participant', identity: P, lease: open, leaseAt: 0, nowMs: 10, conn: { status: 'ready' } });
   assert.deepStrictEqual(live, { kind: '', text: '', showQuestion: true });
-  // the session closed while trial 4 runs: waiting, and says which trial waits; no question
-  const paused = pageState({ role: 'participant', identity: P, lease: lease(null), leaseAt: 0, nowMs: 10,
+  // the lease holder's session closed while trial 4 runs: the running trial is the participant's
+  // permission (docs/security.md), so the page stays live with its question
+  const running = pageState({ role: 'participant', identity: P, lease: lease(null), leaseAt: 0, nowMs: 10,
     conn: { status: 'ready' }, ask: { seq: 4 } });
-  assert.equal(paused.kind, 'waiting');
-  assert.equal(paused.showQuestion, false);
-  assert.match(paused.text, /Waiting for the experimenter.*trial 4/);
+  assert.deepStrictEqual(running, { kind: '', text: '', showQuestion: true });
   assert.match(pageState({ role: 'participant', identity: P, lease: lease(null), conn: { status: 'ready' },
     admittedBefore: true }).text, /Waiting for the experimenter: your session was closed/);
   // the connection is down: reconnecting, not waiting
@@ -60,7 +59,15 @@ test('pageState: one state at a time, the question only when nothing else shows'
   assert.equal(refused.kind, 'refused');
   assert.match(refused.text, /not admitted \(unknown token\)\. Ask the experimenter for a new join link/);
   assert.doesNotMatch(refused.text, /Open the join link/);
-  assert.match(pageState({ role: 'participant', conn: { finalReason: 'superseded' } }).text, /opened in another tab/);
+  // another tab of the session drives (session_taken): this one says so and only watches
+  const taken = pageState({ role: 'participant', identity: { role: 'participant', session: 's1' },
+    lease: { session: 's1' }, conn: { status: 'ready', watchOnly: true } });
+  assert.equal(taken.kind, 'taken');
+  assert.match(taken.text, /opened in another tab/);
+  assert.equal(taken.showQuestion, false);
+  // its session's trial runs: it may drive whoever holds the lease (no lockout, docs/security.md)
+  assert.equal(pageState({ role: 'participant', identity: { role: 'participant', session: 's1' },
+    lease: { session: null, holder: null }, ask: { seq: 3 }, conn: { status: 'ready' } }).kind, '');
   assert.match(pageState({ role: 'observer', conn: { finalReason: 'revoked', refusal: 'your access was revoked' } }).text,
     /^Not logged in \(your access was revoked\)/);
   assert.equal(pageState({ role: 'participant', joinError: 'This join link is not valid any more.' }).text,
