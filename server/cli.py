@@ -222,8 +222,8 @@ def _devices(args: argparse.Namespace) -> int:
         except DeviceConfigError as exc:
             print(f"viestac devices: {exc}", file=sys.stderr)
             return 2
-        report["configured"] = [{"name": c.name, "model": c.profile.model, "port": str(c.port),
-                                 "resolves_to": resolve(c.port), "table_2_2": c.profile.table_row()} for c in configs]
+        report["configured"] = [{"name": c.name, "model": c.profile.model, "port": c.where,
+                                 "resolves_to": resolve(c.port) if c.port is not None else None, "table_2_2": c.profile.table_row()} for c in configs]
     try:
         report["server"] = fetch_json(f"{args.server.rstrip('/')}/api/devices", timeout=2.0, token=args.token)
     except ServerError as exc:
