@@ -269,6 +269,10 @@ def _emulate(args: argparse.Namespace) -> int:
         from server.tracking.leap_emulator import main as leap_main
 
         return leap_main(args.rest[1:])
+    if args.rest[:1] == ["audio"]:  # a JACK dummy server and a capture (devices/audio/emulator.py)
+        from devices.audio.emulator import main as audio_main
+
+        return audio_main(args.rest[1:])
     from devices.emulator import main as emulate_main
 
     return emulate_main(args.rest)
@@ -663,7 +667,7 @@ def build_parser() -> argparse.ArgumentParser:
                             "(repeatable; default the primary point right.index.tip; docs/devices.md)")
     serve.add_argument("--rig", default="fingertac,ferrovibe", metavar="MODEL[,MODEL...]",
                        help="the simulated rig's emulated devices (default fingertac,ferrovibe; devkit adds "
-                            "temperature and friction)")
+                            "temperature and friction; audio a voice-coil tactor on a JACK dummy server)")
     serve.add_argument("--data-dir", default=os.environ.get("VIESTAC_DATA", "data"),
                        help="where the experiment database lives (default: $VIESTAC_DATA or ./data)")
     serve.add_argument("--studies", default=str(STUDIES_DIR), help="the directory of study files (*.toml)")
