@@ -494,6 +494,15 @@ def _bench_link(args: argparse.Namespace) -> int:
     return _print_bench(result, args.json)
 
 
+def _bench_audio(args: argparse.Namespace) -> int:
+    if _without_extra("viestac bench audio", "audio"):
+        return 2
+    from server.bench.audio_bench import run_audio_bench
+
+    result = run_audio_bench(blocks=tuple(args.block or (32, 64, 128, 256)), cues=args.cues)
+    return _print_bench(result, args.json)
+
+
 def _bench_latency(args: argparse.Namespace) -> int:
     from server.bench.latency_bench import run_latency_bench
 
@@ -834,6 +843,13 @@ def build_parser() -> argparse.ArgumentParser:
     link.add_argument("--share", type=float, default=0.5, help="the host's share of the link (default 0.5)")
     link.add_argument("--json", action="store_true", help="print one JSON object")
     link.set_defaults(func=_bench_link)
+    audio = bench_sub.add_parser("audio", help="an audio tactor under a JACK dummy server: cue -> first sample of "
+                                               "the new waveform at the output port, per block size")
+    audio.add_argument("--block", type=int, action="append", default=None, metavar="FRAMES",
+                       help="block sizes (repeatable; default 32 64 128 256)")
+    audio.add_argument("--cues", type=int, default=1000, help="cues per block size (default 1000)")
+    audio.add_argument("--json", action="store_true", help="print one JSON object")
+    audio.set_defaults(func=_bench_audio, block=None)
     latency = bench_sub.add_parser("latency", help="tracker message sent -> device command written on an emulated "
                                                    "FerroVibe's pty, with N viewers at 60 Hz")
     latency.add_argument("--seconds", type=float, default=None,
