@@ -33,7 +33,7 @@ from server.core.cues import Cue
 from server.core.points import PRIMARY_POINT, check_point_name
 from devices.audio.config import AudioConfig, AudioConfigError
 from devices.audio.mapping import AudioCueEncoder
-from devices.audio.device import AudioDevice
+from devices.audio.device import AudioDevice, UnderrunsCounted
 from devices.encoder import CueEncoder, Refusal
 from devices.line_protocol import CommandRefused, DeviceLine, LineProtocol
 from devices.link import BYTE_TIME_S
@@ -290,6 +290,8 @@ class DeviceManager:
                         "too long; every layer is sent again", name, event.trips)
         elif isinstance(event, DeviceLine):
             log.debug("%s says: %s", name, event.text)
+        if isinstance(event, UnderrunsCounted):
+            self._notify()  # into the report: health shows it as a note
         if isinstance(event, StatusChanged):
             trouble = event.new in ("disconnected", "unresponsive", "bad_version", "refused") and event.reason != "stopped"
             level = logging.WARNING if trouble else logging.INFO
@@ -313,7 +315,11 @@ class DeviceManager:
 
     def report(self) -> dict:
         """What the hub and the loop need to know: refusals no device shows, and every status."""
-        return {"refusals": unshown_refusals(self.refusals, len(self.devices)), "status": self.status()}
+        report = {"refusals": unshown_refusals(self.refusals, len(self.devices)), "status": self.status()}
+        underruns = {name: d.driver.underruns for name, d in self.devices.items() if d.config.audio is not None}
+        if underruns:  # audio devices: the blocks their audio server called for too late
+            report["underruns"] = underruns
+        return report
 
     def status(self) -> dict[str, str]:
         return {name: d.driver.status for name, d in self.devices.items()}

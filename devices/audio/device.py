@@ -22,6 +22,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 from devices.audio.config import AudioConfig, AudioConfigError
@@ -29,11 +30,20 @@ from devices.audio.mapping import stimuli_for
 from devices.audio.synth import OFF, Stimulus
 from devices.audio.worker import EXIT_ABSENT, EXIT_REFUSED, EXIT_STOPPED, is_permanent
 from devices.protocol import StatusChanged
+from server import ipc
+from server.ipc.records import FROM_AUDIO_WORKER, AudioCounters, AudioStatus, AudioStimuli, Record, Stop
 
 log = logging.getLogger("viestac.devices")
 
 CONNECTED, CONNECTING, DISCONNECTED, REFUSED = "connected", "connecting", "disconnected", "refused"
 _ROOT = Path(__file__).resolve().parents[2]
+UNDERRUN_REPORT_S = 1.0  # underruns are announced at most this often (health shows them as a note)
+
+
+@dataclass(frozen=True)
+class UnderrunsCounted:
+    """The device's underrun count rose (announced at most every UNDERRUN_REPORT_S)."""
+    total: int
 
 
 class AudioDevice:
@@ -53,6 +63,7 @@ class AudioDevice:
         self.underruns = 0       # summed over the workers
         self._worker_underruns = 0
         self.next_sample = 0     # the worker's sample clock, as last reported
+        self._underruns_announced = (0, 0.0)  # (count, monotonic s) last announced
         self.status = CONNECTING
         self.last_error = ""
         self.warning: str | None = None
@@ -86,7 +97,7 @@ class AudioDevice:
                            max(0.0, deadline - time.monotonic())))
         self._running = False
         self._wake.set()
-        self._send(("stop",))
+        self._send(Stop())
         proc = self._proc
         if proc is not None:
             try:
@@ -118,19 +129,19 @@ class AudioDevice:
             generation = self.generation
             self.stimuli = stimuli
             self.submitted.append((generation, time.monotonic_ns()))
-            self._send_locked(("stimuli", generation, stimuli))
+            self._send_locked(AudioStimuli(generation, [s.to_wire() for s in stimuli]))
         return generation
 
-    def _send(self, message) -> None:
+    def _send(self, record: Record) -> None:
         with self._send_lock:
-            self._send_locked(message)
+            self._send_locked(record)
 
-    def _send_locked(self, message) -> None:
+    def _send_locked(self, record: Record) -> None:
         sock = self._sock
         if sock is None:
             return  # no worker now: the next one gets the newest stimuli when it starts
         try:
-            sock.send(pickle.dumps(message))
+            sock.send(ipc.pack(record))
         except OSError:
             pass  # the worker is gone; the supervisor sees it exit
 
@@ -186,7 +197,8 @@ class AudioDevice:
         proc.stdin.close()
         with self._send_lock:
             self._sock = mine
-            self._send_locked(("stimuli", self.generation, self.stimuli))  # where the last worker left off
+            # where the last worker left off
+            self._send_locked(AudioStimuli(self.generation, [s.to_wire() for s in self.stimuli]))
         self._worker_underruns = 0
         try:
             while True:
@@ -196,7 +208,10 @@ class AudioDevice:
                     data = b""
                 if not data:
                     break
-                self._on_message(pickle.loads(data))  # from our own child: trusted
+                try:
+                    self._on_record(ipc.unpack(data, FROM_AUDIO_WORKER))
+                except ValueError:
+                    log.exception("%s: bad record from the audio worker %r", self.name, data[:80])
         finally:
             with self._send_lock:
                 self._sock = None
@@ -208,9 +223,9 @@ class AudioDevice:
             self._set_status(DISCONNECTED, f"the audio worker exited with {code}")
         return code
 
-    def _on_message(self, message: tuple) -> None:
-        if message[0] == "status":
-            _, status, reason = message
+    def _on_record(self, record: Record) -> None:
+        if type(record) is AudioStatus:
+            status, reason = record.status, record.reason
             if status == CONNECTED:
                 self.connects += 1
                 self.last_error = ""
@@ -224,12 +239,18 @@ class AudioDevice:
                     log.error("%s: refused: %s", self.name, reason)
                 self.last_error = reason
             self._set_status(status, reason)
-        elif message[0] == "counters":
-            _, blocks, underruns, next_sample, took = message
+        elif type(record) is AudioCounters:
+            blocks, underruns, next_sample = record.blocks, record.underruns, record.next_sample
+            took = [tuple(t) for t in record.took]
             self.underruns += underruns - self._worker_underruns
             self._worker_underruns = underruns
             self.blocks, self.next_sample = blocks, next_sample
             self.took.extend(took)
+            announced, at = self._underruns_announced
+            now = time.monotonic()
+            if self.underruns > announced and now - at >= UNDERRUN_REPORT_S and self.on_event is not None:
+                self._underruns_announced = (self.underruns, now)
+                self.on_event(self.name, UnderrunsCounted(self.underruns))
 
     def _set_status(self, new: str, reason: str) -> None:
         old, self.status = self.status, new

@@ -29,7 +29,7 @@ second (amplitude/(ramp·rate) per sample), which the tests check.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -69,11 +69,20 @@ class Stimulus:
         if self.duration is not None and self.duration < 1:
             raise ValueError(f"stimulus duration must be >= 1 sample, got {self.duration!r}")
 
+    def to_wire(self) -> dict:
+        """The stimulus as a plain map (the audio worker's records, server/ipc/records.py)."""
+        return {f: getattr(self, f) for f in _FIELDS}
+
+    @classmethod
+    def from_wire(cls, body: dict) -> Stimulus:
+        return cls(**{f: body[f] for f in _FIELDS if f in body})
+
     @property
     def silent(self) -> bool:
         return self.shape == "off" or (self.amplitude == 0 and not self.to_amplitude)
 
 
+_FIELDS = tuple(f.name for f in fields(Stimulus))
 OFF = Stimulus()
 
 

@@ -2,12 +2,9 @@
 
 Started by the device host's AudioDevice (devices/audio/device.py) as
 `python -m devices.audio.worker --fd N` with the pickled AudioConfig on stdin; N is its end of a
-SEQPACKET socket pair. Messages are pickled tuples (parent and child are the same program):
-
-- host → worker: `("stimuli", generation, (Stimulus, …))` one per output channel, the newest wins;
-  `("stop",)`.
-- worker → host: `("status", status, reason)`; `("counters", blocks, underruns, next_sample,
-  [(generation, first sample), …])` every 50 ms and after a hand-over.
+SEQPACKET socket pair. Its records (server/ipc/records.py, docs/architecture.md "The mailbox"):
+`AudioStimuli` (every output channel's newest stimulus) and `Stop` from the host; `AudioStatus`
+and `AudioCounters` (every 50 ms and after a hand-over) to it.
 
 A receiving thread publishes each stimuli message to the stream's single slot. The main thread
 watches the stream: when it stops (the audio server died: the callbacks cease and PortAudio marks
@@ -20,6 +17,7 @@ there: is its server running?).
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import pickle
 import socket
@@ -29,6 +27,11 @@ import time
 
 from devices.audio.config import AudioConfigError
 from devices.audio.shell import AudioOutput, portaudio
+from devices.audio.synth import Stimulus
+from server import ipc
+from server.ipc.records import TO_AUDIO_WORKER, AudioCounters, AudioStatus, AudioStimuli, Record, Stop
+
+log = logging.getLogger("viestac.devices")
 
 EXIT_STOPPED, EXIT_DIED, EXIT_REFUSED, EXIT_ABSENT = 0, 3, 4, 5
 PERMANENT = ("channel ", "unsupported sample rate", "the calibration")
@@ -40,27 +43,27 @@ def is_permanent(message: str) -> bool:
 
 
 def run(config, sock: socket.socket, *, stall_s: float = 1.5) -> int:
-    def send(*message) -> None:
+    def send(record: Record) -> None:
         try:
-            sock.send(pickle.dumps(message))
+            sock.send(ipc.pack(record))
         except OSError:
             pass
 
     problems = config.check()
     if problems:
-        send("status", "refused", "; ".join(problems))
+        send(AudioStatus("refused", "; ".join(problems)))
         return EXIT_REFUSED
     output = AudioOutput(config)
     try:
         output.open(portaudio(config.jack_server))
     except AudioConfigError as exc:
-        send("status", "refused", str(exc))
+        send(AudioStatus("refused", str(exc)))
         return EXIT_REFUSED if is_permanent(str(exc)) else EXIT_ABSENT
     except Exception as exc:  # noqa: BLE001 - PortAudio's own errors: the output is not usable now
-        send("status", "refused", f"cannot open {config.describe()}: {exc}")
+        send(AudioStatus("refused", f"cannot open {config.describe()}: {exc}"))
         return EXIT_ABSENT
-    send("status", "connected", f"streaming to {output.device_name} at {config.sample_rate} Hz, "
-                                f"{config.block}-frame blocks")
+    send(AudioStatus("connected", f"streaming to {output.device_name} at {config.sample_rate} Hz, "
+                                  f"{config.block}-frame blocks"))
     stopping = threading.Event()
     kick = threading.Event()
 
@@ -72,12 +75,15 @@ def run(config, sock: socket.socket, *, stall_s: float = 1.5) -> int:
                 data = b""
             if not data:
                 break
-            message = pickle.loads(data)  # from our parent: trusted
-            if message[0] == "stimuli":
-                output.publish(message[1], message[2])
-                kick.set()
-            elif message[0] == "stop":
-                break
+            try:
+                record = ipc.unpack(data, TO_AUDIO_WORKER)
+                if type(record) is Stop:
+                    break
+                if type(record) is AudioStimuli:
+                    output.publish(record.generation, tuple(Stimulus.from_wire(s) for s in record.stimuli))
+                    kick.set()
+            except (ValueError, TypeError):  # a bad record is reported and survived
+                log.exception("audio worker: bad record %r", data[:80])
         stopping.set()
         kick.set()
 
@@ -92,11 +98,11 @@ def run(config, sock: socket.socket, *, stall_s: float = 1.5) -> int:
         if output.blocks != last_blocks:
             last_blocks, last_change = output.blocks, now
         elif now - last_change > stall_s or not output.alive:
-            send("status", "disconnected", f"no audio callback for {now - last_change:.2f} s: the audio server "
-                                           "stopped or the output is gone")
+            send(AudioStatus("disconnected", f"no audio callback for {now - last_change:.2f} s: the audio server "
+                                             "stopped or the output is gone"))
             return EXIT_DIED
         count, took = output.took_since(count)
-        send("counters", output.blocks, output.underruns, output.synth.sample, took)
+        send(AudioCounters(output.blocks, output.underruns, output.synth.sample, [list(t) for t in took]))
     # a stop: the host sent silence first and waited for its release
     try:
         output.stream.stop()

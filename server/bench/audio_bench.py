@@ -51,7 +51,11 @@ def measure_block(block: int, cues: int) -> dict:
         time.sleep(0.2)
         latencies_ms = []
         quiet_frames = int(0.004 * RATE) + 2 * block  # the release ramp and two blocks
-        for _ in range(cues):
+        attempts = 0
+        while len(latencies_ms) < cues:
+            attempts += 1
+            if attempts > 3 * cues:
+                raise RuntimeError(f"bench audio: only {len(latencies_ms)} of {attempts} cues started from silence")
             device.set_commands(OFF)
             start = capture.frames
             _wait(lambda start=start: capture.frames > start + quiet_frames, 5.0, "silence")
@@ -78,6 +82,7 @@ def measure_block(block: int, cues: int) -> dict:
                 latencies_ms.append((t - t0) / 1e6)
         latencies_ms.sort()
         return {"block": block, "block_ms": round(block / RATE * 1000, 3), "cues": len(latencies_ms),
+                "skipped": attempts - len(latencies_ms),
                 **tail(latencies_ms, "latency_", "_ms"), "underruns": device.underruns}
     finally:
         if device is not None:
