@@ -21,7 +21,7 @@ import threading
 from pathlib import Path
 
 from devices.audio.capture import Capture, Timeline
-from devices.audio.jack_server import JackServer, jack_module, unique_name
+from devices.audio.jack_server import JackError, JackServer, jack_module, unique_name
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -47,7 +47,14 @@ def main(argv: list[str] | None = None) -> int:
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: done.set())
     server = JackServer(args.server or unique_name("viestac-audio"), rate=args.rate, period=args.period,
-                        outputs=args.outputs).start()
+                        outputs=args.outputs)
+    for attempt in range(20):  # a restart: the last server of this name may still be shutting down
+        try:
+            server.start()
+            break
+        except JackError:
+            if attempt == 19 or done.wait(0.5):
+                raise
     capture = timeline = None
     try:
         capture = Capture(server.name, args.outputs, seconds=10.0).start()

@@ -111,15 +111,16 @@ def test_the_audio_server_dying_mid_trial_degrades_health_until_it_is_back():
         wait_until(lambda: server.get("/api/health")["status"] == "ok", 30.0, "health ok")
         info = server.get("/api/devices")["simulated_rig"]["emulators"]["audio"]
         os.kill(info["pid"], signal.SIGKILL)  # the emulator, and with it its JACK server
-        health = wait_until(lambda: (h := server.get("/api/health"))["status"] == "degraded" and h, 10.0,
-                            "health degraded")
-        assert "device_missing" in {r["code"] for r in health["reasons"]}
+        health = wait_until(lambda: (h := server.get("/api/health"))["status"] == "degraded" and "device_missing" in
+                            {r["code"] for r in h["reasons"]} and h, 10.0, "health degraded: device_missing")
+        assert any("audio" in r["message"] for r in health["reasons"] if r["code"] == "device_missing")
         assert audio_device(server)["status"] == "disconnected"
         link = Path(info["link"])
         emulator = subprocess.Popen(emulator_command("audio", link, Path(info["timeline"]), append_timeline=True,
                                                      jack_server=info["jack_server"]),
                                     stdout=subprocess.DEVNULL, cwd=Path(__file__).resolve().parents[2])
-        wait_until(lambda: audio_device(server)["status"] == "connected", 60.0, "the audio tactor back")
+        wait_until(lambda: audio_device(server)["status"] == "connected", 60.0,
+                   f"the audio tactor back (emulator exit code {emulator.poll()})")
         wait_until(lambda: server.get("/api/health")["status"] == "ok", 30.0, "health ok again")
         assert audio_device(server)["disconnects"] >= 1
     finally:
