@@ -242,8 +242,9 @@ def _devices(args: argparse.Namespace) -> int:
         if p.get("warning"):
             print(f"    warning: {p['warning']}")
     for c in report["configured"]:
-        print(f"Configured {c['name']} ({c['model']}) on {c['port']}: "
-              f"{'present at ' + c['resolves_to'] if c['resolves_to'] else 'not present'}")
+        where = ("an audio output, looked for when the server starts" if c["port"].startswith("audio:")
+                 else "present at " + c["resolves_to"] if c["resolves_to"] else "not present")
+        print(f"Configured {c['name']} ({c['model']}) on {c['port']}: {where}")
     if report["server"] is None:
         print(report["server_error"])
         return 0
