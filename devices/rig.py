@@ -66,7 +66,7 @@ class SimulatedRig:
             self.link(model).unlink(missing_ok=True)
             self.procs[model] = self._spawn(model)
         if AUDIO_MODEL in self.models:  # a JACK server takes seconds to answer on a busy machine
-            timeout_s = max(timeout_s, 30.0)
+            timeout_s = max(timeout_s, 60.0)
         deadline = time.monotonic() + timeout_s
         for model, proc in self.procs.items():
             while not self.link(model).exists():
