@@ -31,6 +31,9 @@ import serial
 
 from server.core.cues import Cue
 from server.core.points import PRIMARY_POINT, check_point_name
+from devices.audio.config import AudioConfig, AudioConfigError
+from devices.audio.mapping import AudioCueEncoder
+from devices.audio.device import AudioDevice, UnderrunsCounted
 from devices.encoder import CueEncoder, Refusal
 from devices.line_protocol import CommandRefused, DeviceLine, LineProtocol
 from devices.link import BYTE_TIME_S
@@ -53,15 +56,21 @@ class DeviceConfigError(ValueError):
 class DeviceConfig:
     name: str
     profile: DeviceProfile
-    port: PortSpec
+    port: PortSpec | None  # None for an audio device (`audio` names its output instead)
     baud: int = 115200
     link_share: float = 0.5
     watchdog_ms: int = WATCHDOG_MS  # the firmware's own fail-safe (docs/device-protocol.md §2); 0 = off
     finger: str = PRIMARY_POINT  # the tracked point the device sits on: it gets that tool's cues only
+    audio: AudioConfig | None = None  # a sound interface's channels (devices/audio/config.py)
 
     def __post_init__(self) -> None:
         if not _NAME.match(self.name):
             raise DeviceConfigError(f"device name {self.name!r}: 1-32 characters a-z 0-9 _ -, starting with a letter or digit")
+        if (self.profile.protocol == "audio") != (self.audio is not None):
+            raise DeviceConfigError(f"device {self.name}: an audio profile goes with an [device.audio] table, and "
+                                    "only an audio profile")
+        if (self.port is None) != (self.audio is not None):
+            raise DeviceConfigError(f"device {self.name}: a serial device needs a port, an audio device none")
         try:
             check_point_name(self.finger)
         except ValueError as exc:
@@ -73,6 +82,11 @@ class DeviceConfig:
         if not (self.watchdog_ms == 0 or 20 <= self.watchdog_ms <= 60_000):  # 20: room for keepalives
             raise DeviceConfigError(f"device {self.name}: watchdog_ms must be 0 (off) or 20..60000, got {self.watchdog_ms}")
 
+    @property
+    def where(self) -> str:
+        """Where the device is reached: its port, or its audio output (audio:NAME@HOST_API)."""
+        return str(self.port) if self.port is not None else self.audio.describe()
+
     @classmethod
     def parse(cls, text: str) -> DeviceConfig:
         """`[NAME=]MODEL@PORT`, e.g. `ferrovibe@/dev/ttyUSB0` or `left=fingertac@usb:303a:1001:A1`."""
@@ -81,13 +95,16 @@ class DeviceConfig:
         if not at or not model or not port:
             raise DeviceConfigError(f"device {text!r}: expected [NAME=]MODEL@PORT, e.g. ferrovibe@/dev/ttyUSB0")
         try:
-            return cls(name=name or model, profile=profile_by_model(model), port=PortSpec.parse(port))
+            profile = profile_by_model(model)
+            if profile.protocol == "audio":
+                raise DeviceConfigError("an audio device is described in a rig file ([device.audio], docs/devices.md)")
+            return cls(name=name or model, profile=profile, port=PortSpec.parse(port))
         except (ProfileError, ValueError) as exc:
             raise DeviceConfigError(f"device {text!r}: {exc}") from None
 
     @classmethod
     def from_dict(cls, data: Mapping, where: str) -> DeviceConfig:
-        allowed = {"name", "profile", "port", "usb", "baud", "link_share", "watchdog_ms", "finger"}
+        allowed = {"name", "profile", "port", "usb", "baud", "link_share", "watchdog_ms", "finger", "audio"}
         unknown = set(data) - allowed
         if unknown:
             raise DeviceConfigError(f"{where}: unknown key(s) {sorted(unknown)}; allowed: {', '.join(sorted(allowed))}")
@@ -96,11 +113,17 @@ class DeviceConfig:
         try:
             raw = data["profile"]
             profile = profile_by_model(raw) if isinstance(raw, str) else DeviceProfile.from_dict(raw, where=f"{where}.profile")
+            if "audio" in data:  # the channels are the actuators of the audio table
+                audio = AudioConfig.from_dict(data["audio"], f"{where}.audio")
+                if set(data) & {"port", "usb", "baud", "link_share", "watchdog_ms"}:
+                    raise DeviceConfigError(f"{where}: an audio device has no port, usb, baud, link_share or watchdog_ms")
+                return cls(name=str(data.get("name", profile.model)), profile=replace(profile, channels=audio.actuators),
+                           port=None, audio=audio, finger=str(data.get("finger", PRIMARY_POINT)))
             return cls(name=str(data.get("name", profile.model)), profile=profile, port=PortSpec.from_dict(data),
                        baud=int(data.get("baud", 115200)), link_share=float(data.get("link_share", 0.5)),
                        watchdog_ms=int(data.get("watchdog_ms", WATCHDOG_MS)),
                        finger=str(data.get("finger", PRIMARY_POINT)))
-        except (DeviceConfigError, ProfileError) as exc:  # already name where they come from
+        except (DeviceConfigError, ProfileError, AudioConfigError) as exc:  # already name where they come from
             raise DeviceConfigError(str(exc)) from None
         except (ValueError, TypeError) as exc:
             raise DeviceConfigError(f"{where}: {exc}") from None
@@ -167,10 +190,11 @@ def make_protocol(profile: DeviceProfile, link_share: float, baud: int, watchdog
 
 
 class _Managed:
-    def __init__(self, config: DeviceConfig, driver: SerialDevice):
+    def __init__(self, config: DeviceConfig, driver):
         self.config = config
         self.profile = config.profile
-        self.encoder = CueEncoder(config.profile, config.name)
+        self.encoder = (AudioCueEncoder(config.profile, config.name, config.audio) if config.audio is not None
+                        else CueEncoder(config.profile, config.name))
         self.driver = driver
         self.refusals: tuple[Refusal, ...] = ()
 
@@ -187,6 +211,11 @@ class DeviceManager:
         self.devices: dict[str, _Managed] = {}
         self._rejected: dict[str, tuple[int, float]] = {}  # name → (not yet logged, last log time)
         for config in configs:
+            if config.audio is not None:  # a sound interface's channels: no serial port, no protocol
+                self.devices[config.name] = _Managed(config, AudioDevice(
+                    config.name, config.audio, config.profile.carrier_hz, reopen_interval_s=reopen_interval_s,
+                    on_event=self._on_event))
+                continue
             driver = SerialDevice(config.name, config.port, make_protocol(config.profile, config.link_share, config.baud,
                                                                                 config.watchdog_ms),
                                   baud=config.baud, reopen_interval_s=reopen_interval_s, on_event=self._on_event,
@@ -261,8 +290,10 @@ class DeviceManager:
                         "too long; every layer is sent again", name, event.trips)
         elif isinstance(event, DeviceLine):
             log.debug("%s says: %s", name, event.text)
+        if isinstance(event, UnderrunsCounted):
+            self._notify()  # into the report: health shows it as a note
         if isinstance(event, StatusChanged):
-            trouble = event.new in ("disconnected", "unresponsive", "bad_version") and event.reason != "stopped"
+            trouble = event.new in ("disconnected", "unresponsive", "bad_version", "refused") and event.reason != "stopped"
             level = logging.WARNING if trouble else logging.INFO
             log.log(level, "%s: %s -> %s (%s)", name, event.old, event.new, event.reason)
             self._notify()
@@ -284,7 +315,11 @@ class DeviceManager:
 
     def report(self) -> dict:
         """What the hub and the loop need to know: refusals no device shows, and every status."""
-        return {"refusals": unshown_refusals(self.refusals, len(self.devices)), "status": self.status()}
+        report = {"refusals": unshown_refusals(self.refusals, len(self.devices)), "status": self.status()}
+        underruns = {name: d.driver.underruns for name, d in self.devices.items() if d.config.audio is not None}
+        if underruns:  # audio devices: the blocks their audio server called for too late
+            report["underruns"] = underruns
+        return report
 
     def status(self) -> dict[str, str]:
         return {name: d.driver.status for name, d in self.devices.items()}

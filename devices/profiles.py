@@ -38,6 +38,11 @@ DIRECT_CAP = {"macro_roughness": "tilt", "fine_roughness": "texture", "temperatu
               "friction": "friction"}
 
 
+# binary: device-protocol.md; line: ASCII templates (devices/line_protocol.py); audio: channels of a
+# sound interface (devices/audio/), configured by a rig file's [device.audio] table
+PROTOCOLS = ("binary", "line", "audio")
+
+
 class ProfileError(ValueError):
     pass
 
@@ -51,7 +56,7 @@ class DeviceProfile:
     carrier_hz: int                  # default vibration carrier (0 = none)
     caps: frozenset[str]
     dimensions: Mapping[str, Display]
-    protocol: str = "binary"         # "binary" (device-protocol.md) or "line" (ASCII templates)
+    protocol: str = "binary"         # "binary" (device-protocol.md), "line" (ASCII templates) or "audio"
     line: Mapping[str, str] = field(default_factory=dict)  # line-protocol templates
     notes: str = ""
 
@@ -76,8 +81,10 @@ class DeviceProfile:
                     raise ProfileError(f"{self.model}: {dim} encoded as vibration needs the pulse or continuous cap")
             if how is Display.DIRECT and dim in DIRECT_CAP and DIRECT_CAP[dim] not in self.caps:
                 raise ProfileError(f"{self.model}: {dim} shown directly needs the {DIRECT_CAP[dim]!r} cap")
-        if self.protocol not in ("binary", "line"):
-            raise ProfileError(f"{self.model}: protocol must be 'binary' or 'line', got {self.protocol!r}")
+        if self.protocol not in PROTOCOLS:
+            raise ProfileError(f"{self.model}: protocol must be one of {', '.join(PROTOCOLS)}, got {self.protocol!r}")
+        if self.protocol == "audio" and not {"pulse", "continuous", "texture"} >= set(self.caps):
+            raise ProfileError(f"{self.model}: an audio channel plays pulse, continuous and texture patterns only")
         if self.protocol == "line":
             self._check_line_templates()
         object.__setattr__(self, "caps", frozenset(self.caps))
@@ -182,12 +189,26 @@ DEVKIT = DeviceProfile(
     notes="Every layer but tilt on one channel; the reference sketch (devices/firmware/devkit) drives the "
           "Peltier open loop, a real build closes it on a thermistor.")
 
+AUDIO = DeviceProfile(
+    model="audio",
+    title="Voice-coil tactor on a sound interface channel (EAI C2/C3, Tactile Labs Haptuator, an LRA behind an "
+          "amplifier)",
+    firmware="", channels=("coil",), carrier_hz=250, caps=frozenset({"pulse", "continuous", "texture"}),
+    dimensions={"stiffness": "vibration", "macro_roughness": "none", "fine_roughness": "direct",
+                "temperature": "none", "friction": "none"},
+    protocol="audio",
+    notes="A broadband actuator: any carrier in its channel's frequency range, textures as their own waveform; "
+          "no tilt. The [device.audio] table of a rig file names the output and the channels (docs/devices.md).")
+
+# The built-in devices that run the firmware core (devices/firmware: one vt_model each) ...
 PROFILES: Mapping[str, DeviceProfile] = MappingProxyType({p.model: p for p in (FINGERTAC, FERROVIBE, DEVKIT)})
+# ... and those that run none of ours: a sound interface's channels (devices/audio/)
+AUDIO_PROFILES: Mapping[str, DeviceProfile] = MappingProxyType({AUDIO.model: AUDIO})
 
 
 def profile_by_model(model: str) -> DeviceProfile:
-    try:
-        return PROFILES[model]
-    except KeyError:
-        raise ProfileError(f"no built-in profile {model!r}; built-in: {', '.join(PROFILES)}"
-                           " (or describe the device in a devices TOML file, docs/devices.md)") from None
+    found = PROFILES.get(model) or AUDIO_PROFILES.get(model)
+    if found is None:
+        raise ProfileError(f"no built-in profile {model!r}; built-in: {', '.join([*PROFILES, *AUDIO_PROFILES])}"
+                           " (or describe the device in a devices TOML file, docs/devices.md)")
+    return found

@@ -26,10 +26,16 @@ import tempfile
 import time
 from pathlib import Path
 
+from dataclasses import replace
+
+from devices.audio.config import AudioChannel, AudioConfig
+from devices.audio.jack_server import unique_name
 from devices.firmware_binding import ensure_library
 from devices.manager import DeviceConfig
 from devices.ports import PortSpec
 from devices.profiles import profile_by_model
+
+AUDIO_MODEL = "audio"  # the rig's voice-coil tactor: a JACK dummy server and a capture (devices/audio/emulator.py)
 
 log = logging.getLogger("viestac.devices")
 
@@ -42,6 +48,7 @@ class SimulatedRig:
         self.directory = Path(directory) if directory else None
         self._temporary = False  # start() made the directory: stop() removes it (a given one is kept)
         self.procs: dict[str, subprocess.Popen] = {}
+        self.jack_server = unique_name("viestac-rig")  # the audio emulator's, kept across its restarts
 
     def link(self, model: str) -> Path:
         return self.directory / model
@@ -58,6 +65,8 @@ class SimulatedRig:
         for model in self.models:
             self.link(model).unlink(missing_ok=True)
             self.procs[model] = self._spawn(model)
+        if AUDIO_MODEL in self.models:  # a JACK server takes seconds to answer on a busy machine
+            timeout_s = max(timeout_s, 60.0)
         deadline = time.monotonic() + timeout_s
         for model, proc in self.procs.items():
             while not self.link(model).exists():
@@ -66,12 +75,20 @@ class SimulatedRig:
                     raise RuntimeError(f"the {model} emulator did not start (exit code {proc.poll()})")
                 time.sleep(0.01)
         log.info("simulated rig: %s in %s", ", ".join(self.models), self.directory)
-        return [DeviceConfig(name=model, profile=profile_by_model(model), port=PortSpec.parse(str(self.link(model))))
-                for model in self.models]
+        return [self._config(model) for model in self.models]
+
+    def _config(self, model: str) -> DeviceConfig:
+        if model != AUDIO_MODEL:
+            return DeviceConfig(name=model, profile=profile_by_model(model), port=PortSpec.parse(str(self.link(model))))
+        audio = AudioConfig(output="system", host_api="JACK", jack_server=self.jack_server,
+                            channels=(AudioChannel("coil", 1),))
+        return DeviceConfig(name=model, profile=replace(profile_by_model(model), channels=audio.actuators), port=None,
+                            audio=audio)
 
     def _spawn(self, model: str, *, append: bool = False) -> subprocess.Popen:
         return subprocess.Popen(
-            emulator_command(model, self.link(model), self.timeline(model), append_timeline=append),
+            emulator_command(model, self.link(model), self.timeline(model), append_timeline=append,
+                             jack_server=self.jack_server),
             stdout=subprocess.DEVNULL, cwd=Path(__file__).resolve().parents[1],
             start_new_session=True)  # a terminal's Ctrl-C reaches the server, which stops us in order
 
@@ -111,13 +128,21 @@ class SimulatedRig:
     def info(self) -> dict:
         return {"directory": str(self.directory), "emulators": {
             model: {"pid": proc.pid, "alive": proc.poll() is None, "link": str(self.link(model)),
-                    "timeline": str(self.timeline(model))} for model, proc in self.procs.items()}}
+                    "timeline": str(self.timeline(model)),
+                    **({"jack_server": self.jack_server} if model == AUDIO_MODEL else {})}
+            for model, proc in self.procs.items()}}
 
 
 def emulator_command(model: str, link: Path, timeline: Path, *, append_timeline: bool = False,
-                     exit_with_parent: bool = True) -> list[str]:
+                     exit_with_parent: bool = True, jack_server: str | None = None) -> list[str]:
     """The command line of one rig emulator (run with the repository root as working directory).
-    A restart appends to the timeline, so one file covers the emulator before and after it."""
+    A restart appends to the timeline, so one file covers the emulator before and after it. The
+    audio emulator's link is a file with its JACK server's name (`jack_server`, kept across
+    restarts so the device finds it again)."""
+    if model == AUDIO_MODEL:
+        return [sys.executable, "-m", "devices.audio.emulator", "--link", str(link), "--timeline", str(timeline),
+                *(["--server", jack_server] if jack_server else []),
+                *(["--append-timeline"] if append_timeline else []), *(["--exit-with-parent"] if exit_with_parent else [])]
     # --realtime: an emulator stamps a frame when it reads it; starved by a loaded machine for more
     # than the watchdog's 45 ms it trips the watchdog although the host wrote on time (thousands of
     # trips and "write failed: Write timeout" in a 33-minute run beside a CPU hog): a real device has

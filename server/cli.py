@@ -225,8 +225,8 @@ def _devices(args: argparse.Namespace) -> int:
         except DeviceConfigError as exc:
             print(f"viestac devices: {exc}", file=sys.stderr)
             return 2
-        report["configured"] = [{"name": c.name, "model": c.profile.model, "port": str(c.port),
-                                 "resolves_to": resolve(c.port), "table_2_2": c.profile.table_row()} for c in configs]
+        report["configured"] = [{"name": c.name, "model": c.profile.model, "port": c.where,
+                                 "resolves_to": resolve(c.port) if c.port is not None else None, "table_2_2": c.profile.table_row()} for c in configs]
     try:
         report["server"] = fetch_json(f"{args.server.rstrip('/')}/api/devices", timeout=2.0, token=args.token)
     except ServerError as exc:
@@ -245,8 +245,9 @@ def _devices(args: argparse.Namespace) -> int:
         if p.get("warning"):
             print(f"    warning: {p['warning']}")
     for c in report["configured"]:
-        print(f"Configured {c['name']} ({c['model']}) on {c['port']}: "
-              f"{'present at ' + c['resolves_to'] if c['resolves_to'] else 'not present'}")
+        where = ("an audio output, looked for when the server starts" if c["port"].startswith("audio:")
+                 else "present at " + c["resolves_to"] if c["resolves_to"] else "not present")
+        print(f"Configured {c['name']} ({c['model']}) on {c['port']}: {where}")
     if report["server"] is None:
         print(report["server_error"])
         return 0
@@ -280,6 +281,10 @@ def _emulate(args: argparse.Namespace) -> int:
         from server.tracking.leap_emulator import main as leap_main
 
         return leap_main(args.rest[1:])
+    if args.rest[:1] == ["audio"]:  # a JACK dummy server and a capture (devices/audio/emulator.py)
+        from devices.audio.emulator import main as audio_main
+
+        return audio_main(args.rest[1:])
     from devices.emulator import main as emulate_main
 
     return emulate_main(args.rest)
@@ -501,6 +506,15 @@ def _bench_link(args: argparse.Namespace) -> int:
     return _print_bench(result, args.json)
 
 
+def _bench_audio(args: argparse.Namespace) -> int:
+    if _without_extra("viestac bench audio", "audio"):
+        return 2
+    from server.bench.audio_bench import run_audio_bench
+
+    result = run_audio_bench(blocks=tuple(args.block or (32, 64, 128, 256)), cues=args.cues)
+    return _print_bench(result, args.json)
+
+
 def _bench_latency(args: argparse.Namespace) -> int:
     from server.bench.latency_bench import run_latency_bench
 
@@ -685,7 +699,7 @@ def build_parser() -> argparse.ArgumentParser:
                             "(repeatable; default the primary point right.index.tip; docs/devices.md)")
     serve.add_argument("--rig", default="fingertac,ferrovibe", metavar="MODEL[,MODEL...]",
                        help="the simulated rig's emulated devices (default fingertac,ferrovibe; devkit adds "
-                            "temperature and friction)")
+                            "temperature and friction; audio a voice-coil tactor on a JACK dummy server)")
     serve.add_argument("--data-dir", default=os.environ.get("VIESTAC_DATA", "data"),
                        help="where the experiment database lives (default: $VIESTAC_DATA or ./data)")
     serve.add_argument("--studies", default=str(STUDIES_DIR), help="the directory of study files (*.toml)")
@@ -852,6 +866,13 @@ def build_parser() -> argparse.ArgumentParser:
     link.add_argument("--share", type=float, default=0.5, help="the host's share of the link (default 0.5)")
     link.add_argument("--json", action="store_true", help="print one JSON object")
     link.set_defaults(func=_bench_link)
+    audio = bench_sub.add_parser("audio", help="an audio tactor under a JACK dummy server: cue -> first sample of "
+                                               "the new waveform at the output port, per block size")
+    audio.add_argument("--block", type=int, action="append", default=None, metavar="FRAMES",
+                       help="block sizes (repeatable; default 32 64 128 256)")
+    audio.add_argument("--cues", type=int, default=1000, help="cues per block size (default 1000)")
+    audio.add_argument("--json", action="store_true", help="print one JSON object")
+    audio.set_defaults(func=_bench_audio, block=None)
     latency = bench_sub.add_parser("latency", help="tracker message sent -> device command written on an emulated "
                                                    "FerroVibe's pty, with N viewers at 60 Hz")
     latency.add_argument("--seconds", type=float, default=None,

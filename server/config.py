@@ -162,7 +162,7 @@ class Settings:
         for name in self.__dataclass_fields__:
             value = getattr(self, name)
             if name == "devices":
-                value = [{"name": d.name, "model": d.profile.model, "port": str(d.port), "finger": d.finger}
+                value = [{"name": d.name, "model": d.profile.model, "port": d.where, "finger": d.finger}
                          for d in value]
             elif isinstance(value, Path):
                 value = str(value)

@@ -26,7 +26,9 @@ long the condition has held, seconds); the codes (docs/protocol.md `health`):
 
 Notes (`notes`, never a reason for `degraded`): a device that is not connected but that the
 running scenario does not need (another connected device shows what it would show, or the
-scenario requires nothing it shows); a tracker replay that ran once and finished.
+scenario requires nothing it shows); a tracker replay that ran once and finished; an audio device
+whose underruns rose within the last `overrun_window_s` (`audio_underruns`: its audio server
+called for blocks too late, each a gap or a repeated block at the actuator).
 """
 
 from __future__ import annotations
@@ -92,6 +94,7 @@ class Health:
         self._scenario = ""
         self._shown_by: dict[str, tuple[str, ...]] = {}  # required dimension → devices that show it
         self._tracking = TrackingWatch()
+        self._underruns: dict[str, tuple[int, float]] = {}  # audio device → (count, when it last rose)
 
     # ---- inputs: child processes -----------------------------------------------------------
     def loop_started(self, now_s: float) -> None:
@@ -145,6 +148,15 @@ class Health:
         show it (devices/capability.py `showing`)."""
         self._scenario = scenario
         self._shown_by = dict(shown_by)
+
+    def underruns(self, counts: Mapping[str, int], now_s: float) -> bool:
+        """The audio devices' underrun counts (each only rises); True when one rose."""
+        rose = False
+        for name, count in counts.items():
+            if count > self._underruns.get(name, (0, 0.0))[0]:
+                self._underruns[name] = (count, now_s)
+                rose = True
+        return rose
 
     # ---- inputs: tracking (server/hub/tracker_health.py) ------------------------------------
     def trackers(self, sources, now_s: float) -> bool:
@@ -210,6 +222,11 @@ class Health:
                        "message": f"device '{name}' is {status}; the running scenario does not need it"}
                       for name, status in self._statuses.items() if status != CONNECTED and name not in needed)
         notes += tuple(tracking_notes)
+        notes += tuple({"code": "audio_underruns", "since_s": round(now_s - rose_s, 3),
+                        "message": f"audio device '{name}' has had {count} underruns; the last within "
+                                   f"{self.overrun_window_s:g} s (its audio server is short of CPU)"}
+                       for name, (count, rose_s) in self._underruns.items()
+                       if count and now_s - rose_s <= self.overrun_window_s)
         if self._last_state_s is None and loop.exited_s is None:
             status = STARTING  # nothing ticks yet; devices may still be identifying themselves
         else:

@@ -57,6 +57,11 @@ class HealthFeed:
         self.health.devices(statuses, time.monotonic())
         self.check_health()
 
+    def underruns_reported(self, counts: dict) -> None:
+        """The audio devices' underrun counts (reported at most once a second while they rise)."""
+        if self.health.underruns(counts, time.monotonic()):
+            self.check_health()
+
     def on_tracker_sources(self, sources: list[dict]) -> None:
         """The tracker host's health of each configured source (every 0.1 s, and when it exits)."""
         self.owner.check()

@@ -129,6 +129,8 @@ class LoopLink:
         statuses = report.get("status") or {}
         if statuses != self.health_feed.device_statuses:
             self.health_feed.devices_reported(statuses)
+        if "underruns" in report:  # audio devices (devices/audio/device.py)
+            self.health_feed.underruns_reported(report["underruns"])
         if report != self._device_report:
             self._device_report = report
             record = DeviceReport(report)

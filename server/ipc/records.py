@@ -138,7 +138,8 @@ class SwitchScenario(Record):
 class DeviceReport(Record):
     """The device host's report, for the scenario (the refusals no device shows); the hub also
     hands it to its listeners (the recorder)."""
-    report: dict = doc('`{"refusals": [text, ...], "status": {device: status}}`')
+    report: dict = doc('`{"refusals": [text, ...], "status": {device: status}}`, with audio devices also '
+                       '`"underruns": {device: count}`')
 
 
 @record("record")
@@ -349,7 +350,32 @@ class SnapshotRequest(Record):
 @record("report")
 class DeviceStatus(Record):
     """A device's status, identity or refusals changed."""
-    report: dict = doc('`{"refusals": [...], "status": {device: status}}`')
+    report: dict = doc('`{"refusals": [...], "status": {device: status}}`, with audio devices also '
+                       '`"underruns": {device: count}`')
+
+
+# ---- the device host ⇄ an audio worker process (devices/audio/device.py, devices/audio/worker.py) ----
+@record("stimuli")
+class AudioStimuli(Record):
+    """The newest stimulus of every output channel of an audio device (the latest wins)."""
+    generation: int = doc("counts the hand-overs; the worker reports the sample at which each started")
+    stimuli: list = doc("one map per output channel: the fields of devices/audio/synth.py `Stimulus`")
+
+
+@record("audio_status")
+class AudioStatus(Record):
+    """The audio worker's stream: `connected`, `disconnected` (the audio server stopped) or `refused`."""
+    status: str = doc("connected | disconnected | refused")
+    reason: str = doc("why, for people (a refusal names what is wrong)")
+
+
+@record("counters")
+class AudioCounters(Record):
+    """The stream's counters, every 50 ms and after each hand-over."""
+    blocks: int = doc("blocks rendered by this worker")
+    underruns: int = doc("blocks its audio server called for too late (PortAudio's output underflow)")
+    next_sample: int = doc("the first sample of the next block (the synth's clock)")
+    took: list = doc("`[[generation, first sample], ...]` of the hand-overs since the last counters")
 
 
 @record("profiles")
@@ -435,4 +461,9 @@ TO_TRACKER_HOST = Channel("hub → tracker host", (Calibrate, Capture, Stop),
                           "the tracker host's control socket (server/hub/tracker_host.py sends)")
 FROM_TRACKER_HOST = Channel("tracker host → hub", (Hello, SourcesHealth, Answer),
                             "its other direction (server/tracking/tracker_host_process.py sends)")
-CHANNELS = (TO_LOOP, FROM_LOOP, CUES, TO_DEVICE_HOST, FROM_DEVICE_HOST, TO_TRACKER_HOST, FROM_TRACKER_HOST)
+TO_AUDIO_WORKER = Channel("device host → audio worker", (AudioStimuli, Stop),
+                          "an audio device's worker socket (devices/audio/device.py sends)")
+FROM_AUDIO_WORKER = Channel("audio worker → device host", (AudioStatus, AudioCounters),
+                            "its other direction (devices/audio/worker.py sends)")
+CHANNELS = (TO_LOOP, FROM_LOOP, CUES, TO_DEVICE_HOST, FROM_DEVICE_HOST, TO_TRACKER_HOST, FROM_TRACKER_HOST,
+            TO_AUDIO_WORKER, FROM_AUDIO_WORKER)

@@ -9,15 +9,16 @@ import msgpack
 import pytest
 
 from server import ipc
-from server.ipc.records import (CHANNELS, CUES, FROM_DEVICE_HOST, FROM_LOOP, FROM_TRACKER_HOST, TO_DEVICE_HOST, TO_LOOP,
-                                TO_TRACKER_HOST, BadRecord, Cues, Input, Malformed, Stop, TrackerSample)
+from server.ipc.records import (CHANNELS, CUES, FROM_AUDIO_WORKER, FROM_DEVICE_HOST, FROM_LOOP, FROM_TRACKER_HOST,
+                                TO_AUDIO_WORKER, TO_DEVICE_HOST, TO_LOOP, TO_TRACKER_HOST, BadRecord, Cues, Input, Malformed, Stop, TrackerSample)
 from tests.ipc import sent
 from tests.vectors import make_ipc_vectors
 
 VECTORS = json.loads((Path(__file__).parents[1] / "vectors" / "ipc_records.json").read_text())["channels"]
 CHANNEL_OF = {"hub_to_loop": TO_LOOP, "loop_to_hub": FROM_LOOP, "cue_channel": CUES,
               "hub_to_device_host": TO_DEVICE_HOST, "device_host_to_hub": FROM_DEVICE_HOST,
-              "hub_to_tracker_host": TO_TRACKER_HOST, "tracker_host_to_hub": FROM_TRACKER_HOST}
+              "hub_to_tracker_host": TO_TRACKER_HOST, "tracker_host_to_hub": FROM_TRACKER_HOST,
+              "device_host_to_audio_worker": TO_AUDIO_WORKER, "audio_worker_to_device_host": FROM_AUDIO_WORKER}
 TYPED = make_ipc_vectors.typed_records()
 
 

@@ -51,7 +51,7 @@ def _core_records() -> dict:
 def typed_records() -> dict[str, dict]:
     """channel name → vector name → the record."""
     from server.core.cues import Tilt, cue_to_wire
-    from server.ipc.records import (Alive, Answer, Calibrate, Capture, Cues, DeviceProfiles, DeviceReport,
+    from server.ipc.records import (AudioCounters, AudioStatus, AudioStimuli, Alive, Answer, Calibrate, Capture, Cues, DeviceProfiles, DeviceReport,
                                     DeviceStatus, FailSafe, Fault, Hello, Input, Log, RecordEvery, Recovered,
                                     Snapshot, SnapshotRequest, SourcesHealth, Stop, SwitchScenario, TrackerGone, Trial)
     from server.wire import messages
@@ -112,7 +112,16 @@ def typed_records() -> dict[str, dict]:
                 "device_host_to_hub": {k: device_control[k] for k in ("hello", "report", "profiles", "snapshot")},
                 "hub_to_tracker_host": {k: tracker_control[k] for k in ("calibrate", "calibrate_default", "capture",
                                                                          "stop")},
-                "tracker_host_to_hub": {k: tracker_control[k] for k in ("hello", "health", "answer")}}
+                "tracker_host_to_hub": {k: tracker_control[k] for k in ("hello", "health", "answer")},
+                "device_host_to_audio_worker": {
+                    "stimuli": AudioStimuli(7, [{"shape": "sine", "amplitude": 0.5, "frequency_hz": 250.0, "on_s": 0.0,
+                                                 "off_s": 0.0, "duty": 0.5, "to_amplitude": None,
+                                                 "to_frequency_hz": None, "sweep_s": 0.0, "start": 96000,
+                                                 "duration": 4800}]),
+                    "stop": Stop()},
+                "audio_worker_to_device_host": {
+                    "status": AudioStatus("connected", "streaming to system at 48000 Hz, 64-frame blocks"),
+                    "counters": AudioCounters(750, 2, 48000, [[7, 47936]])}}
     return channels
 
 
