@@ -302,12 +302,16 @@ def test_a_participant_whose_session_closes_mid_trial_sees_one_state(contexts, r
 # ---- point 3: a second tab of the session takes it; the first says so and only watches -----------
 
 def test_a_second_tab_takes_the_session_and_the_first_says_so(contexts, rig, sessions):
-    session = sessions("xr-answers", "P22")
+    session = sessions("xr-answers", "P23")
     first_page = contexts(rig, token=None)
     first = Client(first_page, rig).open(join_url(rig, session["id"]))
     assert first.hook("connection.canSend") is True
-    # the same participant opens the page again in another tab (its stored token, the same session)
+    # the same participant opens the page again in another tab (a duplicated tab: the browser copies
+    # the tab's sessionStorage, where the join token lives)
+    token = first_page.evaluate("sessionStorage.getItem('viestac.join.token')")
+    assert token
     second_page = first_page.context.new_page()
+    second_page.add_init_script(f"sessionStorage.setItem('viestac.join.token', {token!r});")
     second = Client(second_page, rig).open()
     assert second.hook("identity")["session"] == session["id"]
     first_page.wait_for_function(
