@@ -254,7 +254,7 @@ def test_console_runs_a_session(open_page, console_server):
     other.wait_state("s.control === 'yes'")
     console.wait_state("s.control === 'lost'", timeout_ms=8_000)
     assert page.is_visible("#take-control") and page.is_disabled("#start")
-    assert "Control lost" in console.text("#control")
+    assert "Session control lost" in console.text("#control")
     page.screenshot(path=str(ARTIFACTS / "console-lost-control.png"), full_page=True)
     # and takes it back
     page.click("#take-control")

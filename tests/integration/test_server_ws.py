@@ -14,6 +14,7 @@ import msgpack
 import pytest
 import websockets
 
+from server.hub.session import HELLO_TIMEOUT_NS
 from tests.live_server import admin_token
 
 VECTORS = Path(__file__).parents[1] / "vectors"
@@ -276,7 +277,7 @@ def test_client_without_hello_is_refused_at_the_grace_deadline(live_server):
     """v1.3: a client without a hello has no token (it was welcomed as an observer up to v1.2)."""
     async def go():
         client = await Client.connect(live_server.ws_url, hello=False)
-        error = await client.recv(timeout=3.0)
+        error = await client.recv(timeout=HELLO_TIMEOUT_NS / 1e9 + 3.0)
         with pytest.raises(websockets.ConnectionClosed) as info:
             await client.recv(timeout=3.0)
         return error, info.value.rcvd
