@@ -78,8 +78,10 @@ def test_a_lost_tracker_shows_in_the_console_banner_and_the_participant_line(bro
         assert console.page.evaluate("window.__console.health().reasons[0].code") == "tracker_lost"
         console.page.screenshot(path=str(ARTIFACTS / "health-console-tracker-lost.png"))
         participant.page.screenshot(path=str(ARTIFACTS / "health-participant-tracker-lost.png"))
-        sender = threading.Thread(target=send_samples, args=(bridge, address, 3.0, seq))
-        sender.start()  # the source returns
+        # the source returns, and stays longer than the console banner holds a cleared trouble
+        # (console/health.js HOLD_MS, 3 s): a source gone again would show a new trouble
+        sender = threading.Thread(target=send_samples, args=(bridge, address, 8.0, seq))
+        sender.start()
         try:
             wait_visible(console.page, BANNER, False)
             wait_visible(participant.page, LINE, False)

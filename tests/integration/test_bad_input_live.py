@@ -161,13 +161,15 @@ def test_a_key_flood_is_rate_limited_and_does_not_inflate_other_viewers_frames(s
             message = await flooder.recv()
             if message["type"] == "error":
                 errors.append(message["code"])
+        window_s = time.monotonic() - start  # the flood's errors can only have come within this
         await flooder.close()
         await viewer.close()
-        return sent, sizes, events, errors
+        return sent, sizes, events, errors, window_s
 
-    sent, sizes, events, errors = run(go())
+    sent, sizes, events, errors, window_s = run(go())
     assert sent >= 2000
-    assert set(errors) == {"rate_limited"} and 1 <= len(errors) <= 3, errors  # one a second
+    # one a second: a busy machine works through the flood for longer, but never more often than that
+    assert set(errors) == {"rate_limited"} and 1 <= len(errors) <= math.floor(window_s) + 1, (errors, window_s)
     assert max(events) <= 32
     assert sum(events) <= 20 + 50 * 2.5, "only the budget reaches the loop"
     assert statistics.median(sizes) < 1500, statistics.median(sizes)
