@@ -169,6 +169,13 @@ class AudioDevice:
 
     # ---- the supervisor thread ------------------------------------------------------------------
     def _supervise(self) -> None:
+        problems = self.config.check()  # what the file says that cannot work needs no worker to find
+        if problems:
+            reason = "; ".join(problems)
+            log.error("%s: refused: %s", self.name, reason)
+            self.last_error = reason
+            self._set_status(REFUSED, reason)
+            return
         wait = self.reopen_interval_s
         while self._running:
             code = self._run_worker()

@@ -54,6 +54,12 @@ def test_killed_loop_is_restarted_and_clients_get_the_scene_again():
 def test_a_restarted_loop_resumes_the_switched_scenario_and_its_trial():
     proc, base = start_server("contact-angle")
     try:
+        # the switch is refused (409) until a device that can show stiffness has connected: on a busy
+        # machine the simulated rig's emulators may still be starting when the server answers
+        deadline = time.monotonic() + 30
+        while {d["status"] for d in get_json(base + "/api/devices")["devices"]} != {"connected"}:
+            assert time.monotonic() < deadline, "the simulated rig's devices did not connect"
+            time.sleep(0.1)
         get_json(base + "/api/scenario", "POST", body={"name": "stiffness", "params": {"middle_level": 3}, "seed": 4})
         trial = {"phase": "main", "params": {"mode": "production", "level": 7, "start_level": 2}, "index": 5}
         deadline = time.monotonic() + 5
