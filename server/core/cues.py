@@ -32,20 +32,25 @@ class PulseTrain(_Ranged):
     """Bursts of vibration: t_on ms on, t_off ms off (thesis §3.1: FingerTac LRAs at 235 Hz)."""
     kind: ClassVar[str] = "pulse_train"
     RANGES: ClassVar = {"t_on_ms": (0.0, 60_000.0), "t_off_ms": (0.0, 60_000.0), "intensity_pct": (0.0, 100.0),
-                        "carrier_hz": (1.0, 2_000.0)}
+                        "carrier_hz": (1.0, 2_000.0), "duration_ms": (0.0, 60_000.0)}
     t_on_ms: float = 50.0
     t_off_ms: float = 200.0
     intensity_pct: float = 100.0
     carrier_hz: float | None = None
+    duration_ms: float | None = None  # a stimulus of exactly this length from its onset (see Vibration)
 
 
 @dataclass(frozen=True)
 class Vibration(_Ranged):
-    """Continuous vibration."""
+    """Continuous vibration. With `duration_ms` it is a timed stimulus (a psychophysics interval):
+    a device that keeps its own clock (an audio tactor) plays exactly that long from the onset,
+    whatever the link's delay to the off; the others follow the scenario, which emits the cue for
+    that long on the tick clock."""
     kind: ClassVar[str] = "vibration"
-    RANGES: ClassVar = {"intensity_pct": (0.0, 100.0), "carrier_hz": (1.0, 2_000.0)}
+    RANGES: ClassVar = {"intensity_pct": (0.0, 100.0), "carrier_hz": (1.0, 2_000.0), "duration_ms": (0.0, 60_000.0)}
     intensity_pct: float = 100.0
     carrier_hz: float | None = None
+    duration_ms: float | None = None
 
 
 @dataclass(frozen=True)
