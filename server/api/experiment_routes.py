@@ -141,6 +141,15 @@ def session(session_id: str, experiment: ExperimentDep, site: SiteDep) -> dict:
         raise _http(exc) from None
 
 
+@router.get("/sessions/{session_id}/tracks", responses=errors(404, 422),
+            summary="The psychophysics tasks of a session with their tracks: levels, answers, reversals, estimates")
+def tracks(session_id: str, experiment: ExperimentDep, site: SiteDep) -> dict:
+    try:
+        return experiment.tracks(session_id, site)
+    except ERRORS as exc:
+        raise _http(exc) from None
+
+
 @router.post("/sessions/{session_id}/control", responses=errors(400, 404, 409, 422), summary="Take control of a session from this console (the previous "
                                                         "token stops working)")
 def take_control(session_id: str, body: ControlRequest, experiment: ExperimentDep, site: SiteDep) -> dict:

@@ -126,6 +126,7 @@ POLICY: dict[str, Rule] = {
     "GET /api/sessions": _site_read("the site's sessions"),
     "GET /api/sessions/{session_id}": _site_read("a session with its answers"),
     "GET /api/sessions/{session_id}/control": _site_read("who controls a session"),
+    "GET /api/sessions/{session_id}/tracks": _site_read("a session's psychophysics tracks"),
     "POST /api/sessions": _site_data("a new session (of the caller's site)"),
     "POST /api/sessions/{session_id}/control": _site_data("take control of a session"),
     "PUT /api/sessions/{session_id}/notes": _site_data("replace the notes"),

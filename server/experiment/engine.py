@@ -18,6 +18,13 @@ site is NotFound (404), as if it did not exist.
 
 Timestamps are the server's: UTC wall-clock from the store's clock, and the loop's tick.
 
+Psychophysics tasks (server/experiment/psychophysics_task.py): when such a trial starts, its
+levels are a replay of the task's recorded answers (never state kept in memory, so a restart
+resumes at the same procedure state); the presented parameters are stored on the trial before it
+runs, `start` returns them as `psy` (Contract C2), `finish` writes `metrics["psy"]` (C3), and once
+the procedure has finished the task's remaining reserved trials are excluded ("procedure
+finished"). `tracks` is the console's view of every such task (C4).
+
 A loop restart during a trial interrupts it (the recorder sees the new loop's hello): `flush()`,
 which the server calls every 0.25 s off the event loop, ends that attempt with its rows up to the
 crash and puts the trial back to pending, as a server crash does (docs/data.md "A loop restart
@@ -29,11 +36,13 @@ from __future__ import annotations
 import secrets
 import threading
 import uuid
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Protocol
 
 from server.experiment.participant import participant_code_problem, participant_view
 from server.experiment.plan import plan_session
+from server.experiment.psychophysics_task import EXCLUDED_REASON, QUESTION_ID, Seeds, conclude, next_trial, track
 from server.experiment.recorder import Recorder
 from server.experiment.store import Conflict, Store, StoreError, TrialRow
 from server.experiment.question import AnswerError
@@ -280,18 +289,99 @@ class Experiment:
             running = self.store.running()
             if running is not None:
                 raise Conflict(f"trial {running.seq} of session {running.session_id} is still running")
+            psy = self._psy_next(trial)
+            if psy is not None:  # the levels the procedure chose, presented as C1 trial params
+                trial = replace(trial, params=psy["params"], scenario_params=psy["scenario_params"])
             self._prepare_loop(trial, force)
             if trial.kind != "questionnaire":  # checked before anything is recorded: a refusal changes nothing
                 self.hub.require_devices(trial.scenario, force or self.force_scenarios)
             # which devices the trial needs: the recorder flags it while none that shows a dimension is connected
             needs = self.hub.devices_needed(trial.scenario) if trial.kind != "questionnaire" else {}
+            if psy is not None:
+                self.store.present(trial.id, trial.params, trial.scenario_params)
             started = self.store.transition(trial.id, "running", expect="pending")
             self.recorder.begin(session_id, started.id, started.attempt, self._trial_phase(started), started.index,
                                 needs=needs)
             self.hub.set_recording(self.record_every)
             self._set_trial(started)
         self.on_change(session_id)
-        return started.to_dict()
+        return {**started.to_dict(), "psy": psy["psy"]} if psy is not None else started.to_dict()
+
+    # -- psychophysics tasks -------------------------------------------------------------------
+    def _psy_context(self, trial: TrialRow):
+        """(task's PsyTask, its Seeds, its answered main trials' C3 records) for a trial of a
+        psychophysics task that presents a stimulus, else None."""
+        if trial.kind not in SCENARIO_TRIAL_KINDS:
+            return None
+        session = self.store.session(trial.session_id)
+        study = self.study(session["study_id"])
+        psy = study.task(trial.task).psychophysics
+        if psy is None:
+            return None
+        seeds = Seeds(study.seed, session["participant_index"], trial.task)
+        return psy, seeds, self._psy_answered(trial.session_id, trial.task)
+
+    def _psy_answered(self, session_id: str, task_id: str) -> list[dict]:
+        """The C3 records of a task's main trials that were answered (excluded afterwards too: the
+        track is what the participant went through), in session order."""
+        return [t.metrics["psy"] for t in self.store.trials(session_id)
+                if t.task == task_id and t.kind == "main" and "psy" in t.metrics]
+
+    def _psy_next(self, trial: TrialRow) -> dict | None:
+        context = self._psy_context(trial)
+        if context is None:
+            return None
+        psy, seeds, answered = context
+        nxt = next_trial(psy, seeds, answered, trial.kind, trial.index, trial.scenario_params)
+        if nxt is None:  # finished before this trial (a crash between the last answer and the exclusions)
+            self._skip_rest(trial.session_id, trial.task)
+            raise Conflict(f"trial {trial.seq}: the task's procedure has finished; its remaining trials are excluded")
+        return nxt
+
+    def _psy_finish(self, trial: TrialRow, answer: Any) -> tuple[dict | None, bool]:
+        """The finished trial's C3 record and whether the procedure has finished with it."""
+        context = self._psy_context(trial)
+        if context is None:
+            return None, False
+        psy, seeds, answered = context
+        presented = next_trial(psy, seeds, answered, trial.kind, trial.index, trial.scenario_params)
+        return conclude(psy, seeds, answered, presented["psy"], answer, trial.kind)
+
+    def _skip_rest(self, session_id: str, task_id: str) -> None:
+        for t in self.store.trials(session_id):
+            if t.task == task_id and t.kind == "main" and t.status == "pending":
+                self.store.skip(t.id, EXCLUDED_REASON)
+        if self.store.next_pending(session_id) is None:
+            self.store.set_session_status(session_id, "completed")
+
+    def tracks(self, session_id: str, site: str | None = None) -> dict:
+        """Every psychophysics task of the session with its track so far (Contract C4)."""
+        session = self._visible(session_id, site)
+        study = self.study(session["study_id"])
+        trials = self.store.trials(session_id)
+        out = []
+        for task_id in dict.fromkeys(t.task for t in trials):
+            psy = study.task(task_id).psychophysics
+            if psy is None:
+                continue
+            done = [t for t in trials if t.task == task_id and t.kind == "main" and "psy" in t.metrics]
+            procedure = track(psy, Seeds(study.seed, session["participant_index"], task_id),
+                              [t.metrics["psy"] for t in done])
+            names = list(psy.conditions) or ["main"]
+            conditions = []
+            for name in names:
+                sub = procedure.procedures[name] if psy.conditions else procedure
+                rows = [{"seq": t.seq, "level": t.metrics["psy"]["level"], "answer": t.metrics["psy"]["answer"],
+                         "correct": t.metrics["psy"]["correct"], "reversal": t.metrics["psy"]["reversal"]}
+                        for t in done if (t.metrics["psy"]["condition"] or "main") == name]
+                estimate = sub.estimate()
+                conditions.append({"name": name, "finished": bool(sub.finished),
+                                   "estimate": estimate if estimate is None or isinstance(estimate, dict)
+                                   else float(estimate), "trials": rows})
+            out.append({"task": task_id, "design": psy.design.name, "parameter": psy.parameter, "unit": psy.unit,
+                        "procedure": psy.procedure_kind, "finished": bool(procedure.finished),
+                        "conditions": conditions})
+        return {"session": session_id, "tasks": out}
 
     def _prepare_loop(self, trial: TrialRow, force: bool = False) -> None:
         state = self.hub.scenario_target or {}
@@ -328,6 +418,8 @@ class Experiment:
             trial = self._trial(session_id, seq)
             if trial.status not in ("running", "answered"):
                 raise Conflict(f"trial {seq} is {trial.status}; answers go to a running or answered trial")
+            if trial.status == "answered" and question == QUESTION_ID and "psy" in trial.metrics:
+                raise Conflict(f"trial {seq}: its answer chose the procedure's next level; it cannot change now")
             value = self._record(trial, question, value, entered_by)
         self.on_change(session_id)
         return {"seq": seq, "question": question, "value": value}
@@ -386,7 +478,10 @@ class Experiment:
             missing = [q for q in trial.questions if task.question(q).required and q not in answers]
             if missing:
                 raise Conflict(f"trial {seq} still needs an answer to {', '.join(missing)}")
-            ended = self._end(trial, "answered")
+            record, finished = self._psy_finish(trial, answers.get(QUESTION_ID))
+            ended = self._end(trial, "answered", extra={"psy": record} if record is not None else None)
+            if finished:  # the procedure stopped: its reserved trials left will not run
+                self._skip_rest(session_id, trial.task)
         self.on_change(session_id)
         return ended
 
@@ -405,7 +500,7 @@ class Experiment:
             raise Conflict(f"trial {seq} is {trial.status}, not running")
         return trial
 
-    def _end(self, trial: TrialRow, status: str, reason: str = "") -> dict:
+    def _end(self, trial: TrialRow, status: str, reason: str = "", extra: dict | None = None) -> dict:
         active = self.recorder.active
         if active is not None and active.interrupted is not None and active.trial_id == trial.id:
             self._interrupted()
@@ -418,7 +513,8 @@ class Experiment:
         # the trial ends at the last tick it recorded: state records go on arriving while this
         # thread ends it, and a later tick would claim rows the recording never took
         last_tick = recorded.last_tick if mine and recorded.last_tick is not None else self._last_tick()
-        ended = self.store.transition(trial.id, status, expect="running", metrics=recorded.metrics if mine else {},
+        metrics = {**(recorded.metrics if mine else {}), **(extra or {})}
+        ended = self.store.transition(trial.id, status, expect="running", metrics=metrics,
                                       reason=reason, tick=last_tick,
                                       first_tick=recorded.first_tick if mine else None)
         if self.store.next_pending(trial.session_id) is None:

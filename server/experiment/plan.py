@@ -19,6 +19,10 @@ Theory of operation:
      written, "random" with seed parts (study seed, participant, task, repetition), "latin"
      the participant's row of the balanced Latin square, the same row in every repetition;
    - questionnaire: one item with the task's end_questions, if it has any.
+   A psychophysics task ([tasks.psychophysics]) plans `practice` trial-phase items and
+   `max_trials` main items whose levels are not known yet: the engine fills in each trial's
+   parameters when it starts (a replay of the answers so far, server/experiment/psychophysics_task.py);
+   the plan holds the driven parameter, the number of intervals and blank levels.
 3. `seq` numbers the items 0.. over the whole session; `index` counts within task and kind.
 """
 
@@ -30,6 +34,7 @@ from typing import Any, Mapping
 
 from server.experiment.order import order_for, seeded_permutation
 from server.experiment.study import Study, Task
+from server.psychophysics.designs import MAX_INTERVALS
 
 KINDS = ("training", "trial", "main", "questionnaire")
 
@@ -93,10 +98,25 @@ def _task_items(study: Study, task: Task, participant_index: int):
             yield "training", k, params, None, 0, share, ()
     elif task.training_s:
         yield "training", 0, _NO_PARAMS, None, 0, task.training_s, ()
+    if task.psychophysics is not None:
+        yield from _psychophysics_items(task, asked)
+        return
     for k, (condition, cycle) in enumerate(practice_draw(study, task, participant_index)):
         yield "trial", k, task.conditions[condition], condition, cycle, task.time_limit_s, asked
     for k, (condition, repetition) in enumerate(main_order(study, task, participant_index)):
         yield "main", k, task.conditions[condition], condition, repetition, task.time_limit_s, asked
+    if task.end_questions:
+        yield "questionnaire", 0, _NO_PARAMS, None, 0, None, tuple(q.id for q in task.end_questions)
+
+
+def _psychophysics_items(task: Task, asked: tuple[str, ...]):
+    psy = task.psychophysics
+    unknown = MappingProxyType({"parameter": psy.parameter, "n_intervals": psy.design.intervals,
+                                **{f"level_{k}": None for k in range(1, MAX_INTERVALS + 1)}})
+    for k in range(task.practice):
+        yield "trial", k, unknown, None, 0, task.time_limit_s, asked
+    for k in range(psy.max_trials):
+        yield "main", k, unknown, None, 0, task.time_limit_s, asked
     if task.end_questions:
         yield "questionnaire", 0, _NO_PARAMS, None, 0, None, tuple(q.id for q in task.end_questions)
 

@@ -10,7 +10,8 @@ flushed, never a completed trial. On open, a trial left `running` by a crash goe
 can lose the last transactions, and never corrupts the file: sqlite.org/wal.html.)
 
 Trial lifecycle: pending → running → answered | aborted; answered | aborted → excluded (with a
-reason); aborted → pending again (retry: a new attempt). Data rows carry their attempt, so an
+reason); aborted → pending again (retry: a new attempt). A psychophysics task's reserved trials
+left when its procedure finishes go pending → excluded (`skip`, reason "procedure finished"). Data rows carry their attempt, so an
 aborted or interrupted attempt's samples stay apart from the one that counted.
 
 One connection, shared by the REST threads and the recorder, behind a lock: SQLite serialises
@@ -368,6 +369,29 @@ class Store:
             db.execute("INSERT INTO events (session_id, trial_id, attempt, utc, tick, kind, body_json) "
                        "SELECT session_id, id, attempt, ?, ?, 'lifecycle', ? FROM trials WHERE id = ?",
                        (now, tick, _dumps({"from": current, "to": status, "reason": reason or ""}), trial_id))
+        return self.trial(trial_id)
+
+    def present(self, trial_id: int, params: dict, scenario_params: dict) -> TrialRow:
+        """A pending trial's parameters as it will present them (a psychophysics trial's levels are
+        chosen when it starts, server/experiment/psychophysics_task.py): the export shows what ran."""
+        with self._tx() as db:
+            cur = db.execute("UPDATE trials SET params_json = ?, scenario_params_json = ? "
+                             "WHERE id = ? AND status = 'pending'", (_dumps(params), _dumps(scenario_params), trial_id))
+            if cur.rowcount != 1:
+                raise Conflict(f"trial {trial_id} is not pending")
+        return self.trial(trial_id)
+
+    def skip(self, trial_id: int, reason: str) -> TrialRow:
+        """A pending trial that will never run (its psychophysical procedure has finished):
+        excluded with `reason` and a lifecycle event, in one transaction."""
+        with self._tx() as db:
+            cur = db.execute("UPDATE trials SET status = 'excluded', reason = ? WHERE id = ? AND status = 'pending'",
+                             (reason, trial_id))
+            if cur.rowcount != 1:
+                raise Conflict(f"trial {trial_id} is not pending")
+            db.execute("INSERT INTO events (session_id, trial_id, attempt, utc, tick, kind, body_json) "
+                       "SELECT session_id, id, attempt, ?, NULL, 'lifecycle', ? FROM trials WHERE id = ?",
+                       (self.utc(), _dumps({"from": "pending", "to": "excluded", "reason": reason}), trial_id))
         return self.trial(trial_id)
 
     # -- responses --------------------------------------------------------------------------

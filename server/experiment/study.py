@@ -20,6 +20,9 @@ Theory of operation:
   practice trials, training time, time limit and the answer as a question. Fields written in
   the file override the borrowed ones.
 - `source_hash` (SHA-256 of the text) identifies the exact file a session ran.
+- `[tasks.psychophysics]` makes the task a psychophysical procedure on the stimulus scenario
+  (server/experiment/psychophysics_task.py): no conditions, `max_trials` main trials whose levels
+  the procedure chooses as the session runs, and one generated question, `response`.
 """
 
 from __future__ import annotations
@@ -33,16 +36,18 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Callable, Mapping
 
-from devices.profiles import PROFILES
+from devices.profiles import AUDIO_PROFILES, PROFILES
 from server.core.did_you_mean import did_you_mean as _did_you_mean
 from server.core.scenario import ParamError, Param, SubTask, Trial
 from scenarios.registry import UnknownScenario, check_scenario_params, resolve
 from server.experiment.order import ORDERS
+from server.experiment.psychophysics_task import QUESTION_ID, PsyTask, parse_psychophysics
+from server.psychophysics.spec import SpecError
 from server.experiment.question import (ANSWERERS, PARTICIPANT_KINDS, QUESTION_KINDS, Question, as_number,
                                         format_bound, frozen_mapping, question_from_answer)
 
 BLOCK_ORDERS = ("latin", "fixed", "random")
-DEVICE_MODELS = tuple(PROFILES)        # the built-in device profiles (devices/profiles.py)
+DEVICE_MODELS = tuple(PROFILES) + tuple(AUDIO_PROFILES)  # the built-in device profiles (devices/profiles.py)
 _ID = re.compile(r"[a-z0-9_]+\Z")
 _STUDY_ID = re.compile(r"[a-z0-9][a-z0-9_-]*\Z")  # like a file name: "thesis-2021"
 _REQUIRED = object()
@@ -87,6 +92,7 @@ class Task:
     instructions: str = ""                     # what the experimenter reads out or shows (added)
     training_conditions: tuple[Mapping[str, Any], ...] = ()  # training-phase trials sharing training_s (added)
     audio: Audio = NO_AUDIO                    # the study's [audio], with this task's [tasks.audio] over it (added)
+    psychophysics: PsyTask | None = None       # [tasks.psychophysics]: levels chosen by a procedure (added)
 
     def question(self, question_id: str) -> Question:
         """A question of this task (per trial or end of task) by id; KeyError if there is none."""
@@ -103,7 +109,8 @@ class Task:
                 "questions": [q.to_dict() for q in self.questions],
                 "end_questions": [q.to_dict() for q in self.end_questions], "block": self.block,
                 "subtask": self.subtask, "instructions": self.instructions,
-                "training_conditions": [dict(c) for c in self.training_conditions], "audio": self.audio.to_dict()}
+                "training_conditions": [dict(c) for c in self.training_conditions], "audio": self.audio.to_dict(),
+                "psychophysics": self.psychophysics.to_dict() if self.psychophysics else None}
 
 
 @dataclass(frozen=True)
@@ -227,7 +234,7 @@ def _at_least(low: float, whole: bool) -> Callable[[Any], Any]:
 STUDY_FIELDS = ("id", "title", "version", "seed", "participants", "description", "tasks", "blocks", "audio")
 TASK_FIELDS = ("id", "title", "scenario", "device", "params", "subtask", "conditions", "repetitions", "order",
                "practice", "training_s", "training_conditions", "time_limit_s", "questions", "end_questions",
-               "instructions", "audio")
+               "instructions", "audio", "psychophysics")
 BLOCK_FIELDS = ("id", "tasks", "order")
 AUDIO_FIELDS = ("speech", "contact_sounds")
 QUESTION_FIELDS = ("id", "kind", "text", "low", "high", "integer", "labels", "choices", "required", "answered_by")
@@ -298,6 +305,7 @@ def _parse_task(raw: Any, where: str, name: str, audio: Audio = NO_AUDIO) -> Tas
     trial_specs = spec.factory.TRIAL_PARAMS
     conditions = _conditions(t, "conditions", "main", trial_specs, sub.conditions if sub else None)
     training_conditions = _conditions(t, "training_conditions", "training", trial_specs, ())
+    psy = _psychophysics(t, spec, params)
     task = Task(
         id=t.ident("id"), title=t.text("title", sub.title if sub else spec.title), scenario=spec.id,
         device=_device(t), params=frozen_mapping(params), conditions=conditions,
@@ -305,11 +313,37 @@ def _parse_task(raw: Any, where: str, name: str, audio: Audio = NO_AUDIO) -> Tas
         practice=t.integer("practice", 0, sub.practice_trials if sub else 0),
         training_s=t.number("training_s", 0.0, sub.training_s if sub else 0.0),
         time_limit_s=_time_limit(t, sub.time_limit_s if sub else None),
-        questions=_questions(t, "questions", _subtask_questions(sub)), end_questions=_questions(t, "end_questions", ()),
-        subtask=sub.name if sub else None, instructions=t.text("instructions", ""),
-        training_conditions=training_conditions, audio=_audio(t, audio))
+        questions=_psy_questions(psy) + _questions(t, "questions", () if psy else _subtask_questions(sub)),
+        end_questions=_questions(t, "end_questions", ()), subtask=sub.name if sub else None,
+        instructions=t.text("instructions", ""), training_conditions=training_conditions, audio=_audio(t, audio),
+        psychophysics=psy)
     _check_task(t, task)
     return task
+
+
+def _psychophysics(t: _Table, spec, params: Mapping) -> PsyTask | None:
+    """The task's [tasks.psychophysics] table (server/experiment/psychophysics_task.py), or None."""
+    if not t.has("psychophysics"):
+        return None
+    for name in ("conditions", "repetitions", "order", "subtask"):
+        if t.has(name):
+            raise t.error(f"{name}: a psychophysics task's trials come from its procedure (max_trials in "
+                          "[tasks.psychophysics]); leave out conditions, repetitions, order and subtask")
+    try:
+        return parse_psychophysics(t.raw["psychophysics"], f"{t.where}: psychophysics", spec.id,
+                                   spec.factory.TRIAL_PARAMS, lambda p: check_scenario_params(spec, p), params,
+                                   _device(t))
+    except (SpecError, ParamError) as exc:
+        raise StudyError(str(exc)) from None
+
+
+def _psy_questions(psy: PsyTask | None) -> tuple[Question, ...]:
+    """The generated question of a psychophysics task: the participant chooses one of the design's answers."""
+    if psy is None:
+        return ()
+    text = {"yes-no": "Did you feel it?", "same-different": "Were the two the same or different?",
+            "identification": "Which one was it?"}.get(psy.design.name, "Which interval held the stimulus?")
+    return (Question(QUESTION_ID, "choice", text, choices=psy.design.choices, answered_by="participant"),)
 
 
 def _checked(t: _Table, make: Callable[[], Any], prefix: str = "") -> Any:
@@ -366,6 +400,9 @@ def _time_limit(t: _Table, default: float | None) -> float | None:
 
 def _check_task(t: _Table, task: Task) -> None:
     n = len(task.conditions)
+    _unique((q.id for q in task.questions + task.end_questions), f"{t.where}: question")
+    if task.psychophysics is not None:
+        return  # its trials are the procedure's (plan.py); practice uses its practice levels
     if task.order == "latin" and n < 2:
         raise t.error(f'order "latin" needs at least 2 conditions, got {n}')
     if task.practice and not n:
@@ -374,7 +411,6 @@ def _check_task(t: _Table, task: Task) -> None:
         raise t.error("training_conditions need a training time (training_s > 0)")
     if not (n or task.training_s or task.end_questions):
         raise t.error("nothing to do: give conditions, a training time or end_questions")
-    _unique((q.id for q in task.questions + task.end_questions), f"{t.where}: question")
 
 
 def _questions(t: _Table, name: str, default: tuple[Question, ...]) -> tuple[Question, ...]:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import re
+from dataclasses import replace
 
 import httpx
 import pytest
@@ -164,6 +165,11 @@ def test_each_caller_is_refused_exactly_where_the_policy_says(app, document):
     assert ("POST /api/scenario", "admin+lease") in allowed and ("POST /api/scenario", "experimenter") not in allowed
     assert ("GET /api/sessions", "observer") not in allowed and ("GET /api/health", "none") in allowed
     assert ("POST /api/sessions/{session_id}/control", "none") not in allowed
+    # a session's psychophysics tracks are read as the session itself is (the console's live track)
+    assert ("GET /api/sessions/{session_id}/tracks", "experimenter") in allowed
+    assert {("GET /api/sessions/{session_id}/tracks", c) for c in ("none", "observer")}.isdisjoint(allowed)
+    assert replace(POLICY["GET /api/sessions/{session_id}/tracks"], doc="") == \
+        replace(POLICY["GET /api/sessions/{session_id}"], doc="")
     # during another lab's running trial: what reaches its recording is refused (409, naming the lab)
     # to another lab's lease holder, not to the admin; reading and the site's own records are not
     refused_in_trial = {key for key, caller, ok in checked if caller == "experimenter+lease@trial" and not ok}
