@@ -182,10 +182,11 @@ def _check_levels(f: Fields, psy: PsyTask, params: Mapping, device: str | None, 
         if value is None:
             continue
         if not low <= value <= high:
-            bound = "no bound" if math.isinf(value) else f"{value:g} {psy.unit}".strip()
+            got = (f"missing: the procedure could step past {high if value > 0 else low:g}" if math.isinf(value)
+                   else f"got {value:g}")
             raise f.error(("procedure: " + where if field not in ("reference", "practice_levels") else where) + field,
-                          f"{psy.parameter} levels must stay within [{low:g}, {high:g}] {psy.unit} (the {cue} cue's "
-                          f"range), got {bound}".replace("  ", " "))
+                          f"{psy.parameter} levels must stay within [{low:g}, {high:g}]{' ' + psy.unit if psy.unit else ''}"
+                          f" (the {cue} cue's range); {got}")
 
 
 def _level_extremes(spec) -> list[tuple[str, float]]:
