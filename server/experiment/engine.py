@@ -344,8 +344,9 @@ class Experiment:
         if context is None:
             return None, False
         psy, seeds, answered = context
-        presented = next_trial(psy, seeds, answered, trial.kind, trial.index, trial.scenario_params)
-        return conclude(psy, seeds, answered, presented["psy"], answer, trial.kind)
+        procedure = track(psy, seeds, answered) if trial.kind == "main" else None  # replayed once, moved on by the answer
+        presented = next_trial(psy, seeds, answered, trial.kind, trial.index, trial.scenario_params, procedure)
+        return conclude(psy, seeds, answered, presented["psy"], answer, trial.kind, procedure)
 
     def _skip_rest(self, session_id: str, task_id: str) -> None:
         for t in self.store.trials(session_id):

@@ -252,12 +252,13 @@ def _current(procedure) -> tuple[str | None, Any]:
 
 
 def next_trial(psy: PsyTask, seeds: Seeds, answered: Sequence[Mapping], kind: str, index: int,
-               params: Mapping[str, Any]) -> dict | None:
+               params: Mapping[str, Any], procedure=None) -> dict | None:
     """What trial `index` of `kind` ("main" or "trial": practice) presents: {"psy": C3 without the
     answer's keys, "params": C1 TRIAL_PARAMS, "scenario_params": the task's with its condition's},
-    or None when the procedure has finished (main trials)."""
+    or None when the procedure has finished (main trials). `procedure`: `track(...)` of the same
+    answers, when the caller has it already (it is not changed)."""
     if kind == "main":
-        procedure = track(psy, seeds, answered)
+        procedure = track(psy, seeds, answered) if procedure is None else procedure
         if procedure.finished:
             return None
         condition, current = _current(procedure)
@@ -280,18 +281,21 @@ def next_trial(psy: PsyTask, seeds: Seeds, answered: Sequence[Mapping], kind: st
 
 
 def conclude(psy: PsyTask, seeds: Seeds, answered: Sequence[Mapping], record: Mapping, answer: str,
-             kind: str) -> tuple[dict, bool]:
+             kind: str, procedure=None) -> tuple[dict, bool]:
     """The finished trial's C3 record (`record`: next_trial's psy, `answer`: the participant's) and
-    whether the procedure has finished with it (main trials only)."""
+    whether the procedure has finished with it (main trials only). `procedure`: `track(...)` of
+    `answered`, when the caller has it; it is moved on by this answer."""
     pres = _presentation(record)
     out = {**record, "answer": answer, "answer_index": psy.design.choices.index(answer),
            "correct": correct(psy.design, pres, answer), "reversal": False, "procedure": None, "estimate": None}
     if kind != "main":
         return out, False
-    before = track(psy, seeds, answered)
-    reversals = _reversals(before)
-    after = track(psy, seeds, [*answered, out])
-    out["reversal"] = _reversals(after, _current(before)[0]) > reversals
+    after = track(psy, seeds, answered) if procedure is None else procedure
+    condition, reversals = _current(after)[0], _reversals(after)
+    heard = outcome(psy.design, pres, answer)
+    if heard is not None:  # what the replay of the answers with this one gives
+        after.update(heard)
+    out["reversal"] = _reversals(after, condition) > reversals
     out["procedure"], out["estimate"] = _plain(after.record()), _plain(after.estimate())
     return out, bool(after.finished)
 

@@ -224,3 +224,26 @@ def test_identification_presents_one_of_its_levels_and_scores_the_label(tmp_path
         assert c3["correct"] == (c3["level"] >= 0.0) or c3["stimulus_index"] == 0
     assert experiment.session(sid)["status"] == "completed"
     store.close()
+
+
+def test_the_export_shows_what_each_trial_presented(tmp_path, stimulus):
+    import csv
+    import json
+
+    from server.experiment.export import export
+    experiment, store = engine(tmp_path)
+    session = experiment.create_session(study_id="vt-2ifc-staircase", participant="P08", experimenter="alice")
+    sid, token = session["id"], session["token"]
+    started = {t["seq"]: t for t in run(experiment, sid, token, observer(20.0), n=6)}
+    [summary] = export(store.path, tmp_path / "out", sid)
+    with open(Path(summary["dir"]) / "trials_wide.csv", newline="", encoding="utf-8") as f:
+        rows = {int(r["seq"]): r for r in csv.DictReader(f)}
+    for seq, t in started.items():
+        row = rows[seq]
+        for k in (1, 2):
+            value = t["params"][f"level_{k}"]
+            assert row[f"param.level_{k}"] == ("" if value is None else str(value))
+        c3 = json.loads(row["metric.psy"])
+        assert c3["level"] == t["psy"]["level"] and c3["target"] == t["psy"]["target"]
+    assert all(rows[s]["param.level_1"] == "" and rows[s]["status"] == "pending" for s in rows if s not in started)
+    store.close()
