@@ -40,7 +40,7 @@ PSY_FIELDS = ("design", "parameter", "max_trials", "procedure", "conditions", "r
 UNITS = {"intensity_pct": "%", "carrier_hz": "Hz", "duration_ms": "ms", "direction_deg": "deg",
          "contact_angle_deg": "deg", "period_us": "µs", "relative": "", "celsius": "°C", "magnitude_pct": "%"}
 CONTACT_ANGLE_RANGE = (-90.0, 90.0)   # the contact-angle task's angles (scenarios/contact_angle.py), shown as a Tilt
-DURATION_RANGE = Vibration.RANGES["duration_ms"]  # an interval of any cue lasts at most this long
+DURATION_RANGE = (1.0, Vibration.RANGES["duration_ms"][1])  # an interval of any cue: at least one tick
 CUE_CAPS = {"vibration": "continuous", "pulse_train": "pulse", "texture": "texture", "tilt": "tilt",
             "temperature": "temperature"}  # the firmware command a device needs to show the cue
 

@@ -110,5 +110,5 @@ def registered() -> MappingProxyType:
 
 
 def install() -> None:
-    """Register the stand-in for this process (a server started by a live test: standin_site/)."""
+    """Register the stand-in for this process (a server a live test starts: its sitecustomize calls this)."""
     registry.SCENARIOS = registered()

@@ -247,3 +247,18 @@ def test_the_export_shows_what_each_trial_presented(tmp_path, stimulus):
         assert c3["level"] == t["psy"]["level"] and c3["target"] == t["psy"]["target"]
     assert all(rows[s]["param.level_1"] == "" and rows[s]["status"] == "pending" for s in rows if s not in started)
     store.close()
+
+
+def test_tracks_are_scoped_like_the_session_and_list_only_psychophysics_tasks(tmp_path, stimulus):
+    from server.experiment.engine import NotFound
+    experiment, store = engine(tmp_path)
+    mine = experiment.create_session(study_id="vt-2ifc-staircase", participant="P09", experimenter="alice",
+                                     site="lab-a")
+    run(experiment, mine["id"], mine["token"], observer(20.0), n=4)
+    assert [len(c["trials"]) for c in experiment.tracks(mine["id"], "lab-a")["tasks"][0]["conditions"]] == [2]
+    assert experiment.tracks(mine["id"]) == experiment.tracks(mine["id"], "lab-a"), "the admin sees every site's"
+    with pytest.raises(NotFound):
+        experiment.tracks(mine["id"], "lab-b")
+    thesis = experiment.create_session(study_id="thesis-2021", participant="P09", experimenter="alice")
+    assert experiment.tracks(thesis["id"]) == {"session": thesis["id"], "tasks": []}
+    store.close()
