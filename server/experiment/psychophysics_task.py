@@ -25,7 +25,7 @@ from devices.profiles import AUDIO_PROFILES, PROFILES, Display
 from server.core.cues import CUE_KINDS, Vibration
 from server.core.did_you_mean import did_you_mean
 from server.experiment.order import seed_from_parts
-from server.psychophysics.designs import MAX_INTERVALS, Design, Presentation, correct, outcome, parse_design, present
+from server.psychophysics.designs import DESIGNS, MAX_INTERVALS, Design, Presentation, correct, outcome, parse_design, present
 from server.psychophysics.interleave import Interleaved, InterleavedSpec
 from server.psychophysics.procedures import parse_procedure, replay, start
 from server.psychophysics.spec import Fields
@@ -78,14 +78,17 @@ def parse_psychophysics(raw: Any, where: str, scenario_id: str, trial_specs: tup
         raise f.error(None, f'a psychophysics task presents with scenario = "{STIMULUS_SCENARIO}", not {scenario_id}')
     parameter = f.choice("parameter", _parameters(trial_specs, f))
     max_trials = int(f.number("max_trials", low=1, whole=True))
-    design_name = f.choice("design", ("yes-no", "nafc", "2ifc", "same-different", "identification"))
-    table = _with_guess(f.table_of("procedure"), _guess_of(design_name, raw))
-    spec = parse_procedure(table, f"{where}: procedure")
-    design = parse_design(f, _stimuli(spec, f, design_name))
+    table = f.table_of("procedure")
+    if f.choice("design", DESIGNS) == "identification":  # its answers are the procedure's levels
+        spec = parse_procedure(table, f"{where}: procedure")
+        design = parse_design(f, _stimuli(spec, f))
+    else:  # the design's guess rate is the procedure's unless it gives one
+        design = parse_design(f)
+        spec = parse_procedure(_with_guess(table, design.guess), f"{where}: procedure")
     conditions = _conditions(f, spec, parameter, check_params, params)
     practice = f.numbers("practice_levels", ())
     f.done()
-    psy = PsyTask(design, parameter, UNITS[parameter], max_trials, spec, conditions, practice)
+    psy = PsyTask(design, parameter, UNITS.get(parameter, ""), max_trials, spec, conditions, practice)
     for name, fixed in (conditions or {"": params}).items():
         _check_levels(f, psy, {**params, **fixed}, device, name)
     return psy
@@ -97,17 +100,6 @@ def _parameters(trial_specs: tuple, f: Fields) -> tuple:
     if any(name not in by_name for name in wanted):
         raise f.error(None, f"the stimulus scenario lacks the trial parameters {', '.join(wanted)} (Contract C1)")
     return tuple(by_name["parameter"].choices)
-
-
-def _guess_of(design: str, raw: Mapping) -> float:
-    if design == "yes-no":
-        return 0.0
-    if design == "nafc":
-        n = raw.get("intervals", 3)
-        return 1.0 / n if isinstance(n, int) and not isinstance(n, bool) and 2 <= n <= MAX_INTERVALS else 0.5
-    if design == "identification":
-        return 0.0  # identification's levels are the stimuli; its procedure does not model a guess
-    return 0.5
 
 
 def _with_guess(table: Mapping, guess: float) -> Mapping:
@@ -123,9 +115,7 @@ def _with_guess(table: Mapping, guess: float) -> Mapping:
     return table
 
 
-def _stimuli(spec, f: Fields, design: str) -> tuple[float, ...]:
-    if design != "identification":
-        return ()
+def _stimuli(spec, f: Fields) -> tuple[float, ...]:
     if spec.kind != "constant":
         raise f.error("procedure", f'identification presents k fixed stimuli: kind = "constant" with their levels, '
                                    f"not {spec.kind!r}")
