@@ -204,3 +204,13 @@ def test_same_data_same_numbers_and_no_tasks_is_an_empty_section():
     assert once() == once()
     section, skipped = psy.analyze(*psy.select(pr.trials({})))
     assert section["tasks"] == [] and section["n_trials"] == 0 and skipped == {}
+
+
+def test_every_psychophysics_key_is_in_docs_psychophysics():
+    from pathlib import Path
+
+    from server.analysis.keys import KEYS
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "psychophysics.md").read_text(encoding="utf-8")
+    section = doc.split("## stats.json keys", 1)[1]
+    assert [k for k in KEYS if k.startswith("psychophysics") and f"`{k}`" not in section] == []
