@@ -144,10 +144,12 @@ KEYS: dict[str, str] = {
                                                  "bootstrap, procedure_estimate, sdt, information",
     "psychophysics.tasks[].conditions[].<cell>.points[]": "per distinct level of the fitted trials: level, n (trials), "
                                                           "k (correct, or \"yes\" / \"different\"), p = k/n",
-    "psychophysics.tasks[].conditions[].<cell>.fit": "family, guess, threshold, slope, lapse, deviance, "
-                                                     "log_likelihood, converged, n_levels, n_trials (null: skipped)",
-    "psychophysics.tasks[].conditions[].<cell>.bootstrap": "samples, threshold_ci95, slope_ci95 (percentile), "
-                                                           "deviance_p (share of resampled deviances ≥ the fit's)",
+    "psychophysics.tasks[].conditions[].<cell>.fit": "family, guess, threshold (α), slope (β), lapse, "
+                                                     "midpoint (the level halfway from the guess rate to 1 − lapse, "
+                                                     "F = ½: comparable across families), deviance, log_likelihood, "
+                                                     "converged, n_levels, n_trials (null: skipped)",
+    "psychophysics.tasks[].conditions[].<cell>.bootstrap": "samples, threshold_ci95, slope_ci95, midpoint_ci95 "
+                                                           "(percentile), deviance_p (share of resampled deviances ≥ the fit's)",
     "psychophysics.tasks[].conditions[].<cell>.procedure_estimate": "the procedure's estimate after the last trial "
                                                                     "(pooled: mean over participants, with "
                                                                     "procedure_estimate_n)",

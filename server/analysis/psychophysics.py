@@ -38,6 +38,7 @@ import pandas as pd
 from server.analysis.stats import num
 from server.psychophysics import information, sdt
 from server.psychophysics.fit import bootstrap, fit
+from server.psychophysics.functions import FAMILIES as FUNCTIONS
 
 FAMILIES = ("logistic", "normal", "gumbel", "weibull")
 LAPSE_MAX = 0.06            # Wichmann & Hill 2001a: a lapse bound of a few per cent keeps α and β unbiased
@@ -210,13 +211,23 @@ def _fit(path, levels, n, k, guess, family, samples, lapse_max, skipped):
         skipped[f"{path}.fit"] = str(exc)
         return None, None
     result = {"family": family, "guess": guess, "threshold": num(f.threshold), "slope": num(f.slope),
-              "lapse": num(f.lapse), "deviance": num(f.deviance), "log_likelihood": num(f.log_likelihood),
-              "converged": f.converged, "n_levels": int(len(levels)), "n_trials": int(n.sum())}
+              "lapse": num(f.lapse), "midpoint": num(midpoint(family, f.threshold, f.slope)),
+              "deviance": num(f.deviance), "log_likelihood": num(f.log_likelihood), "converged": f.converged,
+              "n_levels": int(len(levels)), "n_trials": int(n.sum())}
     rng = np.random.default_rng([BOOTSTRAP_SEED, zlib.crc32(path.encode("utf-8"))])
     b = bootstrap(f, levels, n, rng, samples=samples, lapse_max=lapse)
+    mid = np.percentile(midpoint(family, b.thresholds, b.slopes), [2.5, 97.5])
     boot = {"samples": samples, "threshold_ci95": [num(b.threshold_ci[0]), num(b.threshold_ci[1])],
-            "slope_ci95": [num(b.slope_ci[0]), num(b.slope_ci[1])], "deviance_p": num(b.deviance_p)}
+            "slope_ci95": [num(b.slope_ci[0]), num(b.slope_ci[1])], "midpoint_ci95": [num(mid[0]), num(mid[1])],
+            "deviance_p": num(b.deviance_p)}
     return result, boot
+
+
+def midpoint(family: str, threshold, slope):
+    """The level where the curve is halfway from the guess rate to 1 − λ (F = ½): the same point of
+    every family (α itself for logistic and normal; below α for Gumbel and Weibull, whose F(α) is
+    1 − 1/e), so thresholds of different families compare."""
+    return FUNCTIONS[family].level_at(0.5, threshold, slope)
 
 
 def _procedure_estimate(c: pd.DataFrame) -> float | None:

@@ -323,7 +323,8 @@ def _psychophysics(page: Page, psy: dict) -> None:
         cells = [(c, cell) for c in task["conditions"] for cell in [c["pooled"], *c["participants"]]]
         if task["design"] != "identification":
             page.add(table(["condition", "participant", "trials", "family", "threshold", "95 % CI", "slope",
-                            "95 % CI", "lapse", "deviance", "p (bootstrap)", "procedure's estimate"],
+                            "95 % CI", "lapse", "midpoint (F = ½)", "95 % CI", "deviance", "p (bootstrap)",
+                            "procedure's estimate"],
                            [[c["condition"], _who(cell), cell["n_trials"], *_fit_cells(cell),
                              cell["procedure_estimate"]] for c, cell in cells]))
         if task["design"] in ("yes-no", "same-different"):
@@ -341,9 +342,10 @@ def _psychophysics(page: Page, psy: dict) -> None:
 def _fit_cells(cell: dict) -> list:
     f, b = cell["fit"], cell["bootstrap"] or {}
     if not f:
-        return ["—"] * 8
+        return ["—"] * 10
     return [f["family"], f["threshold"], interval(b.get("threshold_ci95")), f["slope"],
-            interval(b.get("slope_ci95")), f["lapse"], f["deviance"], b.get("deviance_p")]
+            interval(b.get("slope_ci95")), f["lapse"], f["midpoint"], interval(b.get("midpoint_ci95")),
+            f["deviance"], b.get("deviance_p")]
 
 
 def _sdt_cells(s: dict | None) -> list:

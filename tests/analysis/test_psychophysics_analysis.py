@@ -86,6 +86,10 @@ def test_constant_stimuli_recover_the_simulated_threshold_per_condition():
         assert level_at(pooled["fit"], 0.75) == pytest.approx(truth.level_at(0.75), abs=1.5)
         lo, hi = pooled["bootstrap"]["threshold_ci95"]
         assert lo < pooled["fit"]["threshold"] < hi and hi - lo < 4
+        # the midpoint (F = ½) is 75 % correct in 2AFC without lapse, whatever the family
+        assert pooled["fit"]["midpoint"] == pytest.approx(level_at({**pooled["fit"], "lapse": 0.0}, 0.75))
+        lo, hi = pooled["bootstrap"]["midpoint_ci95"]
+        assert lo < pooled["fit"]["midpoint"] < hi
         assert 0 <= pooled["bootstrap"]["deviance_p"] <= 1 and pooled["bootstrap"]["samples"] == psy.BOOTSTRAP_SAMPLES
         assert 0 <= pooled["fit"]["lapse"] <= psy.LAPSE_MAX
         assert len(cond["participants"]) == 8

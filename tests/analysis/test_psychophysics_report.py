@@ -95,7 +95,8 @@ def test_report_numbers_are_the_stats_numbers(run):
                 if task["design"] != "identification":
                     f, b = cell["fit"], cell["bootstrap"]
                     assert [f["family"], fmt(f["threshold"]), interval(b["threshold_ci95"]), fmt(f["slope"]),
-                            interval(b["slope_ci95"]), fmt(f["lapse"]), fmt(f["deviance"]), fmt(b["deviance_p"]),
+                            interval(b["slope_ci95"]), fmt(f["lapse"]), fmt(f["midpoint"]),
+                            interval(b["midpoint_ci95"]), fmt(f["deviance"]), fmt(b["deviance_p"]),
                             fmt(cell["procedure_estimate"])] == shown[0][3:], (task["task"], who)
                 if task["design"] == "yes-no":
                     s = cell["sdt"]
