@@ -214,6 +214,9 @@ def _fit(path, levels, n, k, guess, family, samples, lapse_max, skipped):
               "lapse": num(f.lapse), "midpoint": num(midpoint(family, f.threshold, f.slope)),
               "deviance": num(f.deviance), "log_likelihood": num(f.log_likelihood), "converged": f.converged,
               "n_levels": int(len(levels)), "n_trials": int(n.sum())}
+    if samples <= 0:  # e.g. a power analysis that needs the estimates only (its CPU goes to the replications)
+        skipped[f"{path}.bootstrap"] = "no bootstrap asked (0 samples)"
+        return result, None
     rng = np.random.default_rng([BOOTSTRAP_SEED, zlib.crc32(path.encode("utf-8"))])
     b = bootstrap(f, levels, n, rng, samples=samples, lapse_max=lapse)
     mid = np.percentile(midpoint(family, b.thresholds, b.slopes), [2.5, 97.5])

@@ -335,7 +335,7 @@ def _psychophysics(page: Page, psy: dict) -> None:
             page.add(table(["condition", "participant", "trials", "accuracy", "IT (bits)", "IT corrected (bits)",
                             "log2 k"], [[c["condition"], _who(cell), *_it_cells(cell)] for c, cell in cells]))
         for c, cell in cells:
-            for part in ("fit", "sdt", "information"):
+            for part in ("fit", "bootstrap", "sdt", "information"):
                 page.skip(f"psychophysics.{task['task']}.{c['condition']}.{_who(cell)}.{part}")
 
 

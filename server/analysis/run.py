@@ -83,8 +83,9 @@ def analyze(data: str | Path, out: str | Path, study: str | None = None, workers
     return stats
 
 
-def compute(dataset: Dataset) -> tuple[dict, dict]:
-    """Every analysis: stats.json's content, and the frames the figures need."""
+def compute(dataset: Dataset, psy_bootstrap: int = psy.BOOTSTRAP_SAMPLES) -> tuple[dict, dict]:
+    """Every analysis: stats.json's content, and the frames the figures need. `psy_bootstrap`:
+    resampled data sets per psychophysics fit (0: none, for callers that need the estimates only)."""
     trials = dataset.trials
     skipped: dict[str, str] = {}
     stats: dict = {"format": FORMAT, "format_version": FORMAT_VERSION, "provenance": provenance(dataset),
@@ -104,7 +105,7 @@ def compute(dataset: Dataset) -> tuple[dict, dict]:
     merge("task4", found)
     stats["task4"]["throughput"] = guarded(skipped, "task4.throughput", fitts.throughput, kept, dataset.endpoints)
     psy_rows, unusable = psy.select(trials)
-    stats["psychophysics"], found = psy.analyze(psy_rows, unusable)
+    stats["psychophysics"], found = psy.analyze(psy_rows, unusable, samples=psy_bootstrap)
     skipped.update(found)
     stats["skipped"] = dict(sorted(skipped.items()))
     return stats, {"task4_kept": kept, "psy_rows": psy_rows}

@@ -218,3 +218,11 @@ def test_every_psychophysics_key_is_in_docs_psychophysics():
     doc = (Path(__file__).resolve().parents[2] / "docs" / "psychophysics.md").read_text(encoding="utf-8")
     section = doc.split("## stats.json keys", 1)[1]
     assert [k for k in KEYS if k.startswith("psychophysics") and f"`{k}`" not in section] == []
+
+
+def test_no_bootstrap_when_none_is_asked():
+    rng = np.random.default_rng(12)
+    section, skipped = analyse({"P1": {"d": pr.records("2ifc", TWO_AFC, CONSTANT, rng)}}, samples=0)
+    pooled = task_of(section, "d")["conditions"][0]["pooled"]
+    assert pooled["fit"]["threshold"] is not None and pooled["bootstrap"] is None
+    assert skipped["psychophysics.d.main.pooled.bootstrap"] == "no bootstrap asked (0 samples)"
