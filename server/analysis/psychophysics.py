@@ -198,8 +198,12 @@ def _cell(path, design, c: pd.DataFrame, family, samples, lapse_max, skipped, pa
 
 
 def _fit(path, levels, n, k, guess, family, samples, lapse_max, skipped):
-    if family is None or len(levels) < 2:
+    if len(levels) < 2:
         skipped[f"{path}.fit"] = f"a psychometric fit needs trials at 2 or more distinct levels, got {len(levels)}"
+        return None, None
+    if family is None:
+        skipped[f"{path}.fit"] = (f"no family could be fitted to the condition's pooled data (guess rate {guess:g}: "
+                                  f"it must lie in [0, 1))")
         return None, None
     if family == "weibull" and levels.min() <= 0:
         skipped[f"{path}.fit"] = "the condition's family is Weibull, which needs levels > 0"

@@ -226,3 +226,13 @@ def test_no_bootstrap_when_none_is_asked():
     pooled = task_of(section, "d")["conditions"][0]["pooled"]
     assert pooled["fit"]["threshold"] is not None and pooled["bootstrap"] is None
     assert skipped["psychophysics.d.main.pooled.bootstrap"] == "no bootstrap asked (0 samples)"
+
+
+def test_a_guess_rate_no_fit_can_take_is_named():
+    rng = np.random.default_rng(13)
+    recs = pr.records("2ifc", TWO_AFC, CONSTANT, rng)
+    for r in recs:
+        r["guess"] = 1.5
+    section, skipped = analyse({"P1": {"d": recs}}, samples=10)
+    assert task_of(section, "d")["conditions"][0]["pooled"]["fit"] is None
+    assert "guess rate 1.5" in skipped["psychophysics.d.main.pooled.fit"]
