@@ -126,8 +126,8 @@ def _grouped(ax, rows: list[dict], x_key: str, hue_key: str, measure: str) -> No
     ax.set_ylabel(LABELS[measure])
 
 
-def _figure_legend(fig: Figure, title: str) -> None:
-    """One legend for all panels, outside them on the right (it never hides data)."""
+def _figure_legend(fig: Figure, title: str, loc: str = "outside right upper", ncol: int = 1) -> None:
+    """One legend for all panels, outside them (on the right by default: it never hides data)."""
     handles, labels = {}, []
     for ax in fig.axes:
         for h, label in zip(*ax.get_legend_handles_labels()):
@@ -135,7 +135,7 @@ def _figure_legend(fig: Figure, title: str) -> None:
                 handles[label] = h
                 labels.append(label)
     if labels:
-        fig.legend([handles[k] for k in labels], labels, title=title, loc="outside right upper", fontsize="small")
+        fig.legend([handles[k] for k in labels], labels, title=title, loc=loc, ncol=ncol, fontsize="small")
 
 
 def task4_device(device: str, part: dict) -> Figure:
@@ -192,4 +192,103 @@ def speed_accuracy(kept: pd.DataFrame) -> Figure:
         ax.set(xlabel=LABELS[other], ylabel=LABELS["completion_time"])
     _figure_legend(fig, "device, cue")
     fig.suptitle("Task 4: speed-accuracy (one point per trial)")
+    return fig
+
+
+# --- psychophysics (server/analysis/psychophysics.py) -----------------------------------------
+
+def _panels(count: int) -> tuple[Figure, list]:
+    """A figure with one panel per condition: SIZE for one, WIDE rows of up to three for more."""
+    cols = min(count, 3)
+    rows = -(-count // cols)
+    fig = Figure(figsize=SIZE if count == 1 else (WIDE[0], WIDE[1] * rows), layout="constrained")
+    return fig, [fig.add_subplot(rows, cols, i + 1) for i in range(count)]
+
+
+def _axis_label(task: dict) -> str:
+    return f"{task['parameter']} ({task['unit']})" if task.get("unit") else str(task["parameter"])
+
+
+def psy_curves(task: dict) -> Figure:
+    """Per condition: the pooled proportion correct per level (area ∝ trials), the pooled fit and
+    each participant's fit (thin)."""
+    fig, axes = _panels(len(task["conditions"]))
+    answer = {"yes-no": 'proportion "yes" (signal trials)',
+              "same-different": 'proportion "different" (different pairs)'}.get(task["design"], "proportion correct")
+    for ax, cond in zip(axes, task["conditions"]):
+        pooled = cond["pooled"]
+        pts = pooled["points"]
+        levels = np.array([p["level"] for p in pts], dtype=float)
+        if len(levels):
+            n = np.array([p["n"] for p in pts], dtype=float)
+            ax.scatter(levels, [p["p"] for p in pts], s=10 + 190 * n / n.max(), alpha=0.6, color=COLOURS[0],
+                       edgecolor="white", label="pooled data (area ∝ trials)")
+            x = np.linspace(levels.min(), levels.max(), 200)
+            if cond["family"] == "weibull":
+                x = np.geomspace(levels.min(), levels.max(), 200)
+            for cell in cond["participants"]:
+                if cell["fit"]:
+                    ax.plot(x, _curve(cell["fit"], x), color="grey", lw=0.7, alpha=0.6)
+            if pooled["fit"]:
+                f = pooled["fit"]
+                ax.plot(x, _curve(f, x), color=COLOURS[1], lw=2, label=f"pooled {f['family']} fit")
+                ax.axvline(f["threshold"], color=COLOURS[1], ls=":", lw=1, label="fitted threshold")
+            if pooled["procedure_estimate"] is not None:
+                ax.axvline(pooled["procedure_estimate"], color=COLOURS[2], ls="--", lw=1,
+                           label="procedure's estimate (mean)")
+        ax.axhline(task["guess"], color="grey", ls="--", lw=0.8)
+        ax.set(ylim=(-0.02, 1.02), xlabel=_axis_label(task), ylabel=answer, title=cond["condition"])
+    _figure_legend(fig, "", "outside lower center", 4)
+    fig.suptitle(f"{task['task']} ({task['design']}): psychometric functions")
+    return fig
+
+
+def _curve(f: dict, x: np.ndarray) -> np.ndarray:
+    from server.psychophysics.functions import FAMILIES
+
+    return FAMILIES[f["family"]].probability(x, f["threshold"], f["slope"], f["guess"], f["lapse"])
+
+
+def psy_tracks(task: dict, rows: pd.DataFrame) -> Figure:
+    """Per condition: each participant's levels trial by trial; filled = correct, open = wrong,
+    ring = reversal; the procedure's estimate after the last trial as a short line."""
+    fig, axes = _panels(len(task["conditions"]))
+    rows = rows[rows["task"] == task["task"]]
+    participants = sorted(rows["participant"].unique())
+    for ax, cond in zip(axes, task["conditions"]):
+        c = rows[rows["condition"] == cond["condition"]]
+        for i, (who, g) in enumerate(c.groupby("participant", sort=True)):
+            colour = COLOURS[participants.index(who) % len(COLOURS)]
+            x = np.arange(1, len(g) + 1)
+            y = g["level"].to_numpy(dtype=float)
+            ok = g["correct"].astype(bool).to_numpy()
+            ax.plot(x, y, color=colour, lw=0.8, alpha=0.7, label=str(who))
+            ax.scatter(x[ok], y[ok], s=14, color=colour, zorder=3)
+            ax.scatter(x[~ok], y[~ok], s=14, facecolor="white", edgecolor=colour, zorder=3)
+            rev = g["reversal"].to_numpy(dtype=bool)
+            if rev.any():
+                ax.scatter(x[rev], y[rev], s=60, facecolor="none", edgecolor="black", lw=0.8, zorder=4,
+                           label="reversal" if i == 0 else None)
+            est = next((p["procedure_estimate"] for p in cond["participants"] if p["participant"] == who), None)
+            if est is not None:
+                ax.hlines(est, len(g) * 0.8, len(g), color=colour, lw=2)
+        ax.set(xlabel="trial", ylabel=_axis_label(task), title=cond["condition"])
+    _figure_legend(fig, "participant (● correct, ○ wrong)", "outside lower center", 6)
+    fig.suptitle(f"{task['task']} ({task['design']}): tracks")
+    return fig
+
+
+def psy_confusion(task: dict, cond: dict) -> Figure:
+    fig = Figure(figsize=(5.5, 4.5), layout="constrained")
+    ax = fig.add_subplot()
+    info = cond["pooled"]["information"]
+    counts = np.array(info["confusion"], dtype=float)
+    image = ax.imshow(counts, cmap="Blues", vmin=0)
+    for (i, j), c in np.ndenumerate(counts):
+        ax.text(j, i, f"{int(c)}", ha="center", va="center", color="white" if c > counts.max() / 2 else "black")
+    ticks = range(len(info["labels"]))
+    ax.set(xticks=ticks, xticklabels=info["labels"], yticks=ticks, yticklabels=info["labels"], xlabel="answer",
+           ylabel="stimulus", title=f"{task['task']} {cond['condition']}: IT {info['bits']:.2f} bits "
+                                    f"(corrected {info['corrected']:.2f})")
+    fig.colorbar(image, ax=ax, label="trials")
     return fig

@@ -28,7 +28,8 @@ KEYS: dict[str, str] = {
     "format": '"viestac-analysis"',
     "format_version": "1",
     "skipped": "dotted path → why that analysis was skipped (data absent or too few)",
-    "methods": "the methodological choices in words (ci, rm_anova, posthoc, kendall, power_fit, outliers, throughput)",
+    "methods": "the methodological choices in words (ci, rm_anova, posthoc, kendall, power_fit, outliers, throughput, "
+               "psychophysics)",
     # provenance
     "provenance.database": "the database file analysed",
     "provenance.study_id": "the study analysed",
@@ -123,6 +124,41 @@ KEYS: dict[str, str] = {
     "task4.speed_accuracy.<device>": "n_trials, time_vs_length and time_vs_end_error (Spearman rho, p, n)",
     "task4.throughput": "method, n_trials, n_conditions_skipped, conditions[] (device, cue, object, n, D, Ae, "
                         "sd_dx, We, IDe, MT, TP), by_device, by_cue (\"device/cue\" → mean TP)",
+    # psychophysics (server/analysis/psychophysics.py; docs/psychophysics.md "stats.json keys").
+    # <cell> is `pooled` or a row of `participants[]`
+    "psychophysics.n_trials": "answered main trials with a usable psychophysics record (metrics.psy)",
+    "psychophysics.n_participants": "participants among them",
+    "psychophysics.n_tasks": "psychophysics tasks analysed",
+    "psychophysics.families": "the psychometric families fitted (logistic, normal, gumbel, weibull)",
+    "psychophysics.lapse_max": "the lapse rate's upper bound in every fit",
+    "psychophysics.bootstrap_samples": "resampled data sets per parametric bootstrap",
+    "psychophysics.bootstrap_seed": "the seed every bootstrap's generator starts from (with the cell's name)",
+    "psychophysics.tasks[]": "per task: task, design, parameter, unit, guess, choices, n_trials, n_participants, "
+                             "conditions[]",
+    "psychophysics.tasks[].conditions[]": "per condition (\"main\" without interleaving): condition, n_trials, "
+                                          "n_participants, family (the one of highest likelihood on the pooled data; "
+                                          "null for identification), families, pooled, participants[]",
+    "psychophysics.tasks[].conditions[].families": "every family's fit to the pooled data: threshold, slope, lapse, "
+                                                   "deviance, log_likelihood",
+    "psychophysics.tasks[].conditions[].<cell>": "participant (null when pooled), n_trials, points[], fit, "
+                                                 "bootstrap, procedure_estimate, sdt, information",
+    "psychophysics.tasks[].conditions[].<cell>.points[]": "per distinct level of the fitted trials: level, n (trials), "
+                                                          "k (correct, or \"yes\" / \"different\"), p = k/n",
+    "psychophysics.tasks[].conditions[].<cell>.fit": "family, guess, threshold (α), slope (β), lapse, "
+                                                     "midpoint (the level halfway from the guess rate to 1 − lapse, "
+                                                     "F = ½: comparable across families), deviance, log_likelihood, "
+                                                     "converged, n_levels, n_trials (null: skipped)",
+    "psychophysics.tasks[].conditions[].<cell>.bootstrap": "samples, threshold_ci95, slope_ci95, midpoint_ci95 "
+                                                           "(percentile), deviance_p (share of resampled deviances ≥ the fit's)",
+    "psychophysics.tasks[].conditions[].<cell>.procedure_estimate": "the procedure's estimate after the last trial "
+                                                                    "(pooled: mean over participants, with "
+                                                                    "procedure_estimate_n)",
+    "psychophysics.tasks[].conditions[].<cell>.sdt": "yes-no and same-different: model, correction, hits, "
+                                                     "signal_trials, false_alarms, noise_trials, hit_rate, "
+                                                     "false_alarm_rate, d_prime, criterion",
+    "psychophysics.tasks[].conditions[].<cell>.information": "identification: labels, confusion (stimulus × answer), "
+                                                             "trials, accuracy, bits, corrected, correction, "
+                                                             "maximum, correction_method",
 }
 
 

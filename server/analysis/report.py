@@ -8,6 +8,7 @@ import base64
 import re
 from html import escape
 
+from server.analysis.psychophysics import slug
 from server.analysis.stats import anova_text, p_text
 
 CSS = """
@@ -102,6 +103,7 @@ def render(stats: dict, figures: list[dict]) -> str:
     _task2(page, stats["task2"])
     _task3(page, stats["task3"])
     _task4(page, stats["task4"])
+    _psychophysics(page, stats["psychophysics"])
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<title>ViESTac analysis: {escape(prov['study_id'])}</title><style>{CSS}</style></head>"
             f"<body>{''.join(page.parts)}</body></html>\n")
@@ -287,3 +289,74 @@ def _task4(page: Page, t: dict) -> None:
             else:
                 page.p(f"<code>{escape(q)}</code>: mean {fmt(r['mean'])} (SD {fmt(r['sd'])}, 95 % CI {ci(r)}, "
                        f"n = {r['n_trials']}).")
+
+
+def interval(pair: list | None) -> str:
+    """A [low, high] pair as the report shows it."""
+    if not pair or pair[0] is None or pair[1] is None:
+        return "—"
+    return f"[{fmt(pair[0])}, {fmt(pair[1])}]"
+
+
+def _who(cell: dict) -> str:
+    return "pooled" if cell["participant"] is None else cell["participant"]
+
+
+def _psychophysics(page: Page, psy: dict) -> None:
+    if not psy["tasks"]:
+        return
+    page.add("<h2>Psychophysics</h2>")
+    page.p(f"{psy['n_trials']} trials of {psy['n_participants']} participants in {psy['n_tasks']} task(s). "
+           f"{escape(page.stats['methods']['psychophysics'])}.", "note")
+    for path, reason in page.stats["skipped"].items():
+        if path.startswith("psychophysics.") and path.endswith(".unusable"):
+            page.p(f"Skipped <code>{escape(path)}</code>: {escape(reason)}", "skip")
+    for task in psy["tasks"]:
+        name = f"psy_{escape(task['task'])}"
+        page.add(f"<h3 id=\"{name}\">{escape(task['task'])}: {escape(task['design'])}, "
+                 f"{escape(str(task['parameter']))} ({escape(str(task['unit'] or ''))})</h3>")
+        page.p(f"{task['n_trials']} trials of {task['n_participants']} participants; guess rate "
+               f"{fmt(task['guess'])}; answers {escape(', '.join(task['choices']))}.")
+        for f in page.figures:
+            if f["section"] == "psychophysics" and f["name"].startswith(f"psy_{slug(task['task'])}_"):
+                page.figure(f["name"])
+        cells = [(c, cell) for c in task["conditions"] for cell in [c["pooled"], *c["participants"]]]
+        if task["design"] != "identification":
+            page.add(table(["condition", "participant", "trials", "family", "threshold", "95 % CI", "slope",
+                            "95 % CI", "lapse", "midpoint (F = ½)", "95 % CI", "deviance", "p (bootstrap)",
+                            "procedure's estimate"],
+                           [[c["condition"], _who(cell), cell["n_trials"], *_fit_cells(cell),
+                             cell["procedure_estimate"]] for c, cell in cells]))
+        if task["design"] in ("yes-no", "same-different"):
+            page.add(table(["condition", "participant", "model", "hits", "signal trials", "false alarms",
+                            "noise trials", "d′", "criterion"],
+                           [[c["condition"], _who(cell), *_sdt_cells(cell["sdt"])] for c, cell in cells]))
+        if task["design"] == "identification":
+            page.add(table(["condition", "participant", "trials", "accuracy", "IT (bits)", "IT corrected (bits)",
+                            "log2 k"], [[c["condition"], _who(cell), *_it_cells(cell)] for c, cell in cells]))
+        for c, cell in cells:
+            for part in ("fit", "bootstrap", "sdt", "information"):
+                page.skip(f"psychophysics.{task['task']}.{c['condition']}.{_who(cell)}.{part}")
+
+
+def _fit_cells(cell: dict) -> list:
+    f, b = cell["fit"], cell["bootstrap"] or {}
+    if not f:
+        return ["—"] * 10
+    return [f["family"], f["threshold"], interval(b.get("threshold_ci95")), f["slope"],
+            interval(b.get("slope_ci95")), f["lapse"], f["midpoint"], interval(b.get("midpoint_ci95")),
+            f["deviance"], b.get("deviance_p")]
+
+
+def _sdt_cells(s: dict | None) -> list:
+    if not s:
+        return ["—"] * 7
+    return [s["model"], s["hits"], s["signal_trials"], s["false_alarms"], s["noise_trials"], s["d_prime"],
+            s["criterion"]]
+
+
+def _it_cells(cell: dict) -> list:
+    i = cell["information"]
+    if not i:
+        return [cell["n_trials"], "—", "—", "—", "—"]
+    return [i["trials"], i["accuracy"], i["bits"], i["corrected"], i["maximum"]]

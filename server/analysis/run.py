@@ -20,6 +20,7 @@ import pandas as pd
 
 from server import __version__
 from server.analysis import fitts, figures, task1, task2, task3, task4
+from server.analysis import psychophysics as psy
 from server.analysis.load import Dataset, load
 from server.analysis.stats import guarded
 from server.analysis.task3 import FIT_LEVELS, FIT_METHOD
@@ -48,6 +49,7 @@ METHODS = {
     "throughput": "task 4: ISO 9241-411, We = 4.133·SD of the end points along the start→target axis, "
                   "IDe = log2(Ae/We + 1), TP = IDe/MT, per condition pooled over participants "
                   "(server/analysis/fitts.py)",
+    "psychophysics": psy.METHOD,
 }
 
 
@@ -81,8 +83,9 @@ def analyze(data: str | Path, out: str | Path, study: str | None = None, workers
     return stats
 
 
-def compute(dataset: Dataset) -> tuple[dict, dict]:
-    """Every analysis: stats.json's content, and the frames the figures need."""
+def compute(dataset: Dataset, psy_bootstrap: int = psy.BOOTSTRAP_SAMPLES) -> tuple[dict, dict]:
+    """Every analysis: stats.json's content, and the frames the figures need. `psy_bootstrap`:
+    resampled data sets per psychophysics fit (0: none, for callers that need the estimates only)."""
     trials = dataset.trials
     skipped: dict[str, str] = {}
     stats: dict = {"format": FORMAT, "format_version": FORMAT_VERSION, "provenance": provenance(dataset),
@@ -101,8 +104,11 @@ def compute(dataset: Dataset) -> tuple[dict, dict]:
     stats["task4"], found, kept = task4.analyze(positioning, task4.select_questionnaire(trials))
     merge("task4", found)
     stats["task4"]["throughput"] = guarded(skipped, "task4.throughput", fitts.throughput, kept, dataset.endpoints)
+    psy_rows, unusable = psy.select(trials)
+    stats["psychophysics"], found = psy.analyze(psy_rows, unusable, samples=psy_bootstrap)
+    skipped.update(found)
     stats["skipped"] = dict(sorted(skipped.items()))
-    return stats, {"task4_kept": kept}
+    return stats, {"task4_kept": kept, "psy_rows": psy_rows}
 
 
 def provenance(dataset: Dataset) -> dict:
@@ -146,7 +152,7 @@ def write_figures(stats: dict, frames: dict, directory: Path, workers: int = 1) 
             for (name, section, title, _, _), paths in zip(jobs, _draw(jobs, directory, workers))]
     names = {f"{m['name']}.{ext}" for m in made for ext in ("png", "svg")}
     if directory.is_dir():
-        for old in directory.glob("task*_*.*"):
+        for old in [*directory.glob("task*_*.*"), *directory.glob("psy_*.*")]:
             if old.suffix in (".png", ".svg") and old.name not in names:
                 old.unlink()
     return made
@@ -185,6 +191,18 @@ def _figure_jobs(stats: dict, frames: dict) -> list[tuple]:
     if not kept.empty and kept["completion_time"].notna().any():
         draw("task4_speed_accuracy", "task4", "Speed-accuracy: completion time against trajectory length and "
              "end-point error", figures.speed_accuracy, kept)
+    for task in stats["psychophysics"]["tasks"]:
+        name = f"psy_{psy.slug(task['task'])}"
+        if any(c["pooled"]["points"] for c in task["conditions"]):
+            draw(f"{name}_curves", "psychophysics", f"{task['task']}: psychometric functions (points: pooled "
+                 "proportions, area by trial count; thin lines: participants' fits)", figures.psy_curves, task)
+        if any(cell["procedure_estimate"] is not None for c in task["conditions"] for cell in c["participants"]):
+            draw(f"{name}_tracks", "psychophysics", f"{task['task']}: levels per trial (filled correct, open wrong, "
+                 "rings reversals)", figures.psy_tracks, task, frames["psy_rows"])
+        for cond in task["conditions"]:
+            if cond["pooled"]["information"]:
+                draw(f"{name}_{psy.slug(cond['condition'])}_confusion", "psychophysics",
+                     f"{task['task']} {cond['condition']}: stimulus × answer", figures.psy_confusion, task, cond)
     return jobs
 
 

@@ -22,6 +22,7 @@ import { auditRows, renderAudit } from './audit.js';
 import { DevicesCard } from './devices.js';
 import { ScenarioCard } from './scenario.js';
 import { BUTTONS, consoleWords } from './words.js';
+import { TrackPanel } from './track.js';
 
 const REFRESH_MS = 2000;
 const SESSIONS_REFRESH_MS = 10000;
@@ -325,6 +326,7 @@ async function refresh() {
     }
   }
   render();
+  track?.refresh(sid); // psychophysics tasks: the live track (its own fetch; does not hold up the view)
   return session;
 }
 
@@ -832,6 +834,7 @@ function wsUrl() {
 let live = null;
 let devices = null; // the devices panel (devices.js)
 let scenarioCard = null; // the scenario card (scenario.js)
+let track = null; // the psychophysics track card (track.js)
 
 function main() {
   const exp = $('experimenter');
@@ -879,6 +882,8 @@ function main() {
   };
   new ResizeObserver(fitFrame).observe($('scene-frame').parentElement);
   fitFrame();
+  track = new TrackPanel($('track-card'), $('track'),
+    (sid) => api.request('GET', `/api/sessions/${encodeURIComponent(sid)}/tracks`));
   live = new LivePanels({ timeline: $('timeline'), side: $('traj-side'), top: $('traj-top') },
     { url: ws, token: () => store.token });
   live.onLease = (l) => { if (state.identity) setLease({ ...l, you: undefined, position: undefined }); };
