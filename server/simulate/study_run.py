@@ -175,7 +175,7 @@ def _participant(run: _Run, study, store: Store, clock: VirtualClock, index: int
             task = study.task(trial["task"])
             for q in trial["questions"]:
                 if psy is not None and q == PSY_QUESTION:
-                    value = person.answer_psychophysics(started, psy, q)
+                    value = person.answer_psychophysics(started, psy, q, stimulus_of(started))
                 else:
                     value = person.answer(planned, task.question(q))
                 experiment.answer(sid, token, trial["seq"], q, value, "synthetic participant")
@@ -199,6 +199,20 @@ def psychophysics_record(started: dict) -> dict | None:
                            "psychophysics Contract C2 (Experiment.start() returns the trial with "
                            "'psy': design, level, reference, target, signal, stimulus_index, choices)")
     return psy
+
+
+def stimulus_of(trial: Mapping) -> dict:
+    """The fixed stimulus of a psychophysics trial: its scenario params and trial params, with
+    the carrier the device plays when the file gives none (C1: None = the device's own carrier)."""
+    stimulus = {**(trial.get("scenario_params") or {}), **(trial.get("params") or {})}
+    if stimulus.get("carrier_hz") is None and trial.get("device"):
+        try:
+            carrier = profile_by_model(trial["device"]).carrier_hz
+        except (KeyError, ValueError):
+            carrier = 0
+        if carrier:
+            stimulus["carrier_hz"] = float(carrier)
+    return stimulus
 
 
 def _stimulus_s(trial: dict) -> float:

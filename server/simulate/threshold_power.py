@@ -38,6 +38,7 @@ from server.experiment.study import load_study
 from server.simulate.effects import parse_settings, population
 from server.simulate.power import _client, replication_seed
 from server.simulate.power_store import ReplicationStore
+from server.simulate.study_run import simulate_study, stimulus_of
 from server.synthetic.psychometric import AMPLITUDE_PARAMETERS, PsyAnswerError
 
 TARGET_SE_DB = 1.0
@@ -64,8 +65,6 @@ def run_threshold_replication(study_text: str, study_name: str, n: int, seed: in
                               settings: Sequence[Sequence[str]]) -> dict:
     """One simulated study of `n` participants: every psychophysics track with its true
     threshold. Runs on a Dask worker: everything it needs comes in its arguments."""
-    from server.simulate.study_run import simulate_study
-
     people = population(dict(settings))
     started = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="viestac-threshold-power-") as tmp:
@@ -87,7 +86,7 @@ def tracks(db: Path, participant: Callable[[int], object]) -> list[dict]:
     con = sqlite3.connect(db)
     try:
         rows = con.execute("""
-            SELECT s.participant_index, t.task, t.params_json, t.scenario_params_json, t.metrics_json
+            SELECT s.participant_index, t.task, t.device, t.params_json, t.scenario_params_json, t.metrics_json
             FROM trials t JOIN sessions s ON s.id = t.session_id
             WHERE t.status = 'answered' AND t.kind = 'main'
             ORDER BY s.participant_index, t.seq""").fetchall()
@@ -95,7 +94,7 @@ def tracks(db: Path, participant: Callable[[int], object]) -> list[dict]:
         con.close()
     observers: dict[tuple, dict] = {}
     counts: dict[tuple, int] = {}
-    for index, task, params, scenario_params, metrics in rows:
+    for index, task, device, params, scenario_params, metrics in rows:
         psy = json.loads(metrics).get("psy")
         if not psy:
             continue
@@ -103,7 +102,8 @@ def tracks(db: Path, participant: Callable[[int], object]) -> list[dict]:
         condition = psy.get("condition") or MAIN
         key = (index, task, condition)
         if key not in observers:
-            stimulus = {**json.loads(scenario_params), **json.loads(params)}
+            stimulus = stimulus_of({"device": device, "params": json.loads(params),
+                                    "scenario_params": json.loads(scenario_params)})
             observers[key] = {"participant": index, "task": task, "condition": condition,
                               "design": psy.get("design"), "parameter": psy.get("parameter"),
                               "unit": psy.get("unit"), "guess": psy.get("guess"),

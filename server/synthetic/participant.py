@@ -93,12 +93,15 @@ class SyntheticParticipant:
             self._psychometric = self.models.psychometric.participant(self.seed, self.participant)
         return self._psychometric
 
-    def answer_psychophysics(self, trial: Mapping[str, Any], psy: Mapping[str, Any], question_id: str = "response"):
+    def answer_psychophysics(self, trial: Mapping[str, Any], psy: Mapping[str, Any], question_id: str = "response",
+                             stimulus: Mapping[str, Any] | None = None):
         """The answer (one of psy["choices"]) to a psychophysics trial: `trial` is the started
         trial's dict (its `seq`; its `scenario_params` and `params` give the fixed stimulus, e.g. the
-        carrier), `psy` what the engine's start() returned under "psy" (Contract C3)."""
+        carrier, unless `stimulus` is given), `psy` what the engine's start() returned under "psy"
+        (Contract C3)."""
         seq = trial["seq"]
-        stimulus = {**(trial.get("scenario_params") or {}), **(trial.get("params") or {})}
+        if stimulus is None:
+            stimulus = {**(trial.get("scenario_params") or {}), **(trial.get("params") or {})}
         return self.psychometric.answer(psy, derive_rng(self.seed, self.participant, seq, question_id), stimulus)
 
     def produce_level(self, target_level: int, seq: int | None = None) -> int:

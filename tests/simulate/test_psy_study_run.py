@@ -16,7 +16,7 @@ import pytest
 
 from scenarios import registry
 from server.experiment.study import StudyError, load_study
-from server.simulate.study_run import psychophysics_record, simulate_study
+from server.simulate.study_run import psychophysics_record, simulate_study, stimulus_of
 from server.synthetic import SyntheticParticipant
 
 STUDY = textwrap.dedent("""
@@ -29,7 +29,7 @@ STUDY = textwrap.dedent("""
     id = "detect"
     scenario = "stimulus"
     device = "fingertac"
-    params = { cue = "vibration", carrier_hz = 250.0, duration_ms = 50, isi_ms = 50, lead_ms = 50 }
+    params = { cue = "vibration", duration_ms = 50, isi_ms = 50, lead_ms = 50 }
     practice = 0
     training_s = 0
 
@@ -63,7 +63,7 @@ def psy_absent(study_path) -> str | None:
     try:
         load_study(study_path)
     except StudyError as exc:
-        if "psychophysics" in str(exc):
+        if "unknown field 'psychophysics'" in str(exc):
             return f"the engine's psy is absent: the study loader does not know [tasks.psychophysics] (Contract C2): {exc}"
         raise
     return None
@@ -99,7 +99,7 @@ def test_a_main_stimulus_trial_without_psy_is_refused_naming_the_contract():
 def test_the_psychometric_participant_answers_every_procedure_trial(simulated):
     _, result = simulated
     con = sqlite3.connect(result.data_dir / "viestac.sqlite")
-    rows = con.execute("""SELECT s.participant_index, t.seq, t.status, t.reason, t.params_json,
+    rows = con.execute("""SELECT s.participant_index, t.seq, t.status, t.reason, t.device, t.params_json,
                                  t.scenario_params_json, t.metrics_json, r.value_json
                           FROM trials t JOIN sessions s ON s.id = t.session_id
                           LEFT JOIN responses r ON r.trial_id = t.id AND r.question = 'response'
@@ -112,11 +112,14 @@ def test_the_psychometric_participant_answers_every_procedure_trial(simulated):
         assert len(answered) == PROCEDURE_TRIALS
         assert all(r[2] == "excluded" and r[3] == "procedure finished" for r in mine[PROCEDURE_TRIALS:])
         person = participant(9, index)
-        for _, seq, _, _, params, scenario_params, metrics, value in answered:
+        for _, seq, _, _, device, params, scenario_params, metrics, value in answered:
             psy = json.loads(metrics)["psy"]
             answer = json.loads(value)
-            trial = {"seq": seq, "params": json.loads(params), "scenario_params": json.loads(scenario_params)}
-            assert answer == psy["answer"] == person.answer_psychophysics(trial, psy)
+            trial = {"seq": seq, "device": device, "params": json.loads(params),
+                     "scenario_params": json.loads(scenario_params)}
+            stimulus = stimulus_of(trial)
+            assert stimulus["carrier_hz"] == 235.0  # the FingerTac's own carrier: the file gives none
+            assert answer == psy["answer"] == person.answer_psychophysics(trial, psy, stimulus=stimulus)
             assert psy["correct"] == (answer == psy["choices"][psy["target"] - 1])
     assert result.aborted == []
 
