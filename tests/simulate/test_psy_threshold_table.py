@@ -101,3 +101,20 @@ def test_a_study_without_psychophysics_is_refused_before_any_work(tmp_path):
     with pytest.raises(ValueError, match=r"no task has a \[tasks.psychophysics\] table"):
         run_threshold_power(study, 2, 1, out=tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+def test_the_command_takes_a_psychophysics_study_to_the_threshold_run(tmp_path, capsys):
+    """`viestac study --power` on a file with [tasks.psychophysics] asks for one group size and
+    trial counts, and says what is wrong before any simulation."""
+    from server.cli import main
+
+    study = tmp_path / "psy.toml"
+    study.write_text('id = "psy"\ntitle = "t"\nseed = 1\nparticipants = 2\n[[tasks]]\nid = "detect"\n'
+                     'scenario = "stimulus"\n[tasks.psychophysics]\ndesign = "2ifc"\nmax_trials = 20\n',
+                     encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["study", "--power", "--study", str(study), "--participants", "4,8", "--out", str(out)]) == 2
+    assert "give one number of --participants (the trial counts are --trials)" in capsys.readouterr().err
+    assert main(["study", "--power", "--study", str(study), "--trials", "10,x", "--out", str(out)]) == 2
+    assert "--trials takes whole numbers" in capsys.readouterr().err
+    assert not out.exists()
