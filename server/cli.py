@@ -425,6 +425,10 @@ def _study_power(args: argparse.Namespace, participants: list[int]) -> int:
         psychophysics = False  # unreadable, or not TOML: the study loader below says why
     if psychophysics:
         return _threshold_power(args, participants)
+    if args.trials or args.target_se_db is not None:
+        print("viestac study: --trials and --target-se-db are for a psychophysics study (a task with "
+              "[tasks.psychophysics]); this one's power is over --participants", file=sys.stderr)
+        return 2
     try:
         result = run_power(args.study, participants, args.replications, out=args.out, seed=args.seed,
                            settings=args.set, alpha=args.alpha, workers=args.workers, scheduler=args.scheduler,
@@ -461,7 +465,8 @@ def _threshold_power(args: argparse.Namespace, participants: list[int]) -> int:
         return 2
     try:
         result = run_threshold_power(args.study, participants[0], args.replications, out=args.out, trials=trials,
-                                     target_se_db=args.target_se_db or TARGET_SE_DB, seed=args.seed,
+                                     target_se_db=TARGET_SE_DB if args.target_se_db is None else args.target_se_db,
+                                     seed=args.seed,
                                      settings=args.set, workers=args.workers, scheduler=args.scheduler,
                                      progress=None if args.quiet else functools.partial(progress_bar,
                                                                                         unit="replications"))

@@ -1,5 +1,5 @@
 """`viestac study --power` for a psychophysics study: how many trials for a threshold standard
-error of 1 dB? (docs/power.md, "Psychophysics: trials for a threshold SE")
+error of 1 dB? (docs/power.md, "Psychophysics")
 
 Each replication is one simulated study of N synthetic participants through the real engine
 (server/simulate/study_run.py: the engine picks every level, the psychometric participant of
@@ -36,7 +36,7 @@ from typing import Callable, Mapping, Sequence
 
 from server.experiment.study import load_study
 from server.simulate.effects import parse_settings, population
-from server.simulate.power import _client, replication_seed
+from server.simulate.power import dask_client, replication_seed
 from server.simulate.power_store import ReplicationStore
 from server.simulate.study_run import simulate_study, stimulus_of
 from server.synthetic.psychometric import AMPLITUDE_PARAMETERS, PsyAnswerError
@@ -258,7 +258,7 @@ def run_threshold_power(study_path: str | Path, participants: int, replications:
         if progress:
             progress(finished, replications, f"{finished} stored")
         if todo:
-            with _client(scheduler, workers) as client:
+            with dask_client(scheduler, workers) as client:
                 from distributed import as_completed
 
                 tag = hashlib.sha256(json.dumps(config, sort_keys=True).encode()).hexdigest()[:16]

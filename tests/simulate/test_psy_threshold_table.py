@@ -118,3 +118,15 @@ def test_the_command_takes_a_psychophysics_study_to_the_threshold_run(tmp_path, 
     assert main(["study", "--power", "--study", str(study), "--trials", "10,x", "--out", str(out)]) == 2
     assert "--trials takes whole numbers" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_the_threshold_options_on_a_study_without_psychophysics_are_refused(tmp_path, capsys):
+    from server.cli import main
+
+    study = tmp_path / "plain.toml"
+    study.write_text('id = "plain"\ntitle = "t"\nseed = 1\nparticipants = 2\n[[tasks]]\nid = "angles"\n'
+                     'scenario = "contact-angle"\ndevice = "ferrovibe"\nsubtask = "angles"\n', encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["study", "--power", "--study", str(study), "--target-se-db", "0.5", "--out", str(out)]) == 2
+    assert "--trials and --target-se-db are for a psychophysics study" in capsys.readouterr().err
+    assert not out.exists()
