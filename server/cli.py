@@ -417,7 +417,18 @@ def _study_power(args: argparse.Namespace, participants: list[int]) -> int:
 
     from server.simulate.power import run_power, text_table
     from server.simulate.study_run import progress_bar
+    from server.simulate.threshold_power import psychophysics_tasks
 
+    try:
+        psychophysics = bool(psychophysics_tasks(Path(args.study).read_text(encoding="utf-8")))
+    except (ValueError, OSError):
+        psychophysics = False  # unreadable, or not TOML: the study loader below says why
+    if psychophysics:
+        return _threshold_power(args, participants)
+    if args.trials or args.target_se_db is not None:
+        print("viestac study: --trials and --target-se-db are for a psychophysics study (a task with "
+              "[tasks.psychophysics]); this one's power is over --participants", file=sys.stderr)
+        return 2
     try:
         result = run_power(args.study, participants, args.replications, out=args.out, seed=args.seed,
                            settings=args.set, alpha=args.alpha, workers=args.workers, scheduler=args.scheduler,
@@ -433,6 +444,44 @@ def _study_power(args: argparse.Namespace, participants: list[int]) -> int:
           f"({result.computed} run now, {result.reused} stored) in {result.wall_s:.0f} s:")
     print(text_table(result.table, sorted(set(participants))))
     print(f"table and chart: {result.out / 'power.json'}, {result.out / 'power.csv'}, {result.out / 'power.png'}")
+    return 0
+
+
+def _threshold_power(args: argparse.Namespace, participants: list[int]) -> int:
+    """--power on a psychophysics study: the threshold's SE per trial count (docs/power.md)."""
+    import functools
+
+    from server.simulate.study_run import progress_bar
+    from server.simulate.threshold_power import TARGET_SE_DB, run_threshold_power, text_table
+
+    if len(participants) != 1:
+        print("viestac study: --power on a psychophysics study simulates one group: give one number of "
+              "--participants (the trial counts are --trials)", file=sys.stderr)
+        return 2
+    try:
+        trials = [int(t) for t in args.trials.split(",") if t.strip()] if args.trials else None
+    except ValueError:
+        print(f"viestac study: --trials takes whole numbers separated by commas, got {args.trials!r}", file=sys.stderr)
+        return 2
+    try:
+        result = run_threshold_power(args.study, participants[0], args.replications, out=args.out, trials=trials,
+                                     target_se_db=TARGET_SE_DB if args.target_se_db is None else args.target_se_db,
+                                     seed=args.seed,
+                                     settings=args.set, workers=args.workers, scheduler=args.scheduler,
+                                     progress=None if args.quiet else functools.partial(progress_bar,
+                                                                                        unit="replications"))
+    except (ValueError, OSError) as exc:
+        print(f"viestac study: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"\nviestac study: interrupted; the finished replications are stored in {args.out}: the same command "
+              "continues", file=sys.stderr)
+        return 130
+    print(f"threshold standard error over {args.replications} × {participants[0]} simulated participants "
+          f"({result.computed} replications run now, {result.reused} stored) in {result.wall_s:.0f} s:")
+    print(text_table(result.table, result.trials))
+    print(f"table and chart: {result.out / 'threshold_power.json'}, {result.out / 'threshold_power.csv'}, "
+          f"{result.out / 'threshold_power.png'}")
     return 0
 
 
@@ -800,6 +849,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="an effect setting of the synthetic participants, e.g. estimation.b=0.9 or "
                             "agent.ferrovibe.duration_scale=1.3 (docs/synthetic.md, \"Effect settings\")")
     study.add_argument("--alpha", type=float, default=0.05, help="--power: significance level (default 0.05)")
+    study.add_argument("--trials", metavar="T[,T...]", help="--power on a psychophysics study: the trial counts "
+                       "(default: 1/4, 1/2, 3/4 and all of max_trials; docs/power.md)")
+    study.add_argument("--target-se-db", type=float, metavar="DB",
+                       help="--power on a psychophysics study: the threshold standard error to reach (default 1 dB)")
     study.add_argument("--workers", type=int, help="--power: local Dask worker processes; --simulate: processes "
                        "the participants run in, same data whatever the number (default: one per core)")
     study.add_argument("--scheduler", metavar="ADDRESS",

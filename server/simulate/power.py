@@ -115,7 +115,7 @@ def run_power(study_path: str | Path, participants: Sequence[int], replications:
         if progress:
             progress(finished, len(grid), f"{finished} stored")
         if todo:
-            with _client(scheduler, workers) as client:
+            with dask_client(scheduler, workers) as client:
                 from distributed import as_completed
 
                 # task keys name the whole configuration: a shared cluster never hands one run another's result
@@ -139,7 +139,7 @@ def run_power(study_path: str | Path, participants: Sequence[int], replications:
                        wall_s=time.perf_counter() - started)
 
 
-class _client:
+class dask_client:
     """A Dask client: to `scheduler`, or to a LocalCluster of `workers` processes (one thread each)."""
 
     def __init__(self, scheduler: str | None, workers: int | None):

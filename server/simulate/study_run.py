@@ -5,8 +5,10 @@ a simulated serial line — then the analysis.
 Per participant: a fresh virtual rig (hub + devices), a session created by the engine exactly
 as the console creates one (so counterbalancing, recording and the trial lifecycle are the
 production code), and the participant's behaviour per trial: the positioning agent for
-positioning trials (depth by feel), the magnitude-production keys for production trials, a short
-exposure to the stimulus otherwise; answers come from the observer models (server/synthetic).
+positioning trials (depth by feel), the magnitude-production keys for production trials, every
+interval of a psychophysics trial (the stimulus scenario), a short exposure to the stimulus
+otherwise; answers come from the observer models (server/synthetic), a psychophysics trial's from
+the psychometric participant given the `psy` record the engine's start() returns.
 Timestamps are virtual (a fixed epoch plus the virtual time), so the same seed gives the same
 database and the same report.
 """
@@ -31,12 +33,16 @@ from server.experiment.study import load_study
 from server.simulate.agent import AgentParams, GaveUp, PositioningAgent
 from server.simulate.virtual_device import VirtualDevice
 from server.simulate.virtual_hub import VirtualHub
+from server.synthetic.participant import scenario_name
 from server.synthetic.rng import derive_rng
 
 EPOCH = datetime(2026, 1, 5, 9, 0, tzinfo=timezone.utc)  # virtual sessions start here, one day apart
 RIG = ("fingertac", "ferrovibe")
 EXPOSURE_S = 0.5          # a trial's stimulus is felt this long before the answer
 TRAINING_CAP_S = 5.0      # training is free exploration: a few virtual seconds stand for it
+RESPONSE_S = 0.3          # a psychophysics answer follows the last interval after this long
+STIMULUS_SCENARIO = "stimulus"  # Contract C1: psychophysics trials present this scenario
+PSY_QUESTION = "response"       # Contract C2: the generated question a psychophysics trial asks
 
 
 @dataclass
@@ -154,7 +160,11 @@ def _participant(run: _Run, study, store: Store, clock: VirtualClock, index: int
     sid, token = session["id"], session["token"]
     trials, aborted = 0, []
     for trial in session["trials"]:
-        experiment.start(sid, token, trial["seq"])
+        if store.trial_at(sid, trial["seq"]).status != "pending":  # a finished procedure's reserved trials
+            trial_done(session["participant"])
+            continue
+        started = experiment.start(sid, token, trial["seq"])
+        psy = psychophysics_record(started)
         motor = derive_rng("motor", run.seed, index, trial["seq"])
         reason = _perform(hub, devices, trial, person, run.agent_params, motor)
         if reason:
@@ -164,13 +174,58 @@ def _participant(run: _Run, study, store: Store, clock: VirtualClock, index: int
             planned = PlannedTrial(**{k: trial[k] for k in PlannedTrial.__dataclass_fields__})
             task = study.task(trial["task"])
             for q in trial["questions"]:
-                value = person.answer(planned, task.question(q))
+                if psy is not None and q == PSY_QUESTION:
+                    value = person.answer_psychophysics(started, psy, q, stimulus_of(started))
+                else:
+                    value = person.answer(planned, task.question(q))
                 experiment.answer(sid, token, trial["seq"], q, value, "synthetic participant")
             experiment.finish(sid, token, trial["seq"])
         trials += 1
         trial_done(session["participant"])
     hub.listeners.clear()
     return sid, trials, aborted, hub.t_s
+
+
+def psychophysics_record(started: dict) -> dict | None:
+    """The `psy` of a started stimulus-scenario trial (Contract C2: the engine's start() returns
+    the level, design, target … the participant answers to), or None for any other trial. A main
+    trial of the stimulus scenario without it is refused: the simulator never guesses a level."""
+    if scenario_name(started["scenario"]) != STIMULUS_SCENARIO or PSY_QUESTION not in started.get("questions", ()):
+        return None
+    psy = started.get("psy")
+    if psy is None and started.get("kind") == "main":
+        raise RuntimeError(f"trial {started['seq']} of task {started['task']!r} (scenario {started['scenario']}) "
+                           "started without a 'psy' record: the experiment engine does not implement "
+                           "psychophysics Contract C2 (Experiment.start() returns the trial with "
+                           "'psy': design, level, reference, target, signal, stimulus_index, choices)")
+    return psy
+
+
+def stimulus_of(trial: Mapping) -> dict:
+    """The fixed stimulus of a psychophysics trial: its scenario params and trial params, with
+    the carrier the device plays when the file gives none (C1: None = the device's own carrier)."""
+    stimulus = {**(trial.get("scenario_params") or {}), **(trial.get("params") or {})}
+    if stimulus.get("carrier_hz") is None and trial.get("device"):
+        try:
+            carrier = profile_by_model(trial["device"]).carrier_hz
+        except (KeyError, ValueError):
+            carrier = 0
+        if carrier:
+            stimulus["carrier_hz"] = float(carrier)
+    return stimulus
+
+
+def _stimulus_s(trial: dict) -> float:
+    """How long a stimulus-scenario trial presents (Contract C1): lead, the intervals and the
+    inter-stimulus gaps between them, in seconds."""
+    params = {**(trial.get("scenario_params") or {}), **(trial.get("params") or {})}
+    n = int(params.get("n_intervals") or 1)
+    duration = float(params.get("duration_ms") or 500.0)
+    driven = params.get("parameter") == "duration_ms"
+    lengths = [float(params[f"level_{k}"]) if driven and params.get(f"level_{k}") is not None else duration
+               for k in range(1, n + 1)]
+    isi, lead = float(params.get("isi_ms") or 500.0), float(params.get("lead_ms") or 500.0)
+    return (lead + sum(lengths) + isi * (n - 1)) / 1000.0
 
 
 _worker: tuple | None = None  # a worker process's (_Run, progress queue: one participant code per trial done)
@@ -274,6 +329,9 @@ def _perform(hub: VirtualHub, devices: dict[str, VirtualDevice], trial: dict, pe
             hub.advance_s(0.2)
         hub.command("r")                       # ... and stops it: the scenario reports the result
         hub.advance_s(0.05)
+        return ""
+    if scenario_name(trial["scenario"]) == STIMULUS_SCENARIO and kind in ("trial", "main"):
+        hub.advance_s(_stimulus_s(trial) + RESPONSE_S)  # every interval is presented, then the answer
         return ""
     hub.advance_s(EXPOSURE_S)
     return ""

@@ -36,6 +36,8 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from server.synthetic.psychometric import PsychometricModel
+
 
 def _frozen(mapping: Mapping) -> Mapping:
     """A read-only copy, nested mappings included (the models are frozen)."""
@@ -293,6 +295,7 @@ class ObserverModels:
     production: PowerLaw = PRODUCTION
     likert: LikertRatings = field(default_factory=LikertRatings)
     choice: ForcedChoice = field(default_factory=ForcedChoice)
+    psychometric: PsychometricModel = field(default_factory=PsychometricModel)  # psychophysics trials
     text: str = "no comment"      # the answer to any free-text question (ours)
 
     def with_overrides(self, overrides: Mapping[str, Any]) -> "ObserverModels":

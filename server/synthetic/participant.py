@@ -11,6 +11,8 @@ question's kind:
 - texture with `period_us` only, choice question with numeric choices → FrequencyIdentification;
 - stiffness, mode "estimation", number question → estimation PowerLaw; mode "production",
   number question → production PowerLaw (the thesis asks nothing there: see produce_level);
+- a psychophysics trial (the stimulus scenario; Contract C3's `psy` record, which the engine's
+  `start()` returns): `answer_psychophysics` → the psychometric participant (psychometric.py);
 - anything else by kind: likert → LikertRatings, choice → ForcedChoice, number → the middle
   of its bounds (0 without bounds), text → a fixed short text.
 
@@ -30,6 +32,7 @@ from typing import Any, Mapping
 from server.experiment.plan import PlannedTrial
 from server.experiment.question import Question, as_number
 from server.synthetic.models import ObserverModels
+from server.synthetic.psychometric import PsychometricObserverModel
 from server.synthetic.rng import derive_rng
 
 _VERSION = re.compile(r"-v\d+\Z")
@@ -51,6 +54,7 @@ class SyntheticParticipant:
         self.leniency = float(derive_rng(seed, participant, "likert-leniency").normal(
             0.0, self.models.likert.participant_sd))
         self._productions = 0
+        self._psychometric: PsychometricObserverModel | None = None
 
     def __repr__(self) -> str:
         return f"SyntheticParticipant(seed={self.seed!r}, participant={self.participant!r})"
@@ -81,6 +85,24 @@ class SyntheticParticipant:
             law = m.production if params.get("mode") == "production" else m.estimation
             return law.sample(rng, float(params["level"]), question.low, question.high)
         return self._generic(rng, question, params, task_params)
+
+    @property
+    def psychometric(self) -> PsychometricObserverModel:
+        """This participant's psychometric observer (drawn once, from the seed and the participant)."""
+        if self._psychometric is None:
+            self._psychometric = self.models.psychometric.participant(self.seed, self.participant)
+        return self._psychometric
+
+    def answer_psychophysics(self, trial: Mapping[str, Any], psy: Mapping[str, Any], question_id: str = "response",
+                             stimulus: Mapping[str, Any] | None = None):
+        """The answer (one of psy["choices"]) to a psychophysics trial: `trial` is the started
+        trial's dict (its `seq`; its `scenario_params` and `params` give the fixed stimulus, e.g. the
+        carrier, unless `stimulus` is given), `psy` what the engine's start() returned under "psy"
+        (Contract C3)."""
+        seq = trial["seq"]
+        if stimulus is None:
+            stimulus = {**(trial.get("scenario_params") or {}), **(trial.get("params") or {})}
+        return self.psychometric.answer(psy, derive_rng(self.seed, self.participant, seq, question_id), stimulus)
 
     def produce_level(self, target_level: int, seq: int | None = None) -> int:
         """The level (1..10) this participant sets the right sphere to when matching
