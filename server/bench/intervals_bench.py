@@ -13,12 +13,15 @@ time of 115200 baud modelled). For every interval, against its plan:
   reaches the loop, which is not what is timed);
 - duration error: (its offset − its onset) − its planned length, every interval.
 
-Both at two points of the same frames: the device's timeline (`onset_*`, `duration_*`: the
-modelled arrival of each frame's last byte, what a FingerTac would do) and the emulator's read of
-the frame off the pty (`read_onset_*`, `read_duration_*`: before the modelled wire time). The
+Both at three points of the same frames, so a miss shows where it arose: the device's timeline
+(`onset_*`, `duration_*`: the modelled arrival of each frame's last byte, what a FingerTac would
+do), the emulator's read of the frame off the pty (`read_*`: before the modelled wire time, after
+the kernel's pty hand-over) and the device host's write() of it (`written_*`: the loop's tick, the
+cue channel, the feed and writer threads; the server's write log, collected every POLL_S). The
 baseline measured in the same run is the tick clock itself: the loop's period p99 and maximum and
-its overruns (a late tick moves an edge by as much). Acceptance (issue 36): p99 of both errors at
-the device ≤ 2 ms over ≥ 1000 intervals.
+its overruns (a late tick moves an edge by as much), and the cue channel's hop from the loop to
+the device host (`feed_*`, its last 1000 cue changes). Acceptance (issue 36): p99 of both errors
+at the device ≤ 2 ms over ≥ 1000 intervals.
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ from typing import Iterable, Sequence
 from devices.emulator import Emulator
 from scenarios.registry import check_scenario_params, resolve
 from scenarios.stimulus import plan_intervals
-from server.bench.latency_bench import _wait_connected
+from server.bench.latency_bench import _wait_connected, written_at
 from server.bench.quantiles import tail
 from server.core.scenario import Trial
 from server.launcher import get_json, start_server, stop_server
@@ -49,6 +52,7 @@ SETTLE_MS = 30.0          # after a trial's plan ends: its last off is on the ti
 FIND_TIMEOUT_S = 2.0      # a trial whose intervals do not all show by then is counted unmatched
 ACCEPT_P99_MS = 2.0
 CHANNEL = 0               # a vibration drives both LRAs alike: one channel's timeline times it
+POLL_S = 2.0              # the server keeps its last 1024 device writes: collected this often
 
 
 def transitions(edges: Iterable, channel: int = CHANNEL) -> list[tuple[int, int]]:
@@ -108,6 +112,7 @@ def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: i
     gc.freeze()  # the emulator's thread stamps the timeline: no full collection here meanwhile (as bench latency)
     proc = None
     starts: list[int] = []  # t_us each trial's request was sent
+    seen_writes: set[tuple[int, str]] = set()
     try:
         proc, base = start_server("stimulus", extra=["--no-rig", "--device", f"fingertac@{emulator.path}"])
         _wait_connected(base)
@@ -119,12 +124,17 @@ def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: i
             time.sleep(0.02)
         time.sleep(0.5)
         get_json(base + "/api/telemetry/reset", "POST")
+        next_poll = time.monotonic() + POLL_S
         for index, (settings, plan) in enumerate(zip(trials, plans)):
             starts.append(time.monotonic_ns() // 1000)
             get_json(base + "/api/trial", "POST", body={"phase": "main", "params": settings, "index": index})
             time.sleep((plan[-1][1] + SETTLE_MS) / 1000.0)
             _wait_shown(emulator, starts[-1], len(plan))
+            if time.monotonic() >= next_poll:  # between trials: the request does not delay an interval
+                _collect_writes(base, seen_writes)
+                next_poll += POLL_S
         telemetry = get_json(base + "/api/telemetry")
+        feed = _collect_writes(base, seen_writes)
         get_json(base + "/api/trial", "DELETE")
         time.sleep(0.05)
         edges, read_at = emulator.snapshot_edges(), emulator.snapshot_read_at()
@@ -135,10 +145,19 @@ def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: i
         emulator.stop()
         shutil.rmtree(directory, ignore_errors=True)
 
-    read_of = {arrival: read for arrival, read, _ in read_at}  # a command edge is stamped at its frame's arrival
+    read_of = {arrival: (read, frame) for arrival, read, frame in read_at}  # a command edge is stamped at arrival
+    writes = sorted((t_ns // 1000, bytes.fromhex(data)) for t_ns, data in seen_writes)
+
+    def read(t_us: int) -> int | None:
+        return read_of[t_us][0] if t_us in read_of else None
+
+    def written(t_us: int) -> int | None:
+        return written_at(read_of[t_us][1], read_of[t_us][0], writes) if t_us in read_of else None
+
     shown = transitions(edges)
     ons = [on for on, _ in shown]
-    series: dict[str, list[float]] = {"onset": [], "duration": [], "read_onset": [], "read_duration": []}
+    series: dict[str, list[float]] = {name: [] for name in ("onset", "duration", "read_onset", "read_duration",
+                                                            "written_onset", "written_duration")}
     unmatched = 0
     for i, plan in enumerate(plans):
         lo = bisect.bisect_left(ons, starts[i])
@@ -150,17 +169,21 @@ def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: i
         onsets, durations = interval_errors(plan, trial_shown)
         series["onset"] += onsets
         series["duration"] += durations
-        read = [(read_of.get(on), read_of.get(off)) for on, off in trial_shown]
-        if all(on is not None and off is not None for on, off in read):
-            onsets, durations = interval_errors(plan, read)
-            series["read_onset"] += onsets
-            series["read_duration"] += durations
+        for stage, when in (("read", read), ("written", written)):
+            times = [(when(on), when(off)) for on, off in trial_shown]
+            if all(on is not None and off is not None for on, off in times):
+                onsets, durations = interval_errors(plan, times)
+                series[f"{stage}_onset"] += onsets
+                series[f"{stage}_duration"] += durations
     result = {
         "intervals": len(series["duration"]), "intervals_wanted": intervals, "trials": len(plans),
         "unmatched_trials": unmatched, "onsets_measured": len(series["onset"]),
         **_summary(series["onset"], "onset_error_"), **_summary(series["duration"], "duration_error_"),
         **_summary(series["read_onset"], "read_onset_error_"), **_summary(series["read_duration"], "read_duration_error_"),
-        "period_p99_us": telemetry["period_p99_us"], "period_max_us": telemetry["period_max_us"],
+        "written_intervals": len(series["written_duration"]),
+        **_summary(series["written_onset"], "written_onset_error_"),
+        **_summary(series["written_duration"], "written_duration_error_"),
+        "feed_delay": (feed or {}).get("delay"), "period_p99_us": telemetry["period_p99_us"], "period_max_us": telemetry["period_max_us"],
         "overruns": telemetry["overruns"], "ticks": telemetry["ticks"], "rt": telemetry["rt"],
         "emulator_rt": emulator.rt, "durations_ms": list(DURATIONS_MS), "params": PARAMS,
     }
@@ -169,6 +192,14 @@ def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: i
     # None: too few intervals to judge the acceptance (a --quick run)
     result["pass"] = (None not in p99s and max(p99s) <= ACCEPT_P99_MS) if len(series["duration"]) >= INTERVALS else None
     return result
+
+
+def _collect_writes(base: str, writes: set[tuple[int, str]]) -> dict:
+    """Add the server's latest device writes to `writes`; returns the device feed's info."""
+    snapshot = get_json(base + "/api/devices?writes=1024")
+    for device in snapshot["devices"]:
+        writes.update((t_ns, data) for t_ns, data in device.get("writes", ()))
+    return snapshot.get("feed") or {}
 
 
 def _wait_shown(emulator: Emulator, since_us: int, n: int) -> None:
