@@ -159,12 +159,14 @@ def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: i
     series: dict[str, list[float]] = {name: [] for name in ("onset", "duration", "read_onset", "read_duration",
                                                             "written_onset", "written_duration")}
     unmatched = 0
+    shown_in_unmatched: list[int] = []  # how many on/off pairs each unmatched trial showed (of N_INTERVALS)
     for i, plan in enumerate(plans):
         lo = bisect.bisect_left(ons, starts[i])
         hi = bisect.bisect_left(ons, starts[i + 1]) if i + 1 < len(starts) else len(ons)
         trial_shown = shown[lo:hi]
         if len(trial_shown) != len(plan):
             unmatched += 1
+            shown_in_unmatched.append(len(trial_shown))
             continue
         onsets, durations = interval_errors(plan, trial_shown)
         series["onset"] += onsets
@@ -177,13 +179,14 @@ def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: i
                 series[f"{stage}_duration"] += durations
     result = {
         "intervals": len(series["duration"]), "intervals_wanted": intervals, "trials": len(plans),
-        "unmatched_trials": unmatched, "onsets_measured": len(series["onset"]),
+        "unmatched_trials": unmatched, "unmatched_shown": shown_in_unmatched, "onsets_measured": len(series["onset"]),
         **_summary(series["onset"], "onset_error_"), **_summary(series["duration"], "duration_error_"),
         **_summary(series["read_onset"], "read_onset_error_"), **_summary(series["read_duration"], "read_duration_error_"),
         "written_intervals": len(series["written_duration"]),
         **_summary(series["written_onset"], "written_onset_error_"),
         **_summary(series["written_duration"], "written_duration_error_"),
-        "feed_delay": (feed or {}).get("delay"), "period_p99_us": telemetry["period_p99_us"], "period_max_us": telemetry["period_max_us"],
+        "feed_delay": (feed or {}).get("delay"), "feed_quiet_offs": (feed or {}).get("quiet_offs"),
+        "edge_causes": _causes(edges, starts[0] if starts else 0), "period_p99_us": telemetry["period_p99_us"], "period_max_us": telemetry["period_max_us"],
         "overruns": telemetry["overruns"], "ticks": telemetry["ticks"], "rt": telemetry["rt"],
         "emulator_rt": emulator.rt, "durations_ms": list(DURATIONS_MS), "params": PARAMS,
     }
@@ -194,6 +197,15 @@ def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: i
     within = None not in p99s and max(p99s) <= ACCEPT_P99_MS and not unmatched
     result["pass"] = within if not within or len(series["duration"]) >= INTERVALS else None
     return result
+
+
+def _causes(edges, since_us: int) -> dict[str, int]:
+    """How many of the channel's edges in the run each cause made ("command", "schedule", "watchdog")."""
+    counts: dict[str, int] = {}
+    for e in edges:
+        if e.channel == CHANNEL and e.t_us >= since_us:
+            counts[e.cause] = counts.get(e.cause, 0) + 1
+    return counts
 
 
 def _collect_writes(base: str, writes: set[tuple[int, str]]) -> dict:
