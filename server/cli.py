@@ -582,7 +582,8 @@ def _bench_psychophysics(args: argparse.Namespace) -> int:
 def _bench_intervals(args: argparse.Namespace) -> int:
     from server.bench.intervals_bench import run_intervals_bench
 
-    return _print_bench(run_intervals_bench(intervals=args.intervals, quick=args.quick), args.json)
+    result = run_intervals_bench(intervals=args.intervals, quick=args.quick, loop_cpu=args.loop_cpu)
+    return _print_bench(result, args.json)
 
 
 def _bench_faults(args: argparse.Namespace) -> int:
@@ -948,6 +949,7 @@ def build_parser() -> argparse.ArgumentParser:
                                                        "(docs/performance.md \"Psychophysics intervals\")")
     intervals.add_argument("--intervals", type=int, default=1000, help="intervals to measure (default 1000, ~2 min)")
     intervals.add_argument("--quick", action="store_true", help="200 intervals (about half a minute)")
+    intervals.add_argument("--loop-cpu", choices=MODES, default="auto", help="the server's --loop-cpu (default auto)")
     intervals.add_argument("--json", action="store_true", help="print one JSON object")
     intervals.set_defaults(func=_bench_intervals)
     tracking = bench_sub.add_parser("tracking", help="tracker filters: jitter against lag and contact chatter on "

@@ -96,7 +96,7 @@ def _summary(values: list[float], prefix: str) -> dict:
     return {**tail(magnitudes, prefix, "_ms"), f"{prefix}mean_ms": round(sum(values) / len(values), 4) if values else None}
 
 
-def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: int = 0) -> dict:
+def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: int = 0, loop_cpu: str = "auto") -> dict:
     intervals = QUICK_INTERVALS if quick else intervals
     if intervals < N_INTERVALS:
         raise ValueError(f"intervals must be >= {N_INTERVALS}, got {intervals}")
@@ -114,7 +114,8 @@ def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: i
     starts: list[int] = []  # t_us each trial's request was sent
     seen_writes: set[tuple[int, str]] = set()
     try:
-        proc, base = start_server("stimulus", extra=["--no-rig", "--device", f"fingertac@{emulator.path}"])
+        proc, base = start_server("stimulus", extra=["--no-rig", "--device", f"fingertac@{emulator.path}",
+                                                     "--loop-cpu", loop_cpu])
         _wait_connected(base)
         get_json(base + "/api/scenario", "POST", body={"name": "stimulus", "params": params, "seed": seed})
         deadline = time.monotonic() + 10.0
@@ -188,7 +189,7 @@ def run_intervals_bench(intervals: int = INTERVALS, quick: bool = False, seed: i
         "feed_delay": (feed or {}).get("delay"), "feed_quiet_offs": (feed or {}).get("quiet_offs"),
         "edge_causes": _causes(edges, starts[0] if starts else 0), "period_p99_us": telemetry["period_p99_us"], "period_max_us": telemetry["period_max_us"],
         "overruns": telemetry["overruns"], "ticks": telemetry["ticks"], "rt": telemetry["rt"],
-        "emulator_rt": emulator.rt, "durations_ms": list(DURATIONS_MS), "params": PARAMS,
+        "emulator_rt": emulator.rt, "loop_cpu": loop_cpu, "durations_ms": list(DURATIONS_MS), "params": PARAMS,
     }
     p99s = (result["onset_error_p99_ms"], result["duration_error_p99_ms"])
     result["accept_p99_ms"] = ACCEPT_P99_MS

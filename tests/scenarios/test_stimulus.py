@@ -1,6 +1,9 @@
 """stimulus-v1 (contracts C1): interval timing on the tick clock, blank intervals, the driven
 field, every cue kind, refusals naming the field, the requirement following the cue."""
 
+import time
+import urllib.error
+
 import pytest
 
 from devices.capability import check
@@ -255,3 +258,42 @@ def test_the_hub_refuses_a_trial_that_does_not_fit_the_running_cue():
         hub.set_trial("main", {"parameter": "contact_angle_deg", "level_1": -120.0})
     assert hub.set_trial("main", {"parameter": "contact_angle_deg", "level_1": -60.0})["params"]["level_1"] == -60.0
     assert hub.requires() == ("macro_roughness",)
+
+
+# -- through a real server (hub, loop, simulated rig: a FingerTac and a FerroVibe) -------------------
+
+@pytest.fixture(scope="module")
+def live():
+    from tests.live_server import serve
+    yield from serve("stimulus")
+
+
+def http_error(call) -> tuple[int, str]:
+    with pytest.raises(urllib.error.HTTPError) as info:
+        call()
+    return info.value.code, info.value.read().decode()
+
+
+def test_live_the_requirement_and_the_trial_checks_follow_the_cue(live):
+    # no device of the simulated rig shows temperature: refused, naming the dimension
+    code, body = http_error(lambda: live.post("/api/scenario", {"name": "stimulus", "params": {"cue": "temperature"}}))
+    assert code == 409 and "temperature" in body
+    switched = live.post("/api/scenario", {"name": "stimulus", "params": {"cue": "tilt", "lead_ms": 0}})
+    assert switched["capability"]["ok"]
+    deadline = time.monotonic() + 10
+    while live.get("/api/scenario").get("params", {}).get("cue") != "tilt":
+        assert time.monotonic() < deadline, "the switch to a tilt stimulus was never announced"
+        time.sleep(0.02)
+    code, body = http_error(lambda: live.post("/api/trial", {"phase": "main", "params": {"parameter": "intensity_pct",
+                                                                                       "level_1": 50.0}}))
+    assert code == 422 and "parameter" in body and "tilt" in body
+    code, body = http_error(lambda: live.post("/api/trial", {"phase": "main", "params": {
+        "parameter": "contact_angle_deg", "level_1": 120.0}}))
+    assert code == 422 and "level_1" in body
+    started = live.post("/api/trial", {"phase": "main", "params": {"parameter": "contact_angle_deg", "level_1": 30.0}})
+    assert started["trial"]["params"]["level_1"] == 30.0
+    deadline = time.monotonic() + 10
+    while (live.get("/api/scenario").get("trial") or {}).get("params", {}).get("level_1") != 30.0:
+        assert time.monotonic() < deadline, "the trial was never announced"
+        time.sleep(0.02)
+    live.delete("/api/trial")
