@@ -22,6 +22,7 @@ from scenarios.pick_place import PickPlace
 from scenarios.positioning import Positioning
 from scenarios.shape import ShapeScenario
 from scenarios.stiffness import StiffnessScenario
+from scenarios.stimulus import Stimulus
 from scenarios.texture import TextureScenario
 
 
@@ -37,7 +38,7 @@ class ScenarioSpec:
 
 SCENARIOS = MappingProxyType({cls.id: ScenarioSpec(cls.id, cls.title, cls) for cls in (
     ContactAngle, TextureScenario, StiffnessScenario, ShapeScenario, FrictionTemperature, Positioning, PegInHole,
-    HotWire, PickPlace, FreeExploration,
+    HotWire, PickPlace, FreeExploration, Stimulus,
 )})
 
 

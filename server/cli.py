@@ -628,6 +628,13 @@ def _bench_psychophysics(args: argparse.Namespace) -> int:
     return _print_bench(run_psychophysics_bench(quick=args.quick), args.json)
 
 
+def _bench_intervals(args: argparse.Namespace) -> int:
+    from server.bench.intervals_bench import run_intervals_bench
+
+    result = run_intervals_bench(intervals=args.intervals, quick=args.quick, loop_cpu=args.loop_cpu)
+    return _print_bench(result, args.json)
+
+
 def _bench_faults(args: argparse.Namespace) -> int:
     from server.bench.faults import FAULTS, run_fault_bench, run_loaded_and_unloaded
     from server.bench.faults_measure import table
@@ -990,6 +997,14 @@ def build_parser() -> argparse.ArgumentParser:
     psy.add_argument("--quick", action="store_true", help="a tenth of the runs (well under a minute)")
     psy.add_argument("--json", action="store_true", help="print one JSON object")
     psy.set_defaults(func=_bench_psychophysics)
+    intervals = bench_sub.add_parser("intervals", help="stimulus-v1's intervals on an emulated FingerTac's timeline: "
+                                                       "onset and duration error against the plan "
+                                                       "(docs/performance.md \"Psychophysics intervals\")")
+    intervals.add_argument("--intervals", type=int, default=1000, help="intervals to measure (default 1000, ~2 min)")
+    intervals.add_argument("--quick", action="store_true", help="200 intervals (about half a minute)")
+    intervals.add_argument("--loop-cpu", choices=MODES, default="auto", help="the server's --loop-cpu (default auto)")
+    intervals.add_argument("--json", action="store_true", help="print one JSON object")
+    intervals.set_defaults(func=_bench_intervals)
     tracking = bench_sub.add_parser("tracking", help="tracker filters: jitter against lag and contact chatter on "
                                     "noisy finger paths (raw, 1€, moving average; chart), and Leap sample -> device "
                                     "command through the whole server")

@@ -16,6 +16,7 @@ from server.loop.cadence import STATE_HZ
 from server.loop.process import LoopConfig
 from server.loop.tracker_udp import is_loopback
 from server.core.points import PRIMARY_POINT, check_point_name
+from server.core.scenario import required_dimensions
 from server.core.scene import Scene
 from server.tracking.sources import SourceSpec, parse_specs
 
@@ -181,4 +182,4 @@ class Settings:
 
     def capability(self) -> CapabilityReport:
         cls = registry.resolve(self.scenario).factory
-        return check(cls.id, tuple(cls.REQUIRES), self.device_profiles())
+        return check(cls.id, required_dimensions(cls, self.scenario_params), self.device_profiles())

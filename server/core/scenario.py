@@ -13,7 +13,9 @@ the console and the hub need without running it:
   command carries (the hub checks role and value before anything reaches the loop);
 - SUBTASKS: the thesis's study parts with their conditions and answer scales (docs/reference.md
   "Study");
-- REQUIRES: the tactile dimensions (thesis Table 2.2) of which a device must show at least one.
+- REQUIRES: the tactile dimensions (thesis Table 2.2) of which a device must show at least one
+  (a scenario whose requirement follows one of its PARAMS adds `requires_for(params)`,
+  `required_dimensions` below).
 """
 
 from __future__ import annotations
@@ -341,6 +343,14 @@ def describe(cls) -> dict:
             "trial_params": [p.to_dict() for p in cls.TRIAL_PARAMS],
             "controls": [c.to_dict() for c in cls.CONTROLS], "subtasks": [s.to_dict() for s in cls.SUBTASKS],
             "requires": list(cls.REQUIRES)}
+
+
+def required_dimensions(cls, params: Mapping[str, Any] | None = None) -> tuple[str, ...]:
+    """The tactile dimensions `cls` requires when built with `params`: its REQUIRES, or what its
+    `requires_for(params)` says when the requirement follows a parameter (stimulus-v1's `cue`,
+    which a class-level tuple cannot express). `params` None: the class's REQUIRES."""
+    by_params = getattr(cls, "requires_for", None)
+    return tuple(cls.REQUIRES) if by_params is None or params is None else tuple(by_params(params))
 
 
 def in_contact_with(ctx: TickContext, body_ids) -> str | None:

@@ -22,7 +22,7 @@ from typing import Any, Callable, Mapping
 
 from devices.capability import CapabilityReport, check, missing_device_text, showing
 from scenarios import registry
-from server.core.scenario import ParamError, Trial, describe, find_control
+from server.core.scenario import ParamError, Trial, describe, find_control, required_dimensions
 from server.ipc import records
 
 
@@ -121,16 +121,27 @@ class ScenarioControl:
         if not self.send(record):
             raise BusyError("the loop's input mailbox is full; input dropped")
 
-    def capability(self, scenario_cls=None) -> CapabilityReport:
+    def requires(self, scenario_cls=None, params: Mapping[str, Any] | None = None) -> tuple[str, ...]:
+        """The dimensions `scenario_cls` (default: the running one) requires with `params` (default:
+        the parameters it runs or was last asked to run with, when it is that scenario)."""
         cls = scenario_cls or self.scenario_cls
-        return check(cls.id, tuple(cls.REQUIRES), self.profiles(), self.statuses())
+        return required_dimensions(cls, self._params_of(cls) if params is None else params)
+
+    def _params_of(self, cls) -> Mapping[str, Any] | None:
+        """The parameters `cls` runs (or was last asked to run) with; None when it is not the target."""
+        target = self.target() or {}
+        return target.get("params") if target.get("id") == cls.id else None
+
+    def capability(self, scenario_cls=None, params: Mapping[str, Any] | None = None) -> CapabilityReport:
+        cls = scenario_cls or self.scenario_cls
+        return check(cls.id, self.requires(cls, params), self.profiles(), self.statuses())
 
     def devices_needed(self, scenario: str | None = None) -> dict[str, tuple[str, ...]]:
         """Per tactile dimension `scenario` (default: the running one) requires, the configured
         devices that show it (devices/capability.py `showing`): the recorder flags a trial while
         none of a dimension's devices is connected."""
         cls = registry.resolve(scenario).factory if scenario else self.scenario_cls
-        return {} if cls is None else showing(tuple(cls.REQUIRES), self.profiles())
+        return {} if cls is None else showing(self.requires(cls), self.profiles())
 
     def require_devices(self, scenario: str | None = None, force: bool = False) -> None:
         """DeviceMissing unless every required dimension of `scenario` (default: the running one)
@@ -148,7 +159,7 @@ class ScenarioControl:
         spec = registry.resolve(name)
         checked = registry.check_scenario_params(spec, params or {})
         registry.create(spec.id, **checked)  # constructing is cheap and finds what per-parameter checks cannot
-        report = self.capability(spec.factory)
+        report = self.capability(spec.factory, checked)
         if not report.ok and not force:
             raise ScenarioRefused(report)
         number = next(self._numbers)
@@ -170,6 +181,9 @@ class ScenarioControl:
             if self.scenario_cls is None:
                 raise ParamError("no scenario is running yet")
             trial = Trial.parse(self.scenario_cls.TRIAL_PARAMS, phase, params, index).to_dict()
+            check_trial = getattr(self.scenario_cls, "check_trial", None)  # settings that must fit the PARAMS
+            if check_trial is not None:
+                check_trial(self._params_of(self.scenario_cls) or {}, trial["params"])
             self.require_devices(force=force)
         if not self.send(records.Trial(trial)):
             raise BusyError("the loop's input mailbox is full; try again")

@@ -25,8 +25,10 @@ class HealthFeed:
     the scenario the loop runs (ScenarioControl), for the devices it needs."""
 
     def __init__(self, owner: Owner, *, publish: Callable[[dict], None], scenario_cls: Callable[[], type | None],
-                 overrun_threshold: int = 10):
+                 overrun_threshold: int = 10,
+                 requires: Callable[[type], tuple[str, ...]] = lambda cls: tuple(cls.REQUIRES)):
         self.owner = owner
+        self.requires = requires  # the dimensions a scenario requires (ScenarioControl.requires: its params too)
         self.publish = publish
         self.scenario_cls = scenario_cls
         self.health = Health(overrun_threshold=overrun_threshold)
@@ -49,7 +51,7 @@ class HealthFeed:
         """Which devices show each dimension the running scenario requires (for device_missing)."""
         cls = self.scenario_cls()
         if cls is not None:
-            self.health.needs(cls.id, showing(tuple(cls.REQUIRES), self._device_profiles))
+            self.health.needs(cls.id, showing(self.requires(cls), self._device_profiles))
 
     def devices_reported(self, statuses: dict) -> None:
         """The device host's status of each device (only when it changed)."""

@@ -45,6 +45,7 @@ class Hub:
         self.answers = AnswerBroker(self.owner, self.fanout.connections)
         self.health_feed = HealthFeed(self.owner, publish=self.fanout.set_health,
                                       scenario_cls=lambda: self.control.scenario_cls,
+                                      requires=lambda cls: self.control.requires(cls),
                                       overrun_threshold=overrun_threshold)
         self.control = ScenarioControl(send_to_loop, lambda: self.health_feed.device_profiles,
                                        lambda: self.health_feed.device_statuses)
