@@ -22,7 +22,7 @@ from types import MappingProxyType
 from typing import Any, Mapping, Sequence
 
 from devices.profiles import AUDIO_PROFILES, PROFILES, Display
-from server.core.cues import CUE_KINDS, Vibration
+from scenarios.stimulus import CUE_CLASSES, DRIVEN
 from server.core.did_you_mean import did_you_mean
 from server.experiment.order import seed_from_parts
 from server.psychophysics.designs import DESIGNS, MAX_INTERVALS, Design, Presentation, correct, outcome, parse_design, present
@@ -36,11 +36,6 @@ QUESTION_ID = "response"        # the generated question every psychophysics tri
 EXCLUDED_REASON = "procedure finished"
 PSY_FIELDS = ("design", "parameter", "max_trials", "procedure", "conditions", "reference", "intervals",
               "catch_rate", "different_rate", "labels", "practice_levels")
-# The unit of each level, and the range of a parameter that no cue field declares
-UNITS = {"intensity_pct": "%", "carrier_hz": "Hz", "duration_ms": "ms", "direction_deg": "deg",
-         "contact_angle_deg": "deg", "period_us": "µs", "relative": "", "celsius": "°C", "magnitude_pct": "%"}
-CONTACT_ANGLE_RANGE = (-90.0, 90.0)   # the contact-angle task's angles (scenarios/contact_angle.py), shown as a Tilt
-DURATION_RANGE = (1.0, Vibration.RANGES["duration_ms"][1])  # an interval of any cue: at least one tick
 CUE_CAPS = {"vibration": "continuous", "pulse_train": "pulse", "texture": "texture", "tilt": "tilt",
             "temperature": "temperature"}  # the firmware command a device needs to show the cue
 
@@ -88,7 +83,7 @@ def parse_psychophysics(raw: Any, where: str, scenario_id: str, trial_specs: tup
     conditions = _conditions(f, spec, parameter, check_params, params)
     practice = f.numbers("practice_levels", ())
     f.done()
-    psy = PsyTask(design, parameter, UNITS.get(parameter, ""), max_trials, spec, conditions, practice)
+    psy = PsyTask(design, parameter, DRIVEN[parameter][2] if parameter in DRIVEN else "", max_trials, spec, conditions, practice)
     for name, fixed in (conditions or {"": params}).items():
         _check_levels(f, psy, {**params, **fixed}, device, name)
     return psy
@@ -148,12 +143,10 @@ def _conditions(f: Fields, spec, parameter: str, check_params, params: Mapping) 
 # ---- levels within the cue's and the device's range ------------------------------------------
 
 def parameter_range(parameter: str, cue: str) -> tuple[float, float] | None:
-    """The values `parameter` may take with this cue (None: the cue has no such field)."""
-    if parameter == "duration_ms":
-        return DURATION_RANGE
-    if parameter == "contact_angle_deg":
-        return CONTACT_ANGLE_RANGE if cue == "tilt" else None
-    return CUE_KINDS[cue].RANGES.get(parameter) if cue in CUE_KINDS else None
+    """The values `parameter` may take with this cue (None: the cue has no such field): the
+    stimulus scenario's own table, so the study refuses at load what the scenario would refuse."""
+    cues, span, _ = DRIVEN.get(parameter, ((), None, ""))
+    return span if cue in cues else None
 
 
 def _check_levels(f: Fields, psy: PsyTask, params: Mapping, device: str | None, condition: str) -> None:
@@ -161,7 +154,7 @@ def _check_levels(f: Fields, psy: PsyTask, params: Mapping, device: str | None, 
     where = f'condition "{condition}": ' if condition else ""
     span = parameter_range(psy.parameter, cue)
     if span is None:
-        able = sorted(c for c in CUE_KINDS if parameter_range(psy.parameter, c) is not None)
+        able = sorted(c for c in CUE_CLASSES if parameter_range(psy.parameter, c) is not None)
         raise f.error("parameter", f"{where}a {cue} cue has no {psy.parameter} (cues that have it: {', '.join(able)})")
     if device is not None:
         _check_device(f, psy, params, device, where)

@@ -13,35 +13,13 @@ from pathlib import Path
 
 import pytest
 
-from scenarios import registry
 from server.experiment.psychophysics_task import Seeds, track
 from server.experiment.study import load_study
-from tests.experiment import stimulus_standin
 from tests.integration.test_experiment_live import Api
 from tests.live_server import start_server, stop_server
 
 REPO = Path(__file__).resolve().parents[2]
 STUDY = "vt-2ifc-staircase"
-SITE = """import sys
-sys.path.insert(0, {repo!r})
-from tests.experiment import stimulus_standin
-stimulus_standin.install()
-"""
-
-
-@pytest.fixture
-def stimulus_everywhere(monkeypatch, tmp_path):
-    """The stimulus scenario in this process and in the servers it starts: the real one, or while
-    main has none the test stand-in (registered by a sitecustomize on the servers' path)."""
-    monkeypatch.setattr(registry, "SCENARIOS", stimulus_standin.registered())
-    if registry.resolve("stimulus").factory is not stimulus_standin.StimulusStandIn:
-        return  # the real scenario: the servers have it too
-    site = tmp_path / "site"
-    site.mkdir()
-    (site / "sitecustomize.py").write_text(SITE.format(repo=str(REPO)))
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(site), str(REPO), os.environ.get("PYTHONPATH", "")]))
-
-
 def answer(psy: dict, threshold: float = 15.0) -> str:
     """A deterministic participant: the right interval above the threshold, the other below."""
     right = str(psy["target"])
@@ -66,8 +44,7 @@ def recorded(db_path: Path, sid: str) -> list[tuple[int, dict, str]]:
     return [(seq, json.loads(metrics)["psy"], json.loads(value)) for seq, metrics, value in rows]
 
 
-def test_kill_9_mid_session_resumes_the_staircase_at_the_same_level_with_no_answer_lost(tmp_path,
-                                                                                       stimulus_everywhere):
+def test_kill_9_mid_session_resumes_the_staircase_at_the_same_level_with_no_answer_lost(tmp_path):
     data = tmp_path / "data"
     study = load_study(REPO / "studies" / f"{STUDY}.toml")
     psy = study.task("detect").psychophysics
