@@ -38,6 +38,7 @@ from server.core.did_you_mean import did_you_mean as _did_you_mean
 from server.core.scenario import ParamError, Param, SubTask, Trial
 from scenarios.registry import UnknownScenario, check_scenario_params, resolve
 from server.experiment.order import ORDERS
+from server.experiment.pacing import EXPERIMENTER_PACED, PACED_BY, Pacing
 from server.experiment.question import (ANSWERERS, PARTICIPANT_KINDS, QUESTION_KINDS, Question, as_number,
                                         format_bound, frozen_mapping, question_from_answer)
 
@@ -87,6 +88,7 @@ class Task:
     instructions: str = ""                     # what the experimenter reads out or shows (added)
     training_conditions: tuple[Mapping[str, Any], ...] = ()  # training-phase trials sharing training_s (added)
     audio: Audio = NO_AUDIO                    # the study's [audio], with this task's [tasks.audio] over it (added)
+    pacing: Pacing = EXPERIMENTER_PACED        # [tasks.pacing]: who moves the trials on (pacing.py)
 
     def question(self, question_id: str) -> Question:
         """A question of this task (per trial or end of task) by id; KeyError if there is none."""
@@ -103,7 +105,8 @@ class Task:
                 "questions": [q.to_dict() for q in self.questions],
                 "end_questions": [q.to_dict() for q in self.end_questions], "block": self.block,
                 "subtask": self.subtask, "instructions": self.instructions,
-                "training_conditions": [dict(c) for c in self.training_conditions], "audio": self.audio.to_dict()}
+                "training_conditions": [dict(c) for c in self.training_conditions], "audio": self.audio.to_dict(),
+                "pacing": self.pacing.to_dict()}
 
 
 @dataclass(frozen=True)
@@ -227,7 +230,8 @@ def _at_least(low: float, whole: bool) -> Callable[[Any], Any]:
 STUDY_FIELDS = ("id", "title", "version", "seed", "participants", "description", "tasks", "blocks", "audio")
 TASK_FIELDS = ("id", "title", "scenario", "device", "params", "subtask", "conditions", "repetitions", "order",
                "practice", "training_s", "training_conditions", "time_limit_s", "questions", "end_questions",
-               "instructions", "audio")
+               "instructions", "audio", "pacing")
+PACING_FIELDS = ("by", "iti_ms", "feedback", "feedback_ms", "break_every")
 BLOCK_FIELDS = ("id", "tasks", "order")
 AUDIO_FIELDS = ("speech", "contact_sounds")
 QUESTION_FIELDS = ("id", "kind", "text", "low", "high", "integer", "labels", "choices", "required", "answered_by")
@@ -307,8 +311,9 @@ def _parse_task(raw: Any, where: str, name: str, audio: Audio = NO_AUDIO) -> Tas
         time_limit_s=_time_limit(t, sub.time_limit_s if sub else None),
         questions=_questions(t, "questions", _subtask_questions(sub)), end_questions=_questions(t, "end_questions", ()),
         subtask=sub.name if sub else None, instructions=t.text("instructions", ""),
-        training_conditions=training_conditions, audio=_audio(t, audio))
+        training_conditions=training_conditions, audio=_audio(t, audio), pacing=_pacing(t))
     _check_task(t, task)
+    _check_pacing(t, task)
     return task
 
 
@@ -375,6 +380,31 @@ def _check_task(t: _Table, task: Task) -> None:
     if not (n or task.training_s or task.end_questions):
         raise t.error("nothing to do: give conditions, a training time or end_questions")
     _unique((q.id for q in task.questions + task.end_questions), f"{t.where}: question")
+
+
+def _check_pacing(t: _Table, task: Task) -> None:
+    """A participant-paced task: nobody at the console answers between its trials."""
+    if not task.pacing.paced:
+        return
+    for q in task.questions:
+        if q.answered_by != "participant":
+            raise t.error(f'pacing: by = "participant" needs every per-trial question answered by the participant; '
+                          f'question "{q.id}" is answered by the experimenter (set answered_by = "participant" '
+                          f"or move it to end_questions)")
+    if not any(q.required for q in task.questions):
+        raise t.error('pacing: by = "participant" needs a required question the participant answers (its answer '
+                      "ends each trial)")
+
+
+def _pacing(t: _Table) -> Pacing:
+    """A task's `[tasks.pacing]` (docs/studies.md "Participant-paced tasks")."""
+    if not t.has("pacing"):
+        return EXPERIMENTER_PACED
+    p = _Table(t.raw["pacing"], f"{t.where}: pacing", PACING_FIELDS)
+    d = EXPERIMENTER_PACED
+    return Pacing(by=_choice(p, "by", PACED_BY, d.by), iti_ms=p.integer("iti_ms", 0, d.iti_ms),
+                  feedback=p.flag("feedback", d.feedback), feedback_ms=p.integer("feedback_ms", 0, d.feedback_ms),
+                  break_every=p.integer("break_every", 0, d.break_every))
 
 
 def _questions(t: _Table, name: str, default: tuple[Question, ...]) -> tuple[Question, ...]:
