@@ -127,7 +127,8 @@ def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None =
     paced = answers.pacing = PacedSessions(experiment, owner, answers.changed)
 
     def changed(session_id: str) -> None:
-        answers.changed(session_id)
+        if not paced.paces(session_id):  # a paced session's `ask` follows the pacer's step (with its state)
+            answers.changed(session_id)
         paced.changed(session_id)
 
     experiment.on_change = changed

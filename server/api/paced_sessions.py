@@ -46,6 +46,7 @@ class PacedSessions:
         self._views: dict[str, dict | None] = {}    # session → its `ask.pacing` (replaced whole: read off the loop)
         self._timers: dict[str, asyncio.TimerHandle] = {}
         self._dirty: set[str] = set()
+        self._stale: set[str] = set()               # the engine changed it since its `ask` was last published
         self._tasks: dict[str, asyncio.Task] = {}   # one stepper per session at a time
 
     # -- from other threads ------------------------------------------------------------------
@@ -53,15 +54,23 @@ class PacedSessions:
         """The session's `ask.pacing` (None: the task at hand is not participant-paced)."""
         return self._views.get(session_id)
 
+    def paces(self, session_id: str) -> bool:
+        """This shell publishes the session's `ask` after each change (with the pacing that follows it)."""
+        return session_id in self._pacers
+
     def changed(self, session_id: str) -> None:
         """The engine changed the session (any thread)."""
         loop = self.owner.loop
         if loop is None:  # not serving (a test without a hub loop)
             return
         if self.owner.here:
-            self.poke(session_id)
+            self._engine_changed(session_id)
         else:
-            loop.call_soon_threadsafe(self.poke, session_id)
+            loop.call_soon_threadsafe(self._engine_changed, session_id)
+
+    def _engine_changed(self, session_id: str) -> None:
+        self._stale.add(session_id)
+        self.poke(session_id)
 
     def continue_break(self, session_id: str) -> bool:
         """The participant ends its break (any thread): False when no break is held."""
@@ -116,7 +125,8 @@ class PacedSessions:
         session = await asyncio.to_thread(self.experiment.session, session_id)
         study = await asyncio.to_thread(self.experiment.study, session["study_id"])
         pacing = {t.id: t.pacing for t in study.tasks if t.pacing.paced}
-        if not pacing:  # nothing of this session is paced
+        if not pacing:  # nothing of this session is paced: its `ask` as ever
+            await self._show(session_id, None)
             self._forget(session_id)
             return
         pacer = self._pacer(session_id)
@@ -136,6 +146,15 @@ class PacedSessions:
         if wakes:
             self._wake(session_id, min(wakes))
         await self._show(session_id, pacer.view(self.clock()))
+
+    async def _show(self, session_id: str, view: dict | None) -> None:
+        """The participant's new `ask`, when the engine changed the session or the pacing changed."""
+        stale = session_id in self._stale
+        self._stale.discard(session_id)
+        if not stale and self._views.get(session_id) == view:
+            return
+        self._views[session_id] = view
+        await asyncio.to_thread(self.publish, session_id)
 
     @staticmethod
     def _required(study, trial: dict) -> list[str]:
@@ -164,12 +183,6 @@ class PacedSessions:
             old.cancel()
         delay_s = max(0.0, (at_ms - self.clock()) / 1000.0)
         self._timers[session_id] = asyncio.get_running_loop().call_later(delay_s, self.poke, session_id)
-
-    async def _show(self, session_id: str, view: dict | None) -> None:
-        if self._views.get(session_id) == view:
-            return
-        self._views[session_id] = view
-        await asyncio.to_thread(self.publish, session_id)
 
     def _forget(self, session_id: str) -> None:
         self._pacers.pop(session_id, None)

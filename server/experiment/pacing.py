@@ -127,11 +127,14 @@ class Pacer:
         self.paused = True
 
     def resume(self, now_ms: float) -> None:
-        """The experimenter goes on: the next trial of a paced task starts after its inter-trial interval."""
+        """The experimenter goes on: the next trial of a paced task starts after its inter-trial interval
+        (a break held now ends with it)."""
         self.paused = False
-        self.controlled = True              # a console holds the session's control token (else nothing moves)
         self.note = ""
         self._armed_at = now_ms
+        nxt = self._next()
+        if nxt is not None:
+            self._continued = self._ended_in_task(nxt.task)
 
     def refused(self, why: str) -> None:
         """A start the engine refused (a missing device, another session's trial): hold until resumed."""

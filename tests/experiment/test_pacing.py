@@ -204,6 +204,17 @@ def test_a_break_every_n_trials_waits_for_the_participant_and_never_after_the_la
     assert p.view(61_300) is None and p.decide(70_000) == Decision("idle")  # the task's end: no break
 
 
+def test_resume_ends_a_break():
+    p = Pacer({"t": Pacing(by="participant", iti_ms=100, break_every=1)})
+    p.observe(0, queue("running", "pending"))
+    p.observe(10, queue("answered", "pending"))
+    assert p.state(10) == "break"
+    p.pause()
+    assert p.state(20) == "paused" and p.continue_break(20) is False
+    p.resume(30)
+    assert p.decide(130) == Decision("start", 1)
+
+
 def test_continue_without_a_break_is_refused():
     p = Pacer({"t": PACED})
     p.observe(0, queue("running", "pending"))
