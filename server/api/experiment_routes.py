@@ -241,7 +241,7 @@ async def _pacing(session_id: str, experiment: Experiment, site: str | None, tok
         raise _http(Forbidden("this console does not control the session; take control first"))
 
 
-@router.post("/sessions/{session_id}/pacing/pause", responses=errors(403, 404), summary="Pause a participant-paced "
+@router.post("/sessions/{session_id}/pacing/pause", responses=errors(403, 404, 422), summary="Pause a participant-paced "
              "task: no trial starts until resumed (a running one may still be answered)")
 async def pause_pacing(session_id: str, experiment: ExperimentDep, site: SiteDep, request: Request,
                        token: TokenDep = None) -> dict:
@@ -250,7 +250,7 @@ async def pause_pacing(session_id: str, experiment: ExperimentDep, site: SiteDep
     return {"ok": True}
 
 
-@router.post("/sessions/{session_id}/pacing/resume", responses=errors(403, 404), summary="Resume a participant-paced "
+@router.post("/sessions/{session_id}/pacing/resume", responses=errors(403, 404, 422), summary="Resume a participant-paced "
              "task: its next trial starts after the inter-trial interval (also after a pause by itself, a restart "
              "or an abort)")
 async def resume_pacing(session_id: str, experiment: ExperimentDep, site: SiteDep, request: Request,
