@@ -141,7 +141,18 @@ def session(session_id: str, experiment: ExperimentDep, site: SiteDep, request: 
     except ERRORS as exc:
         raise _http(exc) from None
     # a participant-paced task's state: {state, done, total, feedback, note} (docs/studies.md), else null
-    return {**shown, "pacing": request.app.state.paced.console_view(session_id)}
+    paced = request.app.state.paced
+    pacing = paced.console_view(session_id)
+    if pacing is None and _paced(experiment, shown):  # not seen since the server started: the next read shows it
+        paced.look(session_id)
+    return {**shown, "pacing": pacing}
+
+
+def _paced(experiment: Experiment, session: dict) -> bool:
+    try:
+        return any(t.pacing.paced for t in experiment.study(session["study_id"]).tasks)
+    except NotFound:  # the study file is gone: nothing is paced
+        return False
 
 
 @router.post("/sessions/{session_id}/control", responses=errors(400, 404, 409, 422), summary="Take control of a session from this console (the previous "

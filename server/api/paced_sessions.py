@@ -68,6 +68,12 @@ class PacedSessions:
         else:
             loop.call_soon_threadsafe(self._engine_changed, session_id)
 
+    def look(self, session_id: str) -> None:
+        """Look at a session not seen since the server started (any thread): a console reads it."""
+        loop = self.owner.loop
+        if loop is not None:
+            loop.call_soon_threadsafe(self.poke, session_id)
+
     def _engine_changed(self, session_id: str) -> None:
         self._stale.add(session_id)
         self.poke(session_id)

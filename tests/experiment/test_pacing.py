@@ -244,3 +244,12 @@ def test_a_trial_is_answered_when_every_required_question_has_an_answer():
     ended = {**row, "status": "answered", "metrics": {"psy": {"correct": True}}}
     assert QueuedTrial.from_session(ended, ["a"]).correct is True
     assert QueuedTrial.from_session({**row, "metrics": {"psy": {"correct": None}}}, ["a"]).correct is None
+
+
+def test_after_a_restart_the_session_waits_for_resume_and_goes_on_at_its_next_pending_trial():
+    p = Pacer({"t": PACED})  # a new pacer: the server started again; the queue is on disk
+    p.observe(0, queue("answered", "answered", "pending", "pending"))
+    assert p.decide(60_000) == Decision("idle")
+    assert p.view(0) == {"state": "experimenter", "done": 2, "total": 4, "feedback": None}
+    p.resume(1000)
+    assert p.decide(1800) == Decision("start", 2)

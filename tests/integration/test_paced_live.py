@@ -133,6 +133,12 @@ def test_a_break_ends_with_the_participants_continue(server):
     api.token, sid = session["token"], session["id"]
     mine = participant_token(api.base, sid)
 
+    # the console sees the paced task before anything ran: the experimenter starts it
+    wait = time.monotonic() + 5
+    while (shown := api.ok("GET", f"/api/sessions/{sid}"))["pacing"] is None and time.monotonic() < wait:
+        time.sleep(0.1)
+    assert shown["pacing"] == {"state": "experimenter", "done": 0, "total": 4, "feedback": None, "note": ""}
+
     async def go():
         page = await Client.connect(api.ws, token=mine)
         await page.send({"type": "answer", "seq": 0, "question": "pacing:continue", "value": 1})
