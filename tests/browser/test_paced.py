@@ -165,6 +165,7 @@ def test_a_paced_task_runs_from_the_participants_keys(contexts, paced_server, pa
     assert "Break: 2 of 5 done" in participant.inner_text("#pacing .text")
     console.wait_text("#pacing-state", "break")
     shot(participant, "break")
+    shot(console.page, "console-break")
     time.sleep(1.0)
     assert trials(server, sid)[2]["status"] == "pending", "the break holds until the participant continues"
 
