@@ -219,7 +219,8 @@ ANSWER = Message("answer", "client_to_server", "a participant's answer to a ques
                  "trial that the study marks `answered_by = \"participant\"` (the `ask` message names them)", (
     _type("answer"),
     Field("seq", integer(min=0), "the trial (`ask.seq`)", since=5),
-    Field("question", string(1, 64), "the question's id (`ask.questions[].id`)", since=5),
+    Field("question", string(1, 64), "the question's id (`ask.questions[].id`); v1.6: `\"pacing:continue\"` ends "
+          "a participant-paced task's break (`ask.pacing.state` `break`)", since=5),
     Field("value", any_of(number(), string(max_len=200), doc="number \\| string ≤ 200 characters"),
           "the answer: a Likert point, a number, or one of the choices; the server checks it against the question as "
           "it checks the console's (`PUT /api/sessions/{id}/trials/{seq}/responses/{question}`) and records it "
@@ -410,7 +411,8 @@ ERROR_CODES: dict[str, str] = {
     "busy": "the loop's input mailbox is full; the message was dropped",
     "out_of_range": "a finite number beyond the protocol's bounds: an integer outside ±(2^53 − 1), a tracker "
                     "`pos` outside the workspace, a `t` beyond ±(2^53 − 1) ms (\"Bounds\")",
-    "conflict": "an `answer` to a trial that is not running (any more), or to a question it does not ask",
+    "conflict": "an `answer` to a trial that is not running (any more), or to a question it does not ask; a break's "
+                "`pacing:continue` when no break is held",
     "rate_limited": "the client sent `input` faster than its budget (\"Input budget\"); the message was dropped "
                     "(at most one such error a second); or the token already has 256 connections open (the "
                     "connection then closes, code 1008)",

@@ -392,7 +392,7 @@ export const SCHEMA = {
      },
      "required": true,
      "since": 5,
-     "meaning": "the question's id (`ask.questions[].id`)"
+     "meaning": "the question's id (`ask.questions[].id`); v1.6: `\"pacing:continue\"` ends a participant-paced task's break (`ask.pacing.state` `break`)"
     },
     {
      "name": "value",
