@@ -16,6 +16,7 @@ from server.api.access_routes import router as access_router
 from server.api.errors import GUARD_ERRORS
 from server.api.browser_safety import BrowserSafety, options_for
 from server.api.experiment_routes import router as experiment_router
+from server.api.paced_sessions import PacedSessions
 from server.api.participant_answers import ParticipantAnswers
 from server.api.placement_routes import router as placement_router
 from server.api.guard import AuditTrail, guard, install_access_doc
@@ -122,7 +123,15 @@ def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None =
     # participants answer the study's questions over /ws (protocol v1.5 `ask`, `answer`)
     answers = ParticipantAnswers(experiment, hub.answers, access.audit)
     hub.answers.connect(answers.answer, answers.view)
-    experiment.on_change = answers.changed
+    # participant-paced tasks move on by themselves while a console holds the session (docs/studies.md)
+    paced = answers.pacing = PacedSessions(experiment, owner, answers.changed)
+
+    def changed(session_id: str) -> None:
+        if not paced.paces(session_id):  # a paced session's `ask` follows the pacer's step (with its state)
+            answers.changed(session_id)
+        paced.changed(session_id)
+
+    experiment.on_change = changed
     access.running = _running_trial(experiment)  # the rig is the running trial's lab's (docs/security.md)
 
     def tokens_changed() -> None:  # a revocation here or by the CLI: the connections of that token end now
@@ -205,6 +214,7 @@ def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None =
     app.state.cpu_plan = cpu_plan
     app.state.rig = rig
     app.state.experiment = experiment
+    app.state.paced = paced
     app.state.access = access
     app.state.tracker_udp = None  # "HOST:PORT" once bound
     app.state.tracker_host = None  # the tracker host process's handle, with --tracker

@@ -13,6 +13,7 @@ which runs each hub call on the event loop's thread (server/hub/owner.py).
 
 from __future__ import annotations
 
+import asyncio
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, Header, HTTPException, Path, Query, Request
@@ -134,11 +135,24 @@ def create_session(body: SessionCreate, experiment: ExperimentDep, site: SiteDep
 
 
 @router.get("/sessions/{session_id}", responses=errors(404, 422), summary="A session with its queue of trials, statuses and answers")
-def session(session_id: str, experiment: ExperimentDep, site: SiteDep) -> dict:
+def session(session_id: str, experiment: ExperimentDep, site: SiteDep, request: Request) -> dict:
     try:
-        return experiment.session(session_id, site)
+        shown = experiment.session(session_id, site)
     except ERRORS as exc:
         raise _http(exc) from None
+    # a participant-paced task's state: {state, done, total, feedback, note} (docs/studies.md), else null
+    paced = request.app.state.paced
+    pacing = paced.console_view(session_id)
+    if pacing is None and _paced(experiment, shown):  # not seen since the server started: the next read shows it
+        paced.look(session_id)
+    return {**shown, "pacing": pacing}
+
+
+def _paced(experiment: Experiment, session: dict) -> bool:
+    try:
+        return any(t.pacing.paced for t in experiment.study(session["study_id"]).tasks)
+    except NotFound:  # the study file is gone: nothing is paced
+        return False
 
 
 @router.get("/sessions/{session_id}/tracks", responses=errors(404, 422),
@@ -235,3 +249,32 @@ def exclude(session_id: str, seq: SeqPath, body: ReasonRequest, experiment: Expe
         return experiment.exclude(session_id, token, seq, body.reason, site=site)
     except ERRORS as exc:
         raise _http(exc) from None
+
+
+async def _pacing(session_id: str, experiment: Experiment, site: str | None, token: str | None) -> None:
+    """The caller may drive the session's pacing: it holds the control token (403), its site sees it (404)."""
+    try:
+        control = await asyncio.to_thread(experiment.control, session_id, token, site)
+    except ERRORS as exc:
+        raise _http(exc) from None
+    if not control["yours"]:
+        raise _http(Forbidden("this console does not control the session; take control first"))
+
+
+@router.post("/sessions/{session_id}/pacing/pause", responses=errors(403, 404, 422), summary="Pause a participant-paced "
+             "task: no trial starts until resumed (a running one may still be answered)")
+async def pause_pacing(session_id: str, experiment: ExperimentDep, site: SiteDep, request: Request,
+                       token: TokenDep = None) -> dict:
+    await _pacing(session_id, experiment, site, token)
+    request.app.state.paced.pause(session_id)
+    return {"ok": True}
+
+
+@router.post("/sessions/{session_id}/pacing/resume", responses=errors(403, 404, 422), summary="Resume a participant-paced "
+             "task: its next trial starts after the inter-trial interval (also after a pause by itself, a restart "
+             "or an abort)")
+async def resume_pacing(session_id: str, experiment: ExperimentDep, site: SiteDep, request: Request,
+                        token: TokenDep = None) -> dict:
+    await _pacing(session_id, experiment, site, token)
+    request.app.state.paced.resume(session_id)
+    return {"ok": True}

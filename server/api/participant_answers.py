@@ -12,6 +12,7 @@ from __future__ import annotations
 import logging
 
 from server.experiment.engine import Experiment, ExperimentError, Forbidden, NotFound
+from server.experiment.pacing import CONTINUE_QUESTION
 from server.experiment.store import Conflict, StoreError
 from server.hub.session import ParticipantAnswer
 
@@ -23,12 +24,16 @@ class ParticipantAnswers:
         self.experiment = experiment
         self.hub = hub
         self.audit = audit  # server.auth.audit.Audit, or None (tests)
+        self.pacing = None  # server/api/paced_sessions.py PacedSessions: `ask.pacing`, and a break's "continue"
 
     def answer(self, a: ParticipantAnswer) -> tuple[str, str] | None:
         """Record one answer: None, or (error code, message) for the participant's page."""
         try:
-            self.experiment.participant_answer(a.session_id, a.seq, a.question, a.value)
-            refusal = None
+            if a.question == CONTINUE_QUESTION:  # not a study question: the participant ends a break
+                refusal = self._continue(a)
+            else:
+                self.experiment.participant_answer(a.session_id, a.seq, a.question, a.value)
+                refusal = None
         except Forbidden as exc:
             refusal = ("forbidden", str(exc))
         except (NotFound, Conflict, StoreError) as exc:
@@ -37,6 +42,11 @@ class ParticipantAnswers:
             refusal = ("bad_message", str(exc))
         self._audit(a, refusal)
         return refusal
+
+    def _continue(self, a: ParticipantAnswer) -> tuple[str, str] | None:
+        if self.pacing is None or not self.pacing.continue_break(a.session_id):
+            return "conflict", "no break to continue from: the session is not on a participant-paced break"
+        return None
 
     def _audit(self, a: ParticipantAnswer, refusal: tuple[str, str] | None) -> None:
         if self.audit is None:
@@ -51,9 +61,10 @@ class ParticipantAnswers:
 
     def view(self, session_id: str) -> dict | None:
         try:
-            return self.experiment.participant_view(session_id)
+            view = self.experiment.participant_view(session_id)
         except NotFound:
             return None
+        return {**view, "pacing": None if self.pacing is None else self.pacing.view(session_id)}
 
     def changed(self, session_id: str) -> None:
         """The engine changed `session_id` (any thread but the hub's): its participants' new view."""

@@ -136,6 +136,8 @@ POLICY: dict[str, Rule] = {
     "POST /api/sessions/{session_id}/trials/{seq}/abort": _site_data("abort a trial"),
     "POST /api/sessions/{session_id}/trials/{seq}/exclude": _site_data("exclude a trial"),
     "POST /api/sessions/{session_id}/trials/{seq}/retry": _site_data("retry an aborted trial"),
+    "POST /api/sessions/{session_id}/pacing/pause": _site_data("pause a participant-paced task"),
+    "POST /api/sessions/{session_id}/pacing/resume": _site_rig("resume a participant-paced task (it starts trials)"),
     # sign-in: public, throttled per code prefix; the code is the credential
     "POST /api/auth/login": Rule(frozenset(), scope="public", doc="a login code for an admin token"),
     "POST /api/auth/join": Rule(frozenset(), scope="public", doc="a join code for a participant token"),

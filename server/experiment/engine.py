@@ -221,6 +221,11 @@ class Experiment:
         return {"controlled": current is not None, "experimenter": experimenter, "since": since,
                 "yours": bool(current and token and secrets.compare_digest(token, current))}
 
+    def control_token(self, session_id: str) -> str | None:
+        """The session's current control token, or None: the pacer (server/api/paced_sessions.py) moves a
+        participant-paced task on for the console that holds it, and only while one does."""
+        return self._tokens.get(session_id)
+
     def sessions(self, site: str | None = None) -> list[dict]:
         return self.store.sessions(site)
 

@@ -43,6 +43,7 @@ from scenarios.registry import UnknownScenario, check_scenario_params, resolve
 from server.experiment.order import ORDERS
 from server.experiment.psychophysics_task import QUESTION_ID, PsyTask, parse_psychophysics
 from server.psychophysics.spec import SpecError
+from server.experiment.pacing import EXPERIMENTER_PACED, PACED_BY, Pacing
 from server.experiment.question import (ANSWERERS, PARTICIPANT_KINDS, QUESTION_KINDS, Question, as_number,
                                         format_bound, frozen_mapping, question_from_answer)
 
@@ -93,6 +94,7 @@ class Task:
     training_conditions: tuple[Mapping[str, Any], ...] = ()  # training-phase trials sharing training_s (added)
     audio: Audio = NO_AUDIO                    # the study's [audio], with this task's [tasks.audio] over it (added)
     psychophysics: PsyTask | None = None       # [tasks.psychophysics]: levels chosen by a procedure (added)
+    pacing: Pacing = EXPERIMENTER_PACED        # [tasks.pacing]: who moves the trials on (pacing.py)
 
     def question(self, question_id: str) -> Question:
         """A question of this task (per trial or end of task) by id; KeyError if there is none."""
@@ -110,7 +112,8 @@ class Task:
                 "end_questions": [q.to_dict() for q in self.end_questions], "block": self.block,
                 "subtask": self.subtask, "instructions": self.instructions,
                 "training_conditions": [dict(c) for c in self.training_conditions], "audio": self.audio.to_dict(),
-                "psychophysics": self.psychophysics.to_dict() if self.psychophysics else None}
+                "psychophysics": self.psychophysics.to_dict() if self.psychophysics else None,
+                "pacing": self.pacing.to_dict()}
 
 
 @dataclass(frozen=True)
@@ -234,7 +237,8 @@ def _at_least(low: float, whole: bool) -> Callable[[Any], Any]:
 STUDY_FIELDS = ("id", "title", "version", "seed", "participants", "description", "tasks", "blocks", "audio")
 TASK_FIELDS = ("id", "title", "scenario", "device", "params", "subtask", "conditions", "repetitions", "order",
                "practice", "training_s", "training_conditions", "time_limit_s", "questions", "end_questions",
-               "instructions", "audio", "psychophysics")
+               "instructions", "audio", "psychophysics", "pacing")
+PACING_FIELDS = ("by", "iti_ms", "feedback", "feedback_ms", "break_every")
 BLOCK_FIELDS = ("id", "tasks", "order")
 AUDIO_FIELDS = ("speech", "contact_sounds")
 QUESTION_FIELDS = ("id", "kind", "text", "low", "high", "integer", "labels", "choices", "required", "answered_by")
@@ -316,8 +320,9 @@ def _parse_task(raw: Any, where: str, name: str, audio: Audio = NO_AUDIO) -> Tas
         questions=_psy_questions(psy) + _questions(t, "questions", () if psy else _subtask_questions(sub)),
         end_questions=_questions(t, "end_questions", ()), subtask=sub.name if sub else None,
         instructions=t.text("instructions", ""), training_conditions=training_conditions, audio=_audio(t, audio),
-        psychophysics=psy)
+        psychophysics=psy, pacing=_pacing(t))
     _check_task(t, task)
+    _check_pacing(t, task)
     return task
 
 
@@ -411,6 +416,31 @@ def _check_task(t: _Table, task: Task) -> None:
         raise t.error("training_conditions need a training time (training_s > 0)")
     if not (n or task.training_s or task.end_questions):
         raise t.error("nothing to do: give conditions, a training time or end_questions")
+
+
+def _check_pacing(t: _Table, task: Task) -> None:
+    """A participant-paced task: nobody at the console answers between its trials."""
+    if not task.pacing.paced:
+        return
+    for q in task.questions:
+        if q.answered_by != "participant":
+            raise t.error(f'pacing: by = "participant" needs every per-trial question answered by the participant; '
+                          f'question "{q.id}" is answered by the experimenter (set answered_by = "participant" '
+                          f"or move it to end_questions)")
+    if not any(q.required for q in task.questions):
+        raise t.error('pacing: by = "participant" needs a required question the participant answers (its answer '
+                      "ends each trial)")
+
+
+def _pacing(t: _Table) -> Pacing:
+    """A task's `[tasks.pacing]` (docs/studies.md "Participant-paced tasks")."""
+    if not t.has("pacing"):
+        return EXPERIMENTER_PACED
+    p = _Table(t.raw["pacing"], f"{t.where}: pacing", PACING_FIELDS)
+    d = EXPERIMENTER_PACED
+    return Pacing(by=_choice(p, "by", PACED_BY, d.by), iti_ms=p.integer("iti_ms", 0, d.iti_ms),
+                  feedback=p.flag("feedback", d.feedback), feedback_ms=p.integer("feedback_ms", 0, d.feedback_ms),
+                  break_every=p.integer("break_every", 0, d.break_every))
 
 
 def _questions(t: _Table, name: str, default: tuple[Question, ...]) -> tuple[Question, ...]:

@@ -1,4 +1,4 @@
-"""Protocol v1.5 messages (docs/protocol.md): validated client messages, server message builders.
+"""Protocol v1.6 messages (docs/protocol.md): validated client messages, server message builders.
 
 Every message is declared once in schema.py. Client messages are frozen dataclasses parsed from
 a decoded map by the declaration's checker (check.py): a wrong field is
@@ -206,4 +206,5 @@ def ask(view: Mapping[str, Any]) -> dict:
             "questions": [dict(q) for q in view.get("questions") or []],
             "audio": {"speech": bool((view.get("audio") or {}).get("speech")),
                       "contact_sounds": bool((view.get("audio") or {}).get("contact_sounds"))},
-            "instructions": view.get("instructions") or ""}
+            "instructions": view.get("instructions") or "",
+            "pacing": None if view.get("pacing") is None else dict(view["pacing"])}

@@ -1,4 +1,4 @@
-"""Protocol v1.5: every message declared once, as data (docs/protocol.md).
+"""Protocol v1.6: every message declared once, as data (docs/protocol.md).
 
 Everything else follows from this module: the Python parsers and builders (messages.py, through
 the checker in check.py), the message tables of docs/protocol.md and the browser client's schema
@@ -36,10 +36,11 @@ from server.core.points import POINT_NAMES, PRIMARY_POINT
 from server.core.workspace import WORKSPACE_HALF_EXTENT_M
 
 PROTOCOL_VERSION = 1  # the major version: hello.v and welcome.v
-PROTOCOL_MINOR = 5    # v1.1: welcome.minor, state.stiffness/haptic/driver; v1.2: health, bounds, input budget;
+PROTOCOL_MINOR = 6    # v1.1: welcome.minor, state.stiffness/haptic/driver; v1.2: health, bounds, input budget;
                       # v1.3: hello.token, welcome.identity, lease, unauthorized;
                       # v1.4: tracker.point/points/ttl, state.tools/points/tracking (several fingers);
-                      # v1.5: ask, answer (a participant answers a study's question; the study's audio)
+                      # v1.5: ask, answer (a participant answers a study's question; the study's audio);
+                      # v1.6: ask.pacing (participant-paced tasks: state, progress, feedback, breaks)
 SCENE_FORMAT_VERSION = 1
 ROLES = ("participant", "operator", "observer")
 INPUT_ACTIONS = ("down", "up", "press")
@@ -218,7 +219,8 @@ ANSWER = Message("answer", "client_to_server", "a participant's answer to a ques
                  "trial that the study marks `answered_by = \"participant\"` (the `ask` message names them)", (
     _type("answer"),
     Field("seq", integer(min=0), "the trial (`ask.seq`)", since=5),
-    Field("question", string(1, 64), "the question's id (`ask.questions[].id`)", since=5),
+    Field("question", string(1, 64), "the question's id (`ask.questions[].id`); v1.6: `\"pacing:continue\"` ends "
+          "a participant-paced task's break (`ask.pacing.state` `break`)", since=5),
     Field("value", any_of(number(), string(max_len=200), doc="number \\| string ≤ 200 characters"),
           "the answer: a Likert point, a number, or one of the choices; the server checks it against the question as "
           "it checks the console's (`PUT /api/sessions/{id}/trials/{seq}/responses/{question}`) and records it "
@@ -232,7 +234,7 @@ _IDENTITY = mapping(doc="map `{token_id, role, site, session}`")
 WELCOME = Message("welcome", "server_to_client", "reply to `hello`, or sent on connect to clients without one", (
     _type("welcome"),
     Field("v", integer(), "server's protocol major version (1)"),
-    Field("minor", integer(min=0), "server's protocol minor version (5 for this document; absent from v1.0 "
+    Field("minor", integer(min=0), "server's protocol minor version (6 for this document; absent from v1.0 "
           "servers)", required=False, since=1),
     Field("client_id", integer(min=1), "this connection's id (`driver` in `state` names a /ws client by it)"),
     Field("role", enum(ROLES), "the role the server assigned (may differ from the one asked for; clients follow "
@@ -360,6 +362,7 @@ LEASE = Message("lease", "server_to_client", "after `welcome`, `scene` and `heal
 
 _ASKED = mapping(doc="map `{id, kind, text, low, high, integer, labels, choices, required, answer}`")
 _AUDIO = mapping(boolean(), "map `{speech, contact_sounds}`")
+_PACING = mapping(doc="map `{state, done, total, feedback}`")
 
 ASK = Message("ask", "server_to_client", "to a participant connection of a session (its token's `session`): after "
               "`welcome` and whenever the session's running trial, its answers or its audio change", (
@@ -375,6 +378,13 @@ ASK = Message("ask", "server_to_client", "to a participant connection of a sessi
           "instruction, `contact_sounds` clicks at each contact onset; both false unless the study turns them on",
           since=5),
     Field("instructions", string(), "the task's `instructions` (empty when none)", since=5),
+    Field("pacing", any_of(null(), _PACING, doc="map \\| null"), "a participant-paced task (study "
+          "`[tasks.pacing]`, docs/studies.md \"Participant-paced tasks\"), else null: `state` is `trial` (answer "
+          "now), `next` (the next trial starts after the inter-trial interval), `feedback` (`feedback` is "
+          "`\"correct\"` or `\"wrong\"`, else null), `break` (the next trial waits until the participant sends "
+          "`answer` with `question` `\"pacing:continue\"`, `seq` 0 and `value` 1: neither is read), `paused` "
+          "(by the experimenter) or `experimenter` (the experimenter starts the task, or goes on after a restart); "
+          "`done` and `total`: the task's ended and planned trials", required=False, since=6),
 ))
 
 MESSAGES: dict[str, Message] = {m.name: m for m in (HELLO, TRACKER, INPUT, ANSWER, WELCOME, SCENE, STATE, ERROR,
@@ -401,7 +411,8 @@ ERROR_CODES: dict[str, str] = {
     "busy": "the loop's input mailbox is full; the message was dropped",
     "out_of_range": "a finite number beyond the protocol's bounds: an integer outside ±(2^53 − 1), a tracker "
                     "`pos` outside the workspace, a `t` beyond ±(2^53 − 1) ms (\"Bounds\")",
-    "conflict": "an `answer` to a trial that is not running (any more), or to a question it does not ask",
+    "conflict": "an `answer` to a trial that is not running (any more), or to a question it does not ask; a break's "
+                "`pacing:continue` when no break is held",
     "rate_limited": "the client sent `input` faster than its budget (\"Input budget\"); the message was dropped "
                     "(at most one such error a second); or the token already has 256 connections open (the "
                     "connection then closes, code 1008)",

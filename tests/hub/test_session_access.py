@@ -143,7 +143,7 @@ def test_the_welcome_grants_the_role_the_token_allows_and_says_who_it_is(who, as
     out = sent(s)
     granted = GRANTS[who][asked]
     welcome = out[0]
-    assert welcome["type"] == "welcome" and welcome["role"] == granted == s.role and welcome["minor"] == 5  # v1.5 (was 4)
+    assert welcome["type"] == "welcome" and welcome["role"] == granted == s.role and welcome["minor"] == 6  # v1.6 (was 5)
     assert welcome["identity"] == {"token_id": who.token_id, "role": who.role, "site": who.site,
                                    "session": who.session}
     if granted == asked:

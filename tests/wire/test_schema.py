@@ -78,7 +78,7 @@ def test_builders_write_the_declared_fields_in_order_and_pass_the_checks():
     for name, message in built.items():
         assert list(message) == _order(name)
         check_message(message)
-    assert built["welcome"]["minor"] == 5  # v1.5 (was 4)
+    assert built["welcome"]["minor"] == 6  # v1.6 (was 5)
     # the welcome says who the token is, never more (no label, no secret)
     assert built["welcome"]["identity"] == {"token_id": "0b7e41aa", "role": "admin", "site": None, "session": None}
 

@@ -265,6 +265,9 @@ namespace Viestac.Client
         public long? Seq;  // the running trial, or null
         public readonly List<Dictionary<string, object>> Questions = new List<Dictionary<string, object>>();
         public bool Speech, ContactSounds;
+        /// <summary>v1.6: a participant-paced task's {state, done, total, feedback}, or null (docs/protocol.md).
+        /// During a break (state "break") the participant continues with Answer(0, "pacing:continue", 1).</summary>
+        public Dictionary<string, object> Pacing;
     }
 
     public static class Roles

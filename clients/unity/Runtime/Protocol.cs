@@ -342,6 +342,7 @@ namespace Viestac.Client
             foreach (var kv in audio) Bool(kv.Value, "ask.audio." + kv.Key);
             ask.Speech = audio.ContainsKey("speech") && (bool)audio["speech"];
             ask.ContactSounds = audio.ContainsKey("contact_sounds") && (bool)audio["contact_sounds"];
+            if (Field(m, "pacing") != null) ask.Pacing = Map(m, "ask", "pacing", true);  // v1.6
             return ask;
         }
 

@@ -35,6 +35,18 @@ namespace Viestac.Client.Tests
         }
 
         [Test]
+        public void APacedAskCarriesItsPacingAndAnOlderAskNone()
+        {
+            var r = new MsgPackReader();
+            Func<string, Ask> ask = name => (Ask)Protocol.Parse(r.ReadFrame(TestPaths.Hex((string)Vectors("messages.json", "vectors")
+                .First(v => (string)v["name"] == name)["msgpack_hex"])));
+            var paced = ask("ask-paced-break");
+            Assert.AreEqual("break", paced.Pacing["state"]);
+            Assert.AreEqual(20L, Convert.ToInt64(paced.Pacing["done"]));
+            Assert.IsNull(ask("ask-likert-audio").Pacing);  // v1.5: no pacing field
+        }
+
+        [Test]
         public void EveryVectorDecodesToItsMapWithIntsAndFloatsApart()
         {
             var r = new MsgPackReader();

@@ -72,26 +72,38 @@ export class Speaker {
   }
 }
 
-/** A 15 ms click (a decaying 1 kHz tone): audible, short enough not to mask the tactile cue. */
+/** A 15 ms click (a decaying 1 kHz tone): audible, short enough not to mask the tactile cue; and the
+ * interval marks' tones. */
 export class Clicker {
   constructor() {
     this.ctx = null;
     this.count = 0;
+    this.tones = 0;
   }
 
   click() {
     this.count++;
+    this._beep(1000, 0.015);
+  }
+
+  /** A short tone marking an interval's onset (pacing.js): 100 ms, a different pitch per interval. */
+  tone(interval = 1) {
+    this.tones++;
+    this._beep(interval % 2 === 1 ? 660 : 880, 0.1);
+  }
+
+  _beep(hz, seconds) {
     const AC = globalThis.AudioContext ?? globalThis.webkitAudioContext;
     if (!AC) return;
     this.ctx = this.ctx ?? new AC();
     const t = this.ctx.currentTime;
     const osc = this.ctx.createOscillator();
     const gain = this.ctx.createGain();
-    osc.frequency.value = 1000;
+    osc.frequency.value = hz;
     gain.gain.setValueAtTime(0.3, t);
-    gain.gain.exponentialRampToValueAtTime(0.001, t + 0.015);
+    gain.gain.exponentialRampToValueAtTime(0.001, t + seconds);
     osc.connect(gain).connect(this.ctx.destination);
     osc.start(t);
-    osc.stop(t + 0.02);
+    osc.stop(t + seconds + 0.005);
   }
 }

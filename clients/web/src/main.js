@@ -20,6 +20,8 @@ import { lostSources, toolsOf } from './tools_view.js';
 import { XrSession, supportedModes, MODES } from './xr_session.js';
 import { questionOf } from './xr_panels.js';
 import { AudioPlan, Clicker, Speaker, audioSettings } from './audio.js';
+import { CONTINUE_KEYS, CONTINUE_QUESTION, OnsetWatch, answerForKey, continueQuestion, intervalMarks, keyFor,
+  pacingLines, pacingView, wordKeyFor } from './pacing.js';
 
 const CLIENT_NAME = 'viestac-web/0.1';
 const STALE_S = 3; // an open connection without a state frame this long shows "reconnecting"
@@ -128,7 +130,7 @@ async function main() {
     },
   };
   const xr = new XrSession({ view, conn, placementApi, scale: opts.xrScale, ttlMs: opts.xrTtlMs,
-    status: () => ({ hud: lastHud, health: hook.health, lost: lastLost }) });
+    status: () => ({ hud: lastHud, health: hook.health, lost: lastLost, extra: pacingLines(hook.ask?.pacing) }) });
   hook.xr = xr;
   const xrBar = document.getElementById('xr');
   if (xrBar && opts.role !== 'observer') {
@@ -190,10 +192,69 @@ async function main() {
     const say = audioPlan.say(a.instructions);
     if (say) speaker.speak(say);
     const q = questionOf(a);
-    xr.ask(q);
+    xr.ask(q ?? continueQuestion(a.pacing)); // in XR a break's Continue is a panel too
     showQuestion(q);
+    showPacing(a.pacing ?? null);
     updateWaiting();
   };
+
+  // A participant-paced task (pacing.js, ask.pacing v1.6): progress, the state, feedback, a break.
+  const pacingEl = document.getElementById('pacing');
+  let pacingShown = null;
+  hook.pacing = () => pacingShown;
+  hook.pacingSeen = []; // every pacing state shown, in order (tests: a feedback or a break may be brief)
+  function showPacing(pacing) {
+    pacingShown = pacingView(pacing);
+    const seen = pacing ? `${pacing.state}${pacing.feedback ? `:${pacing.feedback}` : ''}` : null;
+    if (seen !== null && hook.pacingSeen.at(-1) !== seen) hook.pacingSeen.push(seen);
+    if (!pacingEl) return;
+    pacingEl.hidden = pacingShown === null || !page.showQuestion;
+    if (pacingShown === null) return;
+    pacingEl.querySelector('.progress').textContent = pacingShown.progress;
+    pacingEl.querySelector('.text').textContent = pacingShown.text;
+    pacingEl.dataset.feedback = pacingShown.feedback ?? '';
+    pacingEl.querySelector('.continue').hidden = !pacingShown.continue;
+  }
+  const continueBreak = () => pacingShown?.continue && conn.sendAnswer(0, CONTINUE_QUESTION, 1);
+  pacingEl?.querySelector('.continue').addEventListener('click', continueBreak);
+  // Keys answer what the page asks (digits: the nth choice; y/n, s/d) and end a break (Space,
+  // Enter); they are not forwarded to the scenario then. Captured before KeyForwarder sees them.
+  window.addEventListener('keydown', (e) => {
+    if (opts.role !== 'participant' || !page.showQuestion || e.repeat || e.target?.closest?.('input, textarea, select')) return;
+    if (pacingShown?.continue && CONTINUE_KEYS.includes(e.key)) {
+      continueBreak();
+    } else {
+      const q = hook.ask ? questionOf(hook.ask) : null;
+      const value = answerForKey(q, e.key);
+      if (value === undefined) return;
+      conn.sendAnswer(q.seq, q.id, value);
+    }
+    e.preventDefault();
+    e.stopImmediatePropagation();
+  }, { capture: true });
+
+  // A stimulus scenario's interval marks (state values.interval / stage): "1", "2" lit in turn, a
+  // short tone at each onset.
+  const marksEl = document.getElementById('marks');
+  const onsets = new OnsetWatch();
+  let marksKey = '';
+  hook.marks = () => ({ key: marksKey, tones: clicker.tones });
+  function showMarks(values) {
+    const marks = intervalMarks(values);
+    if (onsets.update(marks)) clicker.tone(marks.on);
+    const key = marks === null || !page.showQuestion ? '' : `${marks.n}:${marks.on}:${marks.respond}`;
+    if (!marksEl || key === marksKey) return;
+    marksKey = key;
+    marksEl.hidden = key === '';
+    if (key === '') return;
+    marksEl.dataset.respond = String(marks.respond);
+    marksEl.replaceChildren(...Array.from({ length: marks.n }, (_, i) => {
+      const mark = document.createElement('span');
+      mark.textContent = String(i + 1);
+      mark.dataset.on = String(marks.on === i + 1);
+      return mark;
+    }));
+  }
   function showQuestion(q) {
     if (!answerEl) return;
     answerEl.replaceChildren();
@@ -218,10 +279,12 @@ async function main() {
       ? Array.from({ length: q.high - q.low + 1 }, (_, i) => ({ label: String(q.low + i), value: q.low + i,
         anchor: q.labels?.[q.low + i] ?? '' }))
       : q.items;
-    for (const it of items) {
+    for (const [i, it] of items.entries()) {
       const b = document.createElement('button');
       b.textContent = it.anchor ? `${it.label} (${it.anchor})` : it.label;
       b.dataset.value = String(it.value);
+      const shortcuts = [keyFor(items, i), wordKeyFor(it)].filter((k) => k !== null);
+      if (shortcuts.length) b.setAttribute('aria-keyshortcuts', shortcuts.join(' '));
       b.addEventListener('click', () => send(it.value));
       answerEl.append(b);
     }
@@ -252,6 +315,7 @@ async function main() {
     if (say) speaker.speak(say);
     for (let n = audioPlan.clicks(toolsOf(s)); n > 0; n--) clicker.click();
     hud.setValues(s.values);
+    showMarks(s.values);
     hud.addEvents(s.events);
     hud.setTracking(lostSources(s));
     lastTelemetry = s.telemetry;
@@ -307,6 +371,7 @@ async function main() {
     showWaiting(page.text);
     if (before.showQuestion !== page.showQuestion) {
       showQuestion(hook.ask ? questionOf(hook.ask) : null);
+      showPacing(hook.ask?.pacing ?? null);
       hud.setText(page.showQuestion ? lastHud || sceneHudText : '');
     }
   }

@@ -300,7 +300,7 @@ describe('the declaration drives the checks (src/schema.js)', () => {
       vectors.forEach((v) => assert.equal(v.direction, m.direction, v.name));
       for (const f of m.fields) assert.ok(vectors.some((v) => f.name in v.message), `no vector has ${m.name}.${f.name}`);
     }
-    assert.equal(P.PROTOCOL_MINOR, 5);  // v1.5 (was 4)
+    assert.equal(P.PROTOCOL_MINOR, 6);  // v1.6 (was 5)
   });
   test('constants come from the declaration', () => {
     assert.deepStrictEqual([...P.ROLES], ['participant', 'operator', 'observer']);

@@ -227,6 +227,11 @@ export class Api {
 
   exclude(sessionId, seq, reason) { return this.trial(sessionId, seq, 'exclude', { reason }); }
 
+  /** A participant-paced task: `action` 'pause' or 'resume' (docs/studies.md "Participant-paced tasks"). */
+  pacing(sessionId, action) {
+    return this.request('POST', `/api/sessions/${seg(sessionId)}/pacing/${action}`, { sessionId });
+  }
+
   answer(sessionId, seq, question, value, enteredBy = 'experimenter') {
     return this.request('PUT', `/api/sessions/${seg(sessionId)}/trials/${seg(seq)}/responses/${seg(question)}`,
       { body: { value, entered_by: enteredBy }, sessionId });

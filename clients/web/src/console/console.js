@@ -429,6 +429,7 @@ function renderRun() {
   $('finish').disabled = !canRun || !running;
   $('finish').textContent = running ? `Finish #${running.seq}` : 'Finish';
   $('abort').disabled = !canRun || !running;
+  renderPacing(s, canRun);
   const hint = $('finish-hint');
   if (running && running.questions.length) {
     const { drafts } = draftsFor(running);
@@ -540,6 +541,26 @@ async function onSaveAnswers() {
     state.busy--;
     await refresh();
   }
+}
+
+// A participant-paced task (the session's `pacing`): its state and progress, Pause and Resume.
+const PACING_WORDS = { trial: 'the participant answers', next: 'next trial coming', feedback: 'feedback',
+  break: 'break (the participant continues)', paused: 'paused', experimenter: 'waiting for you: Start or Resume' };
+
+function renderPacing(s, canRun) {
+  const p = s?.pacing ?? null;
+  $('pacing-row').hidden = p === null;
+  if (p === null) return;
+  const note = p.note ? ` — ${p.note}` : '';
+  $('pacing-state').textContent = `Participant-paced: ${p.done}/${p.total} done · ${PACING_WORDS[p.state] ?? p.state}${note}`;
+  $('pacing-row').dataset.state = p.state;
+  $('pace-pause').disabled = !canRun || p.state === 'paused';
+  $('pace-resume').disabled = !canRun || p.state === 'trial';
+}
+
+async function onPacing(action) {
+  const words = action === 'pause' ? 'Paused: no trial starts until you resume.' : 'Resumed: the next trial follows.';
+  await act($('run-msg'), () => api.pacing(state.sessionId, action), words);
 }
 
 async function onStart() {
@@ -855,6 +876,8 @@ function main() {
   $('start').addEventListener('click', onStart);
   $('finish').addEventListener('click', onFinish);
   $('abort').addEventListener('click', onAbort);
+  $('pace-pause').addEventListener('click', () => onPacing('pause'));
+  $('pace-resume').addEventListener('click', () => onPacing('resume'));
   $('retry').addEventListener('click', onRetry);
   $('exclude').addEventListener('click', onExclude);
   $('save-answers').addEventListener('click', onSaveAnswers);
