@@ -45,10 +45,16 @@ def recorded(db_path: Path, sid: str) -> list[tuple[int, dict, str]]:
 
 
 def test_kill_9_mid_session_resumes_the_staircase_at_the_same_level_with_no_answer_lost(tmp_path):
-    data = tmp_path / "data"
-    study = load_study(REPO / "studies" / f"{STUDY}.toml")
+    data, studies = tmp_path / "data", tmp_path / "studies"
+    studies.mkdir()
+    # the example file, experimenter-paced (this test drives every trial over REST)
+    text = (REPO / "studies" / f"{STUDY}.toml").read_text(encoding="utf-8").split("\n[tasks.pacing]")[0]
+    (studies / f"{STUDY}.toml").write_text(text, encoding="utf-8")
+    study = load_study(studies / f"{STUDY}.toml")
+    assert not study.task("detect").pacing.paced
     psy = study.task("detect").psychophysics
-    proc, base = start_server("contact-angle", extra=["--data-dir", str(data)])
+    server_args = ["--data-dir", str(data), "--studies", str(studies)]
+    proc, base = start_server("contact-angle", extra=server_args)
     api = Api(base)
     try:
         session = api.ok("POST", "/api/sessions", {"study": STUDY, "participant": "P01", "experimenter": "alice"})
@@ -68,7 +74,7 @@ def test_kill_9_mid_session_resumes_the_staircase_at_the_same_level_with_no_answ
     seeds = Seeds(study.seed, session["participant_index"], "detect")
     expected = track(psy, seeds, [c3 for _, c3, _ in rows]).level  # from the recorded answers alone
 
-    proc, base = start_server("contact-angle", extra=["--data-dir", str(data)])
+    proc, base = start_server("contact-angle", extra=server_args)
     api = Api(base)
     try:
         view = api.ok("GET", f"/api/sessions/{sid}")
