@@ -167,6 +167,9 @@ POLICY: dict[str, Rule] = {
     # the participant. No lease: the running trial is the experimenter's permission.
     "ws:answer": Rule(frozenset({"participant"}), scope="self",
                       doc="a participant token's answer to its own session's question (answered_by participant)"),
+    # the page's own actuators (v1.6): only a page that may drive the HIP is the rig's browser device
+    "ws:actuators": Rule(DRIVERS, drive=True, doc="a page offers its actuators (WebXR controllers, gamepads): the lease "
+                         "holder or a participant of lease.session"),
 }
 
 

@@ -34,6 +34,7 @@ class HealthFeed:
         self._published = False
         self.device_statuses: dict[str, str] = {}  # name → status as the device host last reported it
         self._device_profiles: dict = {}
+        self.hub_devices: Callable[[], dict] = dict  # the devices the hub drives itself (the browser device): statuses
 
     @property
     def device_profiles(self) -> dict:
@@ -81,8 +82,10 @@ class HealthFeed:
             self.health.loop_exited(now, returncode)
         else:
             self.health.device_host_exited(now, returncode)
-            # nobody drives them now; the restarted host reports them again
-            self.device_statuses = {name: HOST_DOWN for name in self._device_profiles}
+            # nobody drives them now; the restarted host reports them again (the hub's own go on)
+            hub_devices = self.hub_devices()
+            self.device_statuses = {**{name: HOST_DOWN for name in self._device_profiles if name not in hub_devices},
+                                    **hub_devices}
         self.check_health()
 
     async def watch_health(self, children: dict, each_poll: Callable[[], None] = lambda: None) -> None:

@@ -71,7 +71,7 @@ def test_hello_is_welcomed_with_its_role_then_the_scene(fmt):
     assert s.receive(hello("operator", fmt=fmt), T0 + 1000) == []
     welcome, scene = sent(s)
     assert welcome == {"type": "welcome", "v": 1, "client_id": 7, "role": "operator", "server": "viestac/test",
-                       "tick_hz": 1000, "state_hz": 60, "format": fmt, "minor": 5,  # v1.5 (was 4)
+                       "tick_hz": 1000, "state_hz": 60, "format": fmt, "minor": 6,  # v1.6 (was 5)
                        "identity": {"token_id": ADMIN.token_id, "role": "admin", "site": None, "session": None}}
     assert scene["hash"] == "aaaa" and s.role == "operator" and s.client_name == "pytest"
 

@@ -13,7 +13,7 @@ from server.auth.lease import Lease
 from server.auth.policy import POLICY, decide
 from server.hub.input_budget import FORBIDDEN_TRACKER_ERROR_EVERY_NS, INPUT_BURST
 from server.hub.outbox import Close
-from server.hub.session import HELLO_TIMEOUT_NS, Command, Gate, ParticipantAnswer, ServerInfo, Session, ToLoop
+from server.hub.session import HELLO_TIMEOUT_NS, ActuatorsOffered, Command, Gate, ParticipantAnswer, ServerInfo, Session, ToLoop
 from server.wire import codec, messages
 from server.wire.schema import CLIENT_MESSAGE_NAMES
 from tests.hub.access_fakes import (ADMIN, EXP_A, EXP_B, OBSERVER, PART_1, PART_2, SECRET, Clock, gate)
@@ -25,8 +25,10 @@ SCENE = {fmt: codec.encode({"type": "scene", "v": 1, "hash": "aaaa", "scene": {}
 TRACKER = {"type": "tracker", "seq": 1, "t": 0, "pos": [0, 0, 1]}
 KEY = {"type": "input", "key": "ArrowUp", "action": "press"}
 ANSWER = {"type": "answer", "seq": 3, "question": "roughness", "value": 5}
-SAMPLE = {"tracker": TRACKER, "input": KEY, "answer": ANSWER}  # one valid message of each client type but hello
-DRIVING = ("input", "tracker")  # the kinds that drive the rig (the lease rule); `answer` has its own
+ACTUATORS = {"type": "actuators", "actuators": [["xr", "right"]]}
+# one valid message of each client type but hello
+SAMPLE = {"tracker": TRACKER, "input": KEY, "answer": ANSWER, "actuators": ACTUATORS}
+DRIVING = ("input", "tracker", "actuators")  # the kinds that follow the lease rule; `answer` has its own
 
 
 def frame(message: dict) -> bytes:
@@ -143,7 +145,7 @@ def test_the_welcome_grants_the_role_the_token_allows_and_says_who_it_is(who, as
     out = sent(s)
     granted = GRANTS[who][asked]
     welcome = out[0]
-    assert welcome["type"] == "welcome" and welcome["role"] == granted == s.role and welcome["minor"] == 5  # v1.5 (was 4)
+    assert welcome["type"] == "welcome" and welcome["role"] == granted == s.role and welcome["minor"] == 6  # v1.6 (was 5)
     assert welcome["identity"] == {"token_id": who.token_id, "role": who.role, "site": who.site,
                                    "session": who.session}
     if granted == asked:
@@ -203,7 +205,7 @@ def test_each_message_is_allowed_exactly_when_the_policy_and_the_lease_say_so(ki
     events = s.receive(frame(SAMPLE[kind]), T0 + 10)
     if expected:
         assert len(events) == 1 and sent(s) == []
-        assert isinstance(events[0], ToLoop if kind == "tracker" else Command)
+        assert isinstance(events[0], {"tracker": ToLoop, "input": Command, "actuators": ActuatorsOffered}[kind])
     else:
         assert events == []
         (error,) = sent(s)
