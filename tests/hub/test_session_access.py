@@ -28,7 +28,7 @@ ANSWER = {"type": "answer", "seq": 3, "question": "roughness", "value": 5}
 ACTUATORS = {"type": "actuators", "actuators": [["xr", "right"]]}
 # one valid message of each client type but hello
 SAMPLE = {"tracker": TRACKER, "input": KEY, "answer": ANSWER, "actuators": ACTUATORS}
-DRIVING = ("input", "tracker", "actuators")  # the kinds that follow the lease rule; `answer` has its own
+DRIVING = ("input", "tracker")  # the kinds that drive the rig (the lease rule); `answer` and `actuators` have their own
 
 
 def frame(message: dict) -> bytes:
@@ -205,7 +205,7 @@ def test_each_message_is_allowed_exactly_when_the_policy_and_the_lease_say_so(ki
     events = s.receive(frame(SAMPLE[kind]), T0 + 10)
     if expected:
         assert len(events) == 1 and sent(s) == []
-        assert isinstance(events[0], {"tracker": ToLoop, "input": Command, "actuators": ActuatorsOffered}[kind])
+        assert isinstance(events[0], ToLoop if kind == "tracker" else Command)
     else:
         assert events == []
         (error,) = sent(s)
@@ -324,6 +324,21 @@ def test_answers_spend_the_input_budget():
     got = [s.receive(frame(ANSWER), T0 + 10) for _ in range(INPUT_BURST + 1)]
     assert all(len(e) == 1 for e in got[:INPUT_BURST]) and got[-1] == []
     assert [m["code"] for m in sent(s)] == ["rate_limited"]
+
+
+@pytest.mark.parametrize("who, state", CASES)
+def test_any_page_but_an_observers_may_offer_its_actuators_and_takes_them_away_when_it_leaves(who, state):
+    """v1.6 `actuators`: offering moves nothing on the rig, so no lease rule; an observer may not."""
+    for role in ("participant", "observer"):
+        s, _ = connect(who, role, _lease_state(state, who))
+        sent(s)
+        events = s.receive(frame(ACTUATORS), T0 + 1)
+        if role == "observer" or who.role == "observer":
+            assert events == [] and [m["code"] for m in sent(s)] == ["forbidden"]
+            assert s.disconnected() == []
+        else:
+            assert events == [ActuatorsOffered(7, (("xr", "right"),), "")] and sent(s) == []
+            assert s.disconnected() == [ActuatorsOffered(7, (), "", left=True)]
 
 
 def _asks(session_id: str, seq) -> dict:

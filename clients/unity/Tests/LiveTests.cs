@@ -95,7 +95,7 @@ namespace Viestac.Client.Tests
             using (var s = Connect())
             {
                 Assert.IsTrue(Pump(s, () => s.Scene != null && s.Welcome != null));
-                Assert.AreEqual(5, s.Welcome.Minor);  // v1.5 (was 4)
+                Assert.AreEqual(6, s.Welcome.Minor);  // v1.6 (was 5)
                 var hand = new List<PointPos>
                 {
                     new PointPos("right.wrist", new Vec3(0.1, 0.2, 1.9)), new PointPos("right.index.tip", new Vec3(0.1, 0.2, 1.6)),
