@@ -10,7 +10,7 @@ import logging
 import time
 from typing import Callable
 
-from devices.capability import showing
+from devices.capability import device_advice, showing
 from server.hub.health import HOST_DOWN, Health, HealthReport
 from server.hub.owner import Owner
 from server.wire import messages
@@ -44,6 +44,7 @@ class HealthFeed:
     @device_profiles.setter
     def device_profiles(self, profiles: dict) -> None:
         self._device_profiles = profiles
+        self.health.advice = {name: device_advice(p) for name, p in profiles.items()}
         self.update_needs()
 
     def update_needs(self) -> None:

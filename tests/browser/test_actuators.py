@@ -255,9 +255,11 @@ def test_tracked_hands_offer_no_actuator_and_say_so(browser, browser_rig):
         assert page.evaluate("window.__viestac.actuators.log.length") == 0, "nothing to pulse"
         # a scenario that needs the device: health names it missing
         assert switch(base, "contact-angle", force=True)
-        wait_for(lambda: any(r["code"] == "device_missing" and "browser" in r["message"]
-                             for r in get_json(base + "/api/health").get("reasons", [])),
-                 timeout=5, what="health to name the browser device missing")
+        reason = wait_for(lambda: next((r for r in get_json(base + "/api/health").get("reasons", [])
+                                        if r["code"] == "device_missing" and "'browser'" in r["message"]), None),
+                          timeout=5, what="health to name the browser device missing")
+        assert "the participant's page offers no actuator (hold the controllers: tracked hands have none)" in \
+            reason["message"] and "cable" not in reason["message"], reason
         page.evaluate("window.__viestac.xr.exit()")
         assert not errors, errors
     finally:
