@@ -28,7 +28,7 @@ MAX_ACTUATORS = 16  # a page's offer is cut to this many (a headset has two, a d
 
 
 class BrowserActuators:
-    """`on_change()`: called when the device's status changed (the loop link reports it)."""
+    """`on_change()`: called when the device's status or refusals changed (the loop link reports them)."""
 
     def __init__(self, on_change: Callable[[], None] = lambda: None):
         self.on_change = on_change
@@ -103,6 +103,7 @@ class BrowserActuators:
                     if r not in self.refusals:
                         log.warning("refused: %s", r.reason)
                 self.refusals = encoding.refusals
+                self.on_change()  # the rig's report (a browser-only rig's refusals are the scenario's HUD)
         return self.drive.to_wire()
 
     def snapshot(self) -> dict | None:
