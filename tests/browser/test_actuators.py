@@ -253,6 +253,9 @@ def test_tracked_hands_offer_no_actuator_and_say_so(browser, browser_rig):
         assert page.evaluate("window.__viestac.actuators.offer()") == {"actuators": [],
                                                                         "note": "tracked hands have no actuator"}
         assert page.evaluate("window.__viestac.actuators.log.length") == 0, "nothing to pulse"
+        # the participant is told too, on the XR panel
+        wait_for(lambda: "Tracked hands have no actuator: hold the controllers to feel the cues" in
+                 page.evaluate("window.__viestac.xr.panel.lines"), timeout=3, what="the panel to say so")
         # a scenario that needs the device: health names it missing
         assert switch(base, "contact-angle", force=True)
         reason = wait_for(lambda: next((r for r in get_json(base + "/api/health").get("reasons", [])

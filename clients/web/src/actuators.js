@@ -81,6 +81,7 @@ export class PageActuators {
     this.driveKey = '';
     this.startMs = 0;
     this.playing = false;
+    this.rigHasDevice = false; // the state frames carry `actuator`: the rig has a browser device
     this.frames = 0;
     this.log = []; // [page ms, frame, state tick, kind, hand, value, ms]: every call, for tests
     this.changes = []; // [page ms, frames rendered before it, state tick, drive]: each new drive as it arrived
@@ -96,10 +97,19 @@ export class PageActuators {
     return { actuators: this.list.map((a) => [a.kind, a.hand]), note: this.note };
   }
 
+  /** What the participant is told when the rig has a browser device and this page has no actuator
+   * ('' otherwise): the XR panel shows it. */
+  notice() {
+    if (!this.rigHasDevice || this.list.length) return '';
+    return this.note === NO_ACTUATOR_HANDS ? 'Tracked hands have no actuator: hold the controllers to feel the cues'
+      : '';
+  }
+
   /** A state frame arrived: its `actuator` is the newest drive (absent: the rig has no browser device). */
   state(s) {
     this.tick = s.tick;
     const drive = Array.isArray(s.actuator) ? s.actuator : null;
+    this.rigHasDevice = drive !== null;
     const key = drive ? JSON.stringify(drive) : '';
     if (key !== this.driveKey) { // a new drive (a new onset): its pattern starts at the next frame
       this.driveKey = key;

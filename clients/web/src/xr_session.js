@@ -340,7 +340,7 @@ export class XrSession {
         'where the scene should stand, and hold it there',
         this._placeEnd ? String(countdown(this._placeEnd, now)) : 'show your hand'];
     } else {
-      lines = panelLines({ hud: s.hud, health: s.health, lost: s.lost });
+      lines = panelLines({ hud: s.hud, health: s.health, lost: s.lost, extra: [this.actuators?.notice() ?? ''] });
     }
     const pos = this.phase === 'placing' ? [head[0], head[1] - 0.25, head[2] - 0.6] : origin;
     this.panel.show(lines);

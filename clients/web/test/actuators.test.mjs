@@ -68,3 +68,11 @@ test('the page announces its actuators once, plays the newest drive each frame a
   page.frame();
   assert.deepEqual(sent.at(-1), [[], ''], 'the pad went: the server is told');
 });
+
+test('tracked hands on a rig with a browser device: the participant is told', () => {
+  const page = new PageActuators({ conn: { sendActuators: () => true }, gamepads: () => [] });
+  page.frame({ inputSources: [{ handedness: 'right', hand: new Map() }], inXr: true });
+  assert.equal(page.notice(), '', 'no browser device on the rig (no state.actuator): nothing to say');
+  page.state({ tick: 1, actuator: [0, 0, 0, 0, 1] });
+  assert.match(page.notice(), /^Tracked hands have no actuator/);
+});
