@@ -53,9 +53,19 @@ class Missing:
         return {"dimension": self.dimension, "devices": list(self.devices), "statuses": list(self.statuses)}
 
 
-def missing_device_text(scenario: str, dimension: str, device: str, status: str) -> str:
+CHECK_CABLE = "check its cable and power"
+
+
+def device_advice(profile: DeviceProfile | None) -> str:
+    """What a person does about a device that is not connected, by how the device is reached."""
+    if profile is not None and profile.protocol == "browser":  # the participant's page (devices/browser.py)
+        return "the participant's page offers no actuator (hold the controllers: tracked hands have none)"
+    return CHECK_CABLE
+
+
+def missing_device_text(scenario: str, dimension: str, device: str, status: str, advice: str = CHECK_CABLE) -> str:
     """One sentence a person can act on: which device, what is wrong, what the scenario loses."""
-    return (f"device '{device}' is {status}: check its cable and power; the running scenario '{scenario}' "
+    return (f"device '{device}' is {status}: {advice}; the running scenario '{scenario}' "
             f"needs it for {dimension_label(dimension)}")
 
 

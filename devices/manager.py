@@ -34,6 +34,7 @@ from server.core.points import PRIMARY_POINT, check_point_name
 from devices.audio.config import AudioConfig, AudioConfigError
 from devices.audio.mapping import AudioCueEncoder
 from devices.audio.device import AudioDevice, UnderrunsCounted
+from devices.browser import BrowserConfigError, check_configs as check_browser_configs
 from devices.encoder import CueEncoder, Refusal
 from devices.line_protocol import CommandRefused, DeviceLine, LineProtocol
 from devices.link import BYTE_TIME_S
@@ -69,8 +70,8 @@ class DeviceConfig:
         if (self.profile.protocol == "audio") != (self.audio is not None):
             raise DeviceConfigError(f"device {self.name}: an audio profile goes with an [device.audio] table, and "
                                     "only an audio profile")
-        if (self.port is None) != (self.audio is not None):
-            raise DeviceConfigError(f"device {self.name}: a serial device needs a port, an audio device none")
+        if (self.port is None) != (self.audio is not None or self.profile.protocol == "browser"):
+            raise DeviceConfigError(f"device {self.name}: a serial device needs a port, an audio or browser device none")
         try:
             check_point_name(self.finger)
         except ValueError as exc:
@@ -84,7 +85,10 @@ class DeviceConfig:
 
     @property
     def where(self) -> str:
-        """Where the device is reached: its port, or its audio output (audio:NAME@HOST_API)."""
+        """Where the device is reached: its port, its audio output (audio:NAME@HOST_API), or the
+        participant's page (a browser actuator)."""
+        if self.port is None and self.audio is None:
+            return "browser:/ws"
         return str(self.port) if self.port is not None else self.audio.describe()
 
     @classmethod
@@ -98,6 +102,9 @@ class DeviceConfig:
             profile = profile_by_model(model)
             if profile.protocol == "audio":
                 raise DeviceConfigError("an audio device is described in a rig file ([device.audio], docs/devices.md)")
+            if profile.protocol == "browser":
+                raise DeviceConfigError("a browser actuator has no port: `serve --rig ...,browser` or a rig file's "
+                                        "[[device]] with profile = \"browser\" (docs/devices.md)")
             return cls(name=name or model, profile=profile, port=PortSpec.parse(port))
         except (ProfileError, ValueError) as exc:
             raise DeviceConfigError(f"device {text!r}: {exc}") from None
@@ -119,6 +126,11 @@ class DeviceConfig:
                     raise DeviceConfigError(f"{where}: an audio device has no port, usb, baud, link_share or watchdog_ms")
                 return cls(name=str(data.get("name", profile.model)), profile=replace(profile, channels=audio.actuators),
                            port=None, audio=audio, finger=str(data.get("finger", PRIMARY_POINT)))
+            if profile.protocol == "browser":  # the participant's page: reached over /ws, not a port
+                if set(data) - {"name", "profile", "finger"}:
+                    raise DeviceConfigError(f"{where}: a browser device has only name, profile and finger")
+                return cls(name=str(data.get("name", profile.model)), profile=profile, port=None,
+                           finger=str(data.get("finger", PRIMARY_POINT)))
             return cls(name=str(data.get("name", profile.model)), profile=profile, port=PortSpec.from_dict(data),
                        baud=int(data.get("baud", 115200)), link_share=float(data.get("link_share", 0.5)),
                        watchdog_ms=int(data.get("watchdog_ms", WATCHDOG_MS)),
@@ -147,7 +159,8 @@ def load_device_file(path: str | Path) -> list[DeviceConfig]:
     configs = [DeviceConfig.from_dict(t, f"{path} device #{i + 1}") for i, t in enumerate(tables)]
     try:
         check_unique(configs)
-    except DeviceConfigError as exc:
+        check_browser_configs(configs)
+    except (DeviceConfigError, BrowserConfigError) as exc:
         raise DeviceConfigError(f"{path}: {exc}") from None
     return configs
 

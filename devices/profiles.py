@@ -39,8 +39,9 @@ DIRECT_CAP = {"macro_roughness": "tilt", "fine_roughness": "texture", "temperatu
 
 
 # binary: device-protocol.md; line: ASCII templates (devices/line_protocol.py); audio: channels of a
-# sound interface (devices/audio/), configured by a rig file's [device.audio] table
-PROTOCOLS = ("binary", "line", "audio")
+# sound interface (devices/audio/), configured by a rig file's [device.audio] table; browser: the
+# participant page's own actuators (WebXR controllers, gamepads: devices/browser.py), driven over /ws
+PROTOCOLS = ("binary", "line", "audio", "browser")
 
 
 class ProfileError(ValueError):
@@ -85,6 +86,8 @@ class DeviceProfile:
             raise ProfileError(f"{self.model}: protocol must be one of {', '.join(PROTOCOLS)}, got {self.protocol!r}")
         if self.protocol == "audio" and not {"pulse", "continuous", "texture"} >= set(self.caps):
             raise ProfileError(f"{self.model}: an audio channel plays pulse, continuous and texture patterns only")
+        if self.protocol == "browser" and not {"pulse", "continuous"} >= set(self.caps):
+            raise ProfileError(f"{self.model}: a browser actuator plays pulse and continuous patterns only")
         if self.protocol == "line":
             self._check_line_templates()
         object.__setattr__(self, "caps", frozenset(self.caps))
@@ -200,15 +203,29 @@ AUDIO = DeviceProfile(
     notes="A broadband actuator: any carrier in its channel's frequency range, textures as their own waveform; "
           "no tilt. The [device.audio] table of a rig file names the output and the channels (docs/devices.md).")
 
+BROWSER = DeviceProfile(
+    model="browser",
+    title="The participant page's actuators: a WebXR controller's haptic actuator or a gamepad's rumble",
+    firmware="", channels=("actuator",), carrier_hz=0, caps=frozenset({"pulse", "continuous"}),
+    dimensions={"stiffness": "vibration", "macro_roughness": "vibration", "fine_roughness": "none",
+                "temperature": "none", "friction": "none"},
+    protocol="browser",
+    notes="Amplitude and duration only: no carrier frequency, no tilt direction (a tilt is its magnitude), no "
+          "texture period, no temperature; at most 5 s an effect; updated once per rendered frame; tracked hands "
+          "have none (devices/browser.py).")
+
 # The built-in devices that run the firmware core (devices/firmware: one vt_model each) ...
 PROFILES: Mapping[str, DeviceProfile] = MappingProxyType({p.model: p for p in (FINGERTAC, FERROVIBE, DEVKIT)})
 # ... and those that run none of ours: a sound interface's channels (devices/audio/)
 AUDIO_PROFILES: Mapping[str, DeviceProfile] = MappingProxyType({AUDIO.model: AUDIO})
+# ... and the participant page's own actuators, driven by the hub over /ws (devices/browser.py)
+BROWSER_PROFILES: Mapping[str, DeviceProfile] = MappingProxyType({BROWSER.model: BROWSER})
 
 
 def profile_by_model(model: str) -> DeviceProfile:
-    found = PROFILES.get(model) or AUDIO_PROFILES.get(model)
+    found = PROFILES.get(model) or AUDIO_PROFILES.get(model) or BROWSER_PROFILES.get(model)
     if found is None:
-        raise ProfileError(f"no built-in profile {model!r}; built-in: {', '.join([*PROFILES, *AUDIO_PROFILES])}"
+        raise ProfileError(f"no built-in profile {model!r}; built-in: "
+                           f"{', '.join([*PROFILES, *AUDIO_PROFILES, *BROWSER_PROFILES])}"
                            " (or describe the device in a devices TOML file, docs/devices.md)")
     return found

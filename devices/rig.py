@@ -36,6 +36,7 @@ from devices.ports import PortSpec
 from devices.profiles import profile_by_model
 
 AUDIO_MODEL = "audio"  # the rig's voice-coil tactor: a JACK dummy server and a capture (devices/audio/emulator.py)
+BROWSER_MODEL = "browser"  # the participant page's actuators: no emulator, the page is the device (devices/browser.py)
 
 log = logging.getLogger("viestac.devices")
 
@@ -63,6 +64,8 @@ class SimulatedRig:
         self.directory.mkdir(parents=True, exist_ok=True)
         ensure_library()  # build the firmware core once, before several emulators race to do it
         for model in self.models:
+            if model == BROWSER_MODEL:  # the page connects over /ws: nothing to start
+                continue
             self.link(model).unlink(missing_ok=True)
             self.procs[model] = self._spawn(model)
         if AUDIO_MODEL in self.models:  # a JACK server takes seconds to answer on a busy machine
@@ -78,6 +81,8 @@ class SimulatedRig:
         return [self._config(model) for model in self.models]
 
     def _config(self, model: str) -> DeviceConfig:
+        if model == BROWSER_MODEL:
+            return DeviceConfig(name=model, profile=profile_by_model(model), port=None)
         if model != AUDIO_MODEL:
             return DeviceConfig(name=model, profile=profile_by_model(model), port=PortSpec.parse(str(self.link(model))))
         audio = AudioConfig(output="system", host_api="JACK", jack_server=self.jack_server,
@@ -95,7 +100,7 @@ class SimulatedRig:
     def restart(self, model: str, timeout_s: float = 10.0) -> subprocess.Popen:
         """Start `model`'s emulator again at the same link (after it died or was killed); returns
         once the link points at the new pty. A running one is stopped first (a power cycle)."""
-        if model not in self.models or self.directory is None:
+        if model not in self.models or model == BROWSER_MODEL or self.directory is None:
             raise ValueError(f"{model!r} is not an emulator of this rig ({', '.join(self.models)})")
         old = self.procs.get(model)
         if old is not None and old.poll() is None:

@@ -152,8 +152,12 @@ def create_app(settings: Settings, tracker_sock=None, cpu_plan: CpuPlan | None =
         # each device on its finger (rig file `finger`, --finger): it gets that tool's cues only
         configs = settings.device_configs(await asyncio.to_thread(rig.start) if rig else [])
         feed.device_profiles = {c.name: c.profile for c in configs}  # until the devices identify themselves
-        devices = DeviceHost(configs, on_report=hub.link.on_device_report,
-                             on_profiles=lambda profiles: setattr(feed, "device_profiles", profiles))
+        # the participant's page is the browser device: the hub drives it over /ws, the host never sees it
+        hub.actuators.configure(next((c for c in configs if c.profile.protocol == "browser"), None))
+        devices = DeviceHost([c for c in configs if c.profile.protocol != "browser"],
+                             on_report=hub.link.on_device_report,
+                             on_profiles=lambda profiles: setattr(feed, "device_profiles",
+                                                                  {**profiles, **hub.actuators.profiles()}))
         devices.owner = owner
         # health hears of every start and exit at once, not at its next 25 ms poll
         for name, child in (("loop", supervisor), ("device_host", devices)):

@@ -246,6 +246,7 @@ def _devices(args: argparse.Namespace) -> int:
             print(f"    warning: {p['warning']}")
     for c in report["configured"]:
         where = ("an audio output, looked for when the server starts" if c["port"].startswith("audio:")
+                 else "the participant's page, connected when it offers an actuator" if c["port"].startswith("browser:")
                  else "present at " + c["resolves_to"] if c["resolves_to"] else "not present")
         print(f"Configured {c['name']} ({c['model']}) on {c['port']}: {where}")
     if report["server"] is None:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from devices.capability import CapabilityReport, check
 from devices.manager import DeviceConfig, DeviceConfigError, check_unique, rig_points, with_fingers
+from devices.browser import check_configs as check_browser_configs
 from devices.profiles import profile_by_model
 from scenarios import registry
 from scenarios.free import ID as FREE_SCENARIO
@@ -82,6 +83,7 @@ class Settings:
         for model in self.rig_models:
             profile_by_model(model)
         check_unique(list(self.devices))
+        check_browser_configs(list(self.devices))
         self.device_fingers()  # fails early: a --finger for no device, or not a point name
         if self.scene_file is not None:
             Scene.load(self.scene_file)  # fails early with the offending field
@@ -130,7 +132,9 @@ class Settings:
     def device_configs(self, rig: list[DeviceConfig] = ()) -> list[DeviceConfig]:
         """The devices to drive (the configured ones, or the simulated rig's `rig`), each on its
         finger: the rig file's `finger`, overridden by --finger."""
-        return with_fingers(list(self.devices) or list(rig), dict(self.fingers))
+        configs = with_fingers(list(self.devices) or list(rig), dict(self.fingers))
+        check_browser_configs(configs)  # one browser device at most, on the primary point
+        return configs
 
     def device_fingers(self) -> dict[str, str]:
         """Device name → the tracked point it sits on (known before the simulated rig starts);

@@ -193,6 +193,9 @@ async def devices(request: Request, writes: int = Query(0, ge=0, le=1024, descri
         snapshot = await host.snapshot(writes) if host is not None else {"devices": [], "refusals": [], "feed": None}
     except DeviceHostUnavailable as exc:
         raise HTTPException(503, str(exc)) from None
+    browser = request.app.state.hub.actuators.snapshot()  # the participant's page, driven by the hub itself
+    if browser is not None:
+        snapshot = {**snapshot, "devices": [*snapshot["devices"], browser]}
     return {**snapshot, "host": {"pid": host.info.get("pid"), "alive": host.alive, "restarts": host.restarts}
             if host is not None else None, "simulated_rig": rig.info() if rig is not None else None}
 

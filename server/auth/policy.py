@@ -170,6 +170,10 @@ POLICY: dict[str, Rule] = {
     # the participant. No lease: the running trial is the experimenter's permission.
     "ws:answer": Rule(frozenset({"participant"}), scope="self",
                       doc="a participant token's answer to its own session's question (answered_by participant)"),
+    # the page's own actuators (v1.6): any page that is not an observer's may offer them; offering moves
+    # nothing on the rig (the drive rides in every page's state frames), so no lease and no session rule
+    "ws:actuators": Rule(DRIVERS, doc="a page offers its actuators (WebXR controllers, gamepads): the rig's "
+                         "browser device"),
 }
 
 

@@ -20,7 +20,7 @@ from dataclasses import replace
 from itertools import count
 from typing import Any, Callable, Mapping
 
-from devices.capability import CapabilityReport, check, missing_device_text, showing
+from devices.capability import CHECK_CABLE, CapabilityReport, check, device_advice, missing_device_text, showing
 from scenarios import registry
 from server.core.scenario import ParamError, Trial, describe, find_control, required_dimensions
 from server.ipc import records
@@ -38,8 +38,10 @@ class DeviceMissing(ScenarioRefused):
     """A trial refused because a required dimension is shown only by devices that are not
     connected (report.missing names them); `force` starts it anyway."""
 
-    def __init__(self, report: CapabilityReport):
-        text = "; ".join(missing_device_text(report.scenario, m.dimension, device, status)
+    def __init__(self, report: CapabilityReport, advice: Mapping[str, str] | None = None):
+        advice = advice or {}
+        text = "; ".join(missing_device_text(report.scenario, m.dimension, device, status,
+                                             advice.get(device, CHECK_CABLE))
                          for m in report.missing for device, status in zip(m.devices, m.statuses))
         super().__init__(replace(report, message=text + ". The trial was not started (force: true starts it anyway)."))
 
@@ -151,7 +153,7 @@ class ScenarioControl:
             return
         report = self.capability(cls)
         if report.missing:
-            raise DeviceMissing(report)
+            raise DeviceMissing(report, {name: device_advice(p) for name, p in self.profiles().items()})
 
     def switch_scenario(self, name: str, params: dict | None = None, seed: int = 0, force: bool = False) -> dict:
         """Ask the loop to run another scenario (registry.UnknownScenario, ParamError,

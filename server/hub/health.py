@@ -37,7 +37,7 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Mapping
 
-from devices.capability import CONNECTED, missing, missing_device_text
+from devices.capability import CHECK_CABLE, CONNECTED, missing, missing_device_text
 from server.hub.tracker_health import TRACKER_CODES, TrackingWatch
 
 OK, DEGRADED, STARTING = "ok", "degraded", "starting"
@@ -93,6 +93,7 @@ class Health:
         self._status_since: dict[str, float] = {}
         self._scenario = ""
         self._shown_by: dict[str, tuple[str, ...]] = {}  # required dimension → devices that show it
+        self.advice: dict[str, str] = {}  # device → what to do when it is missing (devices/capability.py device_advice)
         self._tracking = TrackingWatch()
         self._underruns: dict[str, tuple[int, float]] = {}  # audio device → (count, when it last rose)
 
@@ -198,7 +199,8 @@ class Health:
             for device, status in zip(gone.devices, gone.statuses):
                 needed.add(device)
                 add("device_missing", self._status_since.get(device, now_s),
-                    missing_device_text(self._scenario, gone.dimension, device, status))
+                    missing_device_text(self._scenario, gone.dimension, device, status,
+                                        self.advice.get(device, CHECK_CABLE)))
 
         host = self.device_host
         if host.exited_s is not None and not host.alive:

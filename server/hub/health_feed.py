@@ -10,7 +10,7 @@ import logging
 import time
 from typing import Callable
 
-from devices.capability import showing
+from devices.capability import device_advice, showing
 from server.hub.health import HOST_DOWN, Health, HealthReport
 from server.hub.owner import Owner
 from server.wire import messages
@@ -36,6 +36,7 @@ class HealthFeed:
         self._published = False
         self.device_statuses: dict[str, str] = {}  # name → status as the device host last reported it
         self._device_profiles: dict = {}
+        self.hub_devices: Callable[[], dict] = dict  # the devices the hub drives itself (the browser device): statuses
 
     @property
     def device_profiles(self) -> dict:
@@ -45,6 +46,7 @@ class HealthFeed:
     @device_profiles.setter
     def device_profiles(self, profiles: dict) -> None:
         self._device_profiles = profiles
+        self.health.advice = {name: device_advice(p) for name, p in profiles.items()}
         self.update_needs()
 
     def update_needs(self) -> None:
@@ -83,8 +85,10 @@ class HealthFeed:
             self.health.loop_exited(now, returncode)
         else:
             self.health.device_host_exited(now, returncode)
-            # nobody drives them now; the restarted host reports them again
-            self.device_statuses = {name: HOST_DOWN for name in self._device_profiles}
+            # nobody drives them now; the restarted host reports them again (the hub's own go on)
+            hub_devices = self.hub_devices()
+            self.device_statuses = {**{name: HOST_DOWN for name in self._device_profiles if name not in hub_devices},
+                                    **hub_devices}
         self.check_health()
 
     async def watch_health(self, children: dict, each_poll: Callable[[], None] = lambda: None) -> None:

@@ -9,7 +9,9 @@ loop's (server/hub/owner.py):
 - `link` (server/hub/loop_link.py): records from the loop to the parts that act on them, records
   to the loop (and those retried), the device reports, the listeners (the recorder);
 - `health_feed` (server/hub/health_feed.py): health from the children, devices, trackers and faults;
-- `answers` (server/hub/answers.py): a participant's study answers and what it is asked.
+- `answers` (server/hub/answers.py): a participant's study answers and what it is asked;
+- `actuators` (server/hub/browser_actuators.py): the rig's browser device, the participant pages'
+  own actuators, whose drive rides in the state frames.
 What a client's session asks (`forward`) goes to the loop, the scenario control or the answers.
 Who may stay connected is checked here across connections: a token revoked or expired ends its
 connections (`check_tokens`), and a participant session opened in a second tab takes it from the
@@ -22,12 +24,13 @@ from typing import Callable
 
 from server.core.scenario import ParamError
 from server.hub.answers import AnswerBroker
+from server.hub.browser_actuators import BrowserActuators
 from server.hub.control import BusyError, ScenarioControl
 from server.hub.fanout import Connection, Fanout
 from server.hub.health_feed import HealthFeed
 from server.hub.loop_link import LoopLink
 from server.hub.owner import Owner
-from server.hub.session import Command, ParticipantAnswer, ServerInfo, ToLoop
+from server.hub.session import ActuatorsOffered, Command, ParticipantAnswer, ServerInfo, ToLoop
 from server.ipc.records import Record
 
 
@@ -49,8 +52,10 @@ class Hub:
                                       overrun_threshold=overrun_threshold)
         self.control = ScenarioControl(send_to_loop, lambda: self.health_feed.device_profiles,
                                        lambda: self.health_feed.device_statuses)
+        self.actuators = BrowserActuators(on_change=lambda: self.link.browser_changed())
         self.link = LoopLink(self.owner, send_to_loop, control=self.control, fanout=self.fanout,
-                             health_feed=self.health_feed, tick_hz=tick_hz)
+                             health_feed=self.health_feed, tick_hz=tick_hz, actuators=self.actuators)
+        self.health_feed.hub_devices = self.actuators.statuses
 
     def _welcomed(self, c: Connection) -> None:
         """A client was just welcomed: its `ask`, and if it is a participant connection of a session
@@ -88,9 +93,12 @@ class Hub:
                 ended += 1
         return ended
 
-    def forward(self, c: Connection, events: list[ToLoop | Command | ParticipantAnswer]) -> None:
+    def forward(self, c: Connection, events: list[ToLoop | Command | ParticipantAnswer | ActuatorsOffered]) -> None:
         """What a client's session asks of the loop; refusals go back to the client as errors."""
         for event in events:
+            if isinstance(event, ActuatorsOffered):  # the page is the rig's browser device
+                self.actuators.offer(event.client_id, event.actuators, event.note, left=event.left)
+                continue
             if isinstance(event, ParticipantAnswer):
                 self.answers.answer(c, event)
                 continue

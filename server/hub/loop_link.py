@@ -10,6 +10,7 @@ import time
 from collections import deque
 from typing import Callable
 
+from server.hub.browser_actuators import BrowserActuators
 from server.hub.control import ScenarioControl
 from server.hub.fanout import Fanout
 from server.hub.health_feed import HealthFeed
@@ -24,7 +25,7 @@ log = logging.getLogger("viestac.hub")
 
 class LoopLink:
     def __init__(self, owner: Owner, send: Callable[[Record], bool], *, control: ScenarioControl, fanout: Fanout,
-                 health_feed: HealthFeed, tick_hz: int):
+                 health_feed: HealthFeed, tick_hz: int, actuators: BrowserActuators | None = None):
         self.owner = owner
         self.send_to_loop = send
         self.control = control
@@ -39,6 +40,8 @@ class LoopLink:
         self.last_state: dict | None = None
         self.states_received = 0
         self._device_report: dict | None = None
+        self._host_report: dict = {}  # the device host's last report, before the browser device is merged in
+        self.actuators = actuators or BrowserActuators()  # the rig's browser device, if any (the hub drives it)
         self._tracking_lost = False  # the last state record listed a lost tracker source
         self.tracker_applied: deque[list] = deque(maxlen=4096)  # [client_id, seq, t_ms, recv_ns, applied_ns]
         self.log_records: deque[dict] = deque(maxlen=200)
@@ -98,7 +101,8 @@ class LoopLink:
         if state.recorded.trackers:
             self.tracker_applied.extend(state.recorded.trackers)
         self.states_received += 1
-        message = messages.state_message(view, self.telemetry_summary())  # names the scene the loop simulated
+        message = messages.state_message(view, self.telemetry_summary(),  # names the scene the loop simulated
+                                         self.actuators.state_field(view))  # what the participant page plays
         self.last_state = message
         self.fanout.publish_state(message)
 
@@ -122,10 +126,22 @@ class LoopLink:
         while self.undelivered and self.send_to_loop(self.undelivered[0]):
             self.undelivered.popleft()
 
+    def browser_changed(self) -> None:
+        """The browser device's status changed (a page offered or took away its actuators)."""
+        self.on_device_report(self._host_report)
+
     def on_device_report(self, report: dict) -> None:
         """The rig's report (device host process): refusals no device shows, and each device's
-        status. The loop learns it (TickContext.refusals), listeners record it."""
+        status, with the browser device's status merged in (the hub drives that one; with no other
+        device, its refusals are the rig's). The loop learns it (TickContext.refusals), listeners
+        record it."""
         self.owner.check()
+        self._host_report = report
+        if self.actuators.config is not None:
+            host_status = report.get("status") or {}
+            report = {**report, "status": {**host_status, **self.actuators.statuses()}}
+            if not host_status:
+                report["refusals"] = [r.reason for r in self.actuators.refusals]
         statuses = report.get("status") or {}
         if statuses != self.health_feed.device_statuses:
             self.health_feed.devices_reported(statuses)

@@ -148,6 +148,16 @@ class ParticipantAnswer:
     client_id: int
 
 
+@dataclass(frozen=True)
+class ActuatorsOffered:
+    """The actuators a participant page offers (protocol v1.6 `actuators`; `()` when it leaves):
+    the hub's browser device (server/hub/browser_actuators.py)."""
+    client_id: int
+    actuators: tuple[tuple[str, str], ...]
+    note: str
+    left: bool = False  # the connection closed: its offer goes
+
+
 class Session:
     def __init__(self, client_id: int, fmt: str, server: ServerInfo, opened_ns: int, *, gate: Gate = CLOSED,
                  hello_timeout_ns: int = HELLO_TIMEOUT_NS, events: EventLog | None = None):
@@ -167,6 +177,7 @@ class Session:
         self._lease: bytes | str | None = None  # the current `lease` message in this client's format
         self._ask: bytes | str | None = None  # the current `ask` message (participants of a session)
         self._driving = False  # tracker samples of this client went to the loop since it last lost the right
+        self._offered = False  # its last `actuators` message offered some (the hub's browser device)
         self._keepalive_due_ns = 0  # when this client's activity next renews the lease
         self._session_open = False  # a participant connection's: it might drive at the last lease change
         self.replaced_by: int | None = None  # a participant connection whose session another connection took
@@ -267,8 +278,8 @@ class Session:
             else:
                 self.errors += 1
             return []
-        # answers share the input budget: each one is a disk write
-        if isinstance(message, (messages.Input, messages.Answer)) and not self.budget.spend(now_ns):
+        # answers share the input budget: each one is a disk write (and an actuators offer a device change)
+        if isinstance(message, (messages.Input, messages.Answer, messages.Actuators)) and not self.budget.spend(now_ns):
             self.rate_limited += 1
             if self.budget.reply_due("input", RATE_LIMITED_ERROR_EVERY_NS, now_ns):
                 self.reply_error("rate_limited", f"more than {INPUT_RATE_PER_S:g} inputs a second (bursts of "
@@ -290,6 +301,9 @@ class Session:
         if isinstance(message, messages.Answer):
             return [ParticipantAnswer(self.asks_for, message.seq, message.question, message.value, self.identity,
                                       self.id)]
+        if isinstance(message, messages.Actuators):
+            self._offered = True
+            return [ActuatorsOffered(self.id, message.actuators, message.note)]
         return []
 
     def _hello(self, hello: messages.Hello) -> None:
@@ -347,10 +361,11 @@ class Session:
         self._driving = False
         return [ToLoop(TrackerGone(self.id))]
 
-    def disconnected(self) -> list[ToLoop]:
+    def disconnected(self) -> list[ToLoop | ActuatorsOffered]:
         """The connection is gone: a client whose tracker samples reached the loop leaves the HIP
-        (the loop sends it home and clears its driver)."""
-        return [ToLoop(TrackerGone(self.id))] if self.tracker_count else []
+        (the loop sends it home and clears its driver); a page that offered actuators takes them away."""
+        return ([ToLoop(TrackerGone(self.id))] if self.tracker_count else []) + \
+            ([ActuatorsOffered(self.id, (), "", left=True)] if self._offered else [])
 
     def set_lease(self, frames: Mapping[str, bytes | str]) -> list[ToLoop]:
         """The control lease changed (`frames`: the `lease` message encoded per format). A welcomed

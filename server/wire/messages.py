@@ -14,11 +14,11 @@ from typing import Any, Mapping
 from server.ipc.records import TrackerSample
 from server.wire.check import check_message
 from server.wire.codec import WireError, echo
-from server.wire.schema import (ANSWER, CLIENT_MESSAGE_NAMES, HELLO, INPUT, INPUT_ACTIONS, MAX_ERROR_MESSAGE_CHARS,
+from server.wire.schema import (ACTUATORS, ANSWER, CLIENT_MESSAGE_NAMES, HELLO, INPUT, INPUT_ACTIONS, MAX_ERROR_MESSAGE_CHARS,
                                 PROTOCOL_MINOR,
                                 PROTOCOL_VERSION, ROLES, SCENE_FORMAT_VERSION, STATE, TRACKER)
 
-__all__ = ["PROTOCOL_VERSION", "PROTOCOL_MINOR", "ROLES", "INPUT_ACTIONS", "Hello", "Tracker", "Input", "Answer",
+__all__ = ["PROTOCOL_VERSION", "PROTOCOL_MINOR", "ROLES", "INPUT_ACTIONS", "Hello", "Tracker", "Input", "Answer", "Actuators",
            "CLIENT_MESSAGES", "parse_client_message", "welcome", "scene_message", "state_message", "error", "health",
            "lease", "ask"]
 
@@ -110,11 +110,29 @@ class Answer:
         return {"type": "answer", "seq": self.seq, "question": self.question, "value": self.value}
 
 
-CLIENT_MESSAGES = {"hello": Hello, "tracker": Tracker, "input": Input, "answer": Answer}
+@dataclass(frozen=True)
+class Actuators:
+    """v1.6: the actuators a participant page can drive, `(kind, hand)` each; () with a `note`: none."""
+    actuators: tuple[tuple[str, str], ...]
+    note: str = ""
+
+    @classmethod
+    def parse(cls, body: dict) -> Actuators:
+        f = check_message(body, ACTUATORS)
+        return cls(tuple(tuple(a) for a in f["actuators"]), f["note"])
+
+    def to_wire(self) -> dict:
+        msg: dict[str, Any] = {"type": "actuators", "actuators": [list(a) for a in self.actuators]}
+        if self.note:
+            msg["note"] = self.note
+        return msg
+
+
+CLIENT_MESSAGES = {"hello": Hello, "tracker": Tracker, "input": Input, "answer": Answer, "actuators": Actuators}
 assert tuple(CLIENT_MESSAGES) == CLIENT_MESSAGE_NAMES
 
 
-def parse_client_message(body: dict) -> Hello | Tracker | Input | Answer:
+def parse_client_message(body: dict) -> Hello | Tracker | Input | Answer | Actuators:
     """Validate a decoded client map; unknown types are refused with `unknown_type`."""
     kind = body["type"]
     parser = CLIENT_MESSAGES.get(kind)
@@ -139,7 +157,8 @@ def scene_message(scene: dict, scene_hash: str) -> dict:
     return {"type": "scene", "v": SCENE_FORMAT_VERSION, "hash": scene_hash, "scene": scene}
 
 
-_STATE_FIELDS = tuple(f.name for f in STATE.fields[1:])  # after `type`
+HUB_STATE_FIELDS = ("actuator",)  # added by the hub, not the loop's view (v1.6: server/hub/browser_actuators.py)
+_STATE_FIELDS = tuple(f.name for f in STATE.fields[1:] if f.name not in HUB_STATE_FIELDS)  # after `type`
 # Events per state frame on the wire: all of them normally (a few a second); a flood (many
 # clients' inputs, a runaway scenario) keeps the newest, dropping `input` events first, so no
 # client can grow every viewer's frames without bound. The recorder reads the loop's record, which
@@ -163,15 +182,17 @@ def wire_events(events: list) -> list:
     return kept[len(kept) - MAX_WIRE_EVENTS:]
 
 
-def state_message(view: Mapping[str, Any], telemetry: dict) -> dict:
+def state_message(view: Mapping[str, Any], telemetry: dict, actuator: list | None = None) -> dict:
     """The wire `state` for the client view of a loop state record (server/ipc/records.py
-    State.view: every declared field but `type` and `telemetry`, in their order): `type` first,
-    `telemetry` in its place, the events capped (wire_events). KeyError naming a field the view
-    lacks."""
+    State.view: every declared field but `type`, `telemetry` and `actuator`, in their order): `type`
+    first, `telemetry` in its place, the events capped (wire_events), and `actuator` last when the
+    rig has a browser device (v1.6). KeyError naming a field the view lacks."""
     msg: dict[str, Any] = {"type": "state"}
     for name in _STATE_FIELDS:
         msg[name] = telemetry if name == "telemetry" else view[name]
     msg["events"] = wire_events(msg["events"])
+    if actuator is not None:
+        msg["actuator"] = actuator
     return msg
 
 

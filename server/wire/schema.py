@@ -41,6 +41,7 @@ PROTOCOL_MINOR = 6    # v1.1: welcome.minor, state.stiffness/haptic/driver; v1.2
                       # v1.4: tracker.point/points/ttl, state.tools/points/tracking (several fingers);
                       # v1.5: ask, answer (a participant answers a study's question; the study's audio);
                       # v1.6: ask.pacing (participant-paced tasks: state, progress, feedback, breaks)
+                      #       actuators, state.actuator (the participant page's actuators as a device)
 SCENE_FORMAT_VERSION = 1
 ROLES = ("participant", "operator", "observer")
 INPUT_ACTIONS = ("down", "up", "press")
@@ -51,6 +52,8 @@ QUAT_NORM = (0.5, 2.0)  # a tracker quaternion's norm must lie here; it is then 
 DIRECTIONS = ("client_to_server", "server_to_client")
 MAX_TOKEN_CHARS = 200  # a token is 43 characters (32 random bytes, base64url); the bound only limits abuse
 MAX_ERROR_MESSAGE_CHARS = 500  # an error's text: a sentence or two; a value quoted from the client is cut first
+ACTUATOR_KINDS = ("xr", "gamepad")  # a WebXR controller's haptic actuator; a Gamepad API rumble (v1.6 `actuators`)
+HANDS = ("left", "right", "none")   # an XR controller's handedness; a gamepad's is "none"
 TTL_MS = (1.0, 10000.0)  # a tracker sample's ttl: a streaming source sends clamp(4 × period, 20, 60) ms
 
 
@@ -228,6 +231,19 @@ ANSWER = Message("answer", "client_to_server", "a participant's answer to a ques
           since=5),
 ))
 
+ACTUATORS = Message("actuators", "client_to_server", "a participant page's own actuators (WebXR controllers, "
+                    "gamepads): after `welcome` and whenever they change; the page is the rig's `browser` device", (
+    _type("actuators"),
+    Field("actuators", array(fixed([enum(ACTUATOR_KINDS), enum(HANDS)], "`[kind, hand]`"),
+                             "array of `[kind, hand]`"),
+          "each actuator the page can drive: `kind` `\"xr\"` (a WebXR input source's "
+          "`gamepad.hapticActuators[0]`) or `\"gamepad\"` (a Gamepad API `vibrationActuator`); `hand` the XR "
+          "controller's handedness, `\"none\"` for a gamepad; `[]`: none (the device is then disconnected)",
+          since=6),
+    Field("note", string(max_len=200), "why the page has none, for the console, e.g. `\"tracked hands have no "
+          "actuator\"`", required=False, default="", since=6),
+))
+
 _OPT_STRING = any_of(null(), string(), doc="string \\| null")
 _IDENTITY = mapping(doc="map `{token_id, role, site, session}`")
 
@@ -318,6 +334,13 @@ STATE = Message("state", "server_to_client", "per published frame; 60 Hz by defa
           required=False, since=4),
     Field("tracking", mapping(doc="map `{lost}`"), "`{\"lost\": [source, …]}`: the tracker sources lost right "
           "now (\"Tracker loss\"), each a `client_id` as in `driver`", required=False, since=4),
+    Field("actuator", fixed([number(0, 1, doc="value"), number(min=0, doc="on_ms"),
+                             number(min=0, doc="off_ms"), number(min=0, doc="duration_ms"),
+                             integer(min=0, doc="onset")], "`[value, on_ms, off_ms, duration_ms, onset]`"),
+          "what a participant page's actuators play now (only when the rig has a `browser` device; \"Browser "
+          "actuators\" below): amplitude `value` (0..1, 0 = off), continuous (`off_ms` 0) or `on_ms` on and "
+          "`off_ms` off repeated, for `duration_ms` from the tick `onset` (0: until the next drive); the primary "
+          "tool's cues encoded by the server for the browser profile", required=False, since=6),
 ))
 
 ERROR = Message("error", "server_to_client", "", (
@@ -387,8 +410,8 @@ ASK = Message("ask", "server_to_client", "to a participant connection of a sessi
           "`done` and `total`: the task's ended and planned trials", required=False, since=6),
 ))
 
-MESSAGES: dict[str, Message] = {m.name: m for m in (HELLO, TRACKER, INPUT, ANSWER, WELCOME, SCENE, STATE, ERROR,
-                                                    HEALTH, LEASE, ASK)}
+MESSAGES: dict[str, Message] = {m.name: m for m in (HELLO, TRACKER, INPUT, ANSWER, ACTUATORS, WELCOME, SCENE, STATE,
+                                                    ERROR, HEALTH, LEASE, ASK)}
 CLIENT_MESSAGE_NAMES = tuple(name for name, m in MESSAGES.items() if m.direction == "client_to_server")
 
 ERROR_CODES: dict[str, str] = {

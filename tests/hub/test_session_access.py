@@ -13,7 +13,7 @@ from server.auth.lease import Lease
 from server.auth.policy import POLICY, decide
 from server.hub.input_budget import FORBIDDEN_TRACKER_ERROR_EVERY_NS, INPUT_BURST
 from server.hub.outbox import Close
-from server.hub.session import HELLO_TIMEOUT_NS, Command, Gate, ParticipantAnswer, ServerInfo, Session, ToLoop
+from server.hub.session import HELLO_TIMEOUT_NS, ActuatorsOffered, Command, Gate, ParticipantAnswer, ServerInfo, Session, ToLoop
 from server.wire import codec, messages
 from server.wire.schema import CLIENT_MESSAGE_NAMES
 from tests.hub.access_fakes import (ADMIN, EXP_A, EXP_B, OBSERVER, PART_1, PART_2, SECRET, Clock, gate)
@@ -25,8 +25,10 @@ SCENE = {fmt: codec.encode({"type": "scene", "v": 1, "hash": "aaaa", "scene": {}
 TRACKER = {"type": "tracker", "seq": 1, "t": 0, "pos": [0, 0, 1]}
 KEY = {"type": "input", "key": "ArrowUp", "action": "press"}
 ANSWER = {"type": "answer", "seq": 3, "question": "roughness", "value": 5}
-SAMPLE = {"tracker": TRACKER, "input": KEY, "answer": ANSWER}  # one valid message of each client type but hello
-DRIVING = ("input", "tracker")  # the kinds that drive the rig (the lease rule); `answer` has its own
+ACTUATORS = {"type": "actuators", "actuators": [["xr", "right"]]}
+# one valid message of each client type but hello
+SAMPLE = {"tracker": TRACKER, "input": KEY, "answer": ANSWER, "actuators": ACTUATORS}
+DRIVING = ("input", "tracker")  # the kinds that drive the rig (the lease rule); `answer` and `actuators` have their own
 
 
 def frame(message: dict) -> bytes:
@@ -322,6 +324,21 @@ def test_answers_spend_the_input_budget():
     got = [s.receive(frame(ANSWER), T0 + 10) for _ in range(INPUT_BURST + 1)]
     assert all(len(e) == 1 for e in got[:INPUT_BURST]) and got[-1] == []
     assert [m["code"] for m in sent(s)] == ["rate_limited"]
+
+
+@pytest.mark.parametrize("who, state", CASES)
+def test_any_page_but_an_observers_may_offer_its_actuators_and_takes_them_away_when_it_leaves(who, state):
+    """v1.6 `actuators`: offering moves nothing on the rig, so no lease rule; an observer may not."""
+    for role in ("participant", "observer"):
+        s, _ = connect(who, role, _lease_state(state, who))
+        sent(s)
+        events = s.receive(frame(ACTUATORS), T0 + 1)
+        if role == "observer" or who.role == "observer":
+            assert events == [] and [m["code"] for m in sent(s)] == ["forbidden"]
+            assert s.disconnected() == []
+        else:
+            assert events == [ActuatorsOffered(7, (("xr", "right"),), "")] and sent(s) == []
+            assert s.disconnected() == [ActuatorsOffered(7, (), "", left=True)]
 
 
 def _asks(session_id: str, seq) -> dict:

@@ -9,7 +9,7 @@ import pytest
 
 from server.wire import codec
 from server.wire.codec import WireError, decode, encode
-from server.wire.messages import Answer, Hello, Input, Tracker, parse_client_message
+from server.wire.messages import Actuators, Answer, Hello, Input, Tracker, parse_client_message
 
 VECTORS = Path(__file__).parents[1] / "vectors"
 MESSAGES = json.loads((VECTORS / "messages.json").read_text())["vectors"]
@@ -50,7 +50,7 @@ def test_decoder_reads_vector(vector):
                          ids=lambda v: v["name"])
 def test_client_messages_parse_and_round_trip(vector):
     parsed = parse_client_message(decode(bytes.fromhex(vector["msgpack_hex"])))
-    assert isinstance(parsed, (Hello, Tracker, Input, Answer))
+    assert isinstance(parsed, (Hello, Tracker, Input, Answer, Actuators))
     assert encode(parsed.to_wire()).hex() == vector["msgpack_hex"]
 
 

@@ -72,6 +72,9 @@ namespace Viestac.Client
                     CheckAnswer(Protocol.AsInt(Protocol.Field(m, "seq"), "answer.seq", 0), Protocol.Field(m, "question") as string,
                                 Protocol.Field(m, "value"));
                     break;
+                case "actuators":
+                    CheckActuators(Protocol.Field(m, "actuators") as List<object>, Protocol.Field(m, "note"));
+                    break;
                 default: throw new ProtocolException("unknown_type", "no client message of type '" + type + "'");
             }
         }
@@ -158,6 +161,24 @@ namespace Viestac.Client
             if (question == null || CodePoints(question) < 1 || CodePoints(question) > 64)
                 throw Protocol.Bad("answer.question is a string of 1..64 characters");
             CheckNumberOrText(value, "answer.value", "a number or a string");
+        }
+
+        static readonly string[] ActuatorKinds = { "xr", "gamepad" };
+        static readonly string[] Hands = { "left", "right", "none" };
+
+        /// <summary>v1.6 `actuators`: an array of [kind, hand] pairs, and an optional note of at most 200 characters.</summary>
+        public static void CheckActuators(IList<object> actuators, object note)
+        {
+            if (actuators == null) throw Protocol.Bad("actuators.actuators is an array of [kind, hand]");
+            foreach (var item in actuators)
+            {
+                var pair = item as IList<object>;
+                if (pair == null || pair.Count != 2 || Array.IndexOf(ActuatorKinds, pair[0] as string) < 0
+                    || Array.IndexOf(Hands, pair[1] as string) < 0)
+                    throw Protocol.Bad("actuators.actuators is an array of [\"xr\" | \"gamepad\", \"left\" | \"right\" | \"none\"]");
+            }
+            if (note != null && (!(note is string) || CodePoints((string)note) > MaxValueText))
+                throw Protocol.Bad("actuators.note is a string of at most 200 characters");
         }
 
         /// <summary>A finite number, or a string of at most 200 characters (`input` and `answer` values).</summary>

@@ -177,6 +177,11 @@ namespace Viestac.Client
         public readonly Dictionary<string, Vec3> Points = new Dictionary<string, Vec3>();
         /// <summary>v1.4: the tracker sources lost right now (`tracking.lost`).</summary>
         public readonly List<TrackerSource> TrackingLost = new List<TrackerSource>();
+        /// <summary>v1.6: what a browser device's page plays now (`actuator`, only on a rig with one):
+        /// [value 0..1, on_ms, off_ms, duration_ms, onset tick]. Read and checked; this client drives
+        /// no actuator with it yet.</summary>
+        public bool HasActuator;
+        public readonly double[] Actuator = new double[5];
 
         readonly List<Cue> _cuePool = new List<Cue>();
 
@@ -195,6 +200,7 @@ namespace Viestac.Client
             for (int i = 0; i < Cues.Count; i++) _cuePool.Add(Cues[i]); // AddRange would copy through a new array
             Cues.Clear();
             HasDriver = false; DriverClientId = 0; DriverBridge = null; DriverSeq = 0; Telemetry = default(Telemetry); Hud = ""; Contact = false;
+            HasActuator = false;
         }
 
         /// <summary>Whether this client's own tracker drives the HIP (`driver[0]` is its welcome's client id).</summary>
@@ -220,6 +226,7 @@ namespace Viestac.Client
             other.Tools.AddRange(Tools); other.TrackingLost.AddRange(TrackingLost);
             foreach (var kv in Points) other.Points[kv.Key] = kv.Value;
             other.HasDriver = HasDriver; other.DriverClientId = DriverClientId; other.DriverBridge = DriverBridge; other.DriverSeq = DriverSeq;
+            other.HasActuator = HasActuator; Array.Copy(Actuator, other.Actuator, Actuator.Length);
         }
     }
 

@@ -85,6 +85,18 @@ namespace Viestac.Client
             w.WriteString("value"); w.WriteValue(value);
         }
 
+        /// <summary>v1.6: the actuators this client can drive, each a [kind, hand] pair (kind "xr" or
+        /// "gamepad", hand "left", "right" or "none"); none with a `note` saying why. The server's
+        /// `state.actuator` then says what they play (this client does not drive any yet).</summary>
+        public static void WriteActuators(MsgPackWriter w, IList<string[]> actuators, string note = null)
+        {
+            w.WriteMapHeader(string.IsNullOrEmpty(note) ? 2 : 3);
+            w.WriteString("type"); w.WriteString("actuators");
+            w.WriteString("actuators"); w.WriteArrayHeader(actuators.Count);
+            foreach (var a in actuators) { w.WriteArrayHeader(2); w.WriteString(a[0]); w.WriteString(a[1]); }
+            if (!string.IsNullOrEmpty(note)) { w.WriteString("note"); w.WriteString(note); }
+        }
+
         // ---- server → client ------------------------------------------------------------
 
         /// <summary>A decoded frame as a typed message; null for a type this client does not know
@@ -279,7 +291,25 @@ namespace Viestac.Client
             }
             var tracking = Map(m, at, "tracking", false);
             foreach (var e in OptList(tracking, "state.tracking", "lost")) s.TrackingLost.Add(Source(e, "state.tracking.lost[n]"));
+            var actuator = Field(m, "actuator");
+            if (actuator != null)
+            {
+                var a = actuator as List<object>;
+                if (a == null || a.Count != 5) throw Bad(ActuatorShape);
+                for (int k = 0; k < 5; k++) s.Actuator[k] = AsNum(a[k], "state.actuator");
+                CheckActuator(s.Actuator);
+                s.HasActuator = true;
+            }
             return s;
+        }
+
+        internal const string ActuatorShape = "state.actuator is [value 0..1, on_ms, off_ms, duration_ms, onset]";
+
+        /// <summary>v1.6 `state.actuator`: value in [0, 1], the times ≥ 0, the onset a tick (an int ≥ 0).</summary>
+        internal static void CheckActuator(double[] a)
+        {
+            if (a[0] < 0 || a[0] > 1 || a[1] < 0 || a[2] < 0 || a[3] < 0 || a[4] < 0 || a[4] != Math.Floor(a[4]))
+                throw Bad(ActuatorShape);
         }
 
         static bool OptBool(Dictionary<string, object> m, string key, string what)

@@ -70,6 +70,13 @@ namespace Viestac.Client
                         }
                         break;
                     case "tracking": if (!r.TryReadNil()) ReadTracking(r, s); break;
+                    case "actuator":
+                        if (r.TryReadNil()) break;
+                        if (r.ReadArrayHeader("state.actuator") != 5) throw Protocol.Bad(Protocol.ActuatorShape);
+                        for (int k = 0; k < 5; k++) s.Actuator[k] = r.ReadNumber("state.actuator");
+                        Protocol.CheckActuator(s.Actuator);
+                        s.HasActuator = true;
+                        break;
                     default: r.Skip(1); break;
                 }
             }

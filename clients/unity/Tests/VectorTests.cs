@@ -103,12 +103,36 @@ namespace Viestac.Client.Tests
                     case "answer":
                         Protocol.WriteAnswer(w, Convert.ToInt64(m["seq"]), (string)m["question"], m["value"]);
                         break;
+                    case "actuators":
+                        var list = ((List<object>)m["actuators"]).Select(a => ((List<object>)a).Cast<string>().ToArray()).ToList();
+                        ClientChecks.CheckActuators((List<object>)m["actuators"], m.ContainsKey("note") ? m["note"] : null);
+                        Protocol.WriteActuators(w, list, m.ContainsKey("note") ? (string)m["note"] : null);
+                        break;
                     default: Assert.Fail("a client message of type " + m["type"]); break;
                 }
                 Assert.AreEqual((string)v["msgpack_hex"], TestPaths.ToHex(w.ToArray()), (string)v["name"]);
                 n++;
             }
             Assert.That(n, Is.GreaterThanOrEqualTo(15));
+        }
+
+        [Test]
+        public void TheBrowserActuatorOfAStateIsReadOnBothPaths()
+        {
+            var v = Vectors("messages.json", "vectors").First(x => (string)x["name"] == "state-browser-actuator-pulse-train");
+            var bytes = TestPaths.Hex((string)v["msgpack_hex"]);
+            var tree = (StateFrame)Protocol.Parse(new MsgPackReader().ReadFrame(bytes));
+            var streamed = new StateFrame();
+            Protocol.Decode(new MsgPackReader(), bytes, 0, bytes.Length, streamed);
+            foreach (var s in new[] { tree, streamed })
+            {
+                Assert.IsTrue(s.HasActuator);
+                Assert.AreEqual(new[] { 0.6, 100, 200, 900, 5170 }, s.Actuator);
+            }
+            var plain = Vectors("messages.json", "vectors").First(x => (string)x["name"] == "state-in-contact");
+            var p = TestPaths.Hex((string)plain["msgpack_hex"]);
+            Protocol.Decode(new MsgPackReader(), p, 0, p.Length, streamed);
+            Assert.IsFalse(streamed.HasActuator, "a rig without a browser device sends none");
         }
 
         [Test]

@@ -176,6 +176,13 @@ export class Connection {
     return true;
   }
 
+  /** v1.6: the actuators this page can drive (`[[kind, hand], ...]`) and why none (`note`). */
+  sendActuators(actuators, note = '') {
+    if (!this.isOpen || !this.canSend) return false;
+    this._send(protocol.actuators(actuators, note));
+    return true;
+  }
+
   // -- internals --------------------------------------------------------------------------------
 
   _send(msg) {

@@ -22,6 +22,7 @@ import { questionOf } from './xr_panels.js';
 import { AudioPlan, Clicker, Speaker, audioSettings } from './audio.js';
 import { CONTINUE_KEYS, CONTINUE_QUESTION, OnsetWatch, answerForKey, continueQuestion, intervalMarks, keyFor,
   pacingLines, pacingView, wordKeyFor } from './pacing.js';
+import { PageActuators } from './actuators.js';
 
 const CLIENT_NAME = 'viestac-web/0.1';
 const STALE_S = 3; // an open connection without a state frame this long shows "reconnecting"
@@ -129,7 +130,10 @@ async function main() {
       return r.json();
     },
   };
-  const xr = new XrSession({ view, conn, placementApi, scale: opts.xrScale, ttlMs: opts.xrTtlMs,
+  // the page's own actuators (controllers, gamepads) as the rig's browser device (v1.6); observers feel nothing
+  const actuators = sends ? new PageActuators({ conn }) : null;
+  hook.actuators = actuators;
+  const xr = new XrSession({ view, conn, placementApi, scale: opts.xrScale, ttlMs: opts.xrTtlMs, actuators,
     status: () => ({ hud: lastHud, health: hook.health, lost: lastLost, extra: pacingLines(hook.ask?.pacing) }) });
   hook.xr = xr;
   const xrBar = document.getElementById('xr');
@@ -172,6 +176,7 @@ async function main() {
   conn.onWelcome = (w) => {
     hook.clientId = w.client_id;
     hook.identity = w.identity ?? null;
+    actuators?.connected(); // a new connection: the server hears the actuators again
     stats.lastError = null; // admitted again: an old refusal no longer applies
     lastStateAt = performance.now();
     showStatus();
@@ -310,6 +315,7 @@ async function main() {
     lastHud = s.hud || sceneHudText; // an empty state hud shows the scene's hud text
     hud.setText(page.showQuestion ? lastHud : ''); // no task text while the page waits or reconnects
     lastLost = lostSources(s);
+    actuators?.state(s); // the newest drive, played from the next rendered frame
     if (xr.active) xr.onState(s);
     const say = audioPlan.say(lastHud);
     if (say) speaker.speak(say);
@@ -417,6 +423,7 @@ async function main() {
       }
     }
     view.render();
+    actuators?.frame(); // gamepads (the desktop page; in XR the headset's frames play them)
     hook.renderedHash = view.hash;
     if (sceneBuilt && !hook.ready) hook.ready = true; // built and drawn at least once
 

@@ -209,6 +209,13 @@ export function answer(seq, question, value) {
     value: checked('answer', 'value', value) };
 }
 
+/** v1.6: the actuators a page can drive, `[[kind, hand], ...]`; `[]` with a `note` saying why none. */
+export function actuators(list, note = '') {
+  const msg = { type: 'actuators', actuators: checked('actuators', 'actuators', list) };
+  if (note) msg.note = checked('actuators', 'note', note);
+  return msg;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Validation against the declaration. Fields not declared are ignored (minor protocol
 // additions); an optional field may be absent or null. The kinds are those of

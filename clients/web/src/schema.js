@@ -418,6 +418,68 @@ export const SCHEMA = {
    ]
   },
   {
+   "name": "actuators",
+   "direction": "client_to_server",
+   "fields": [
+    {
+     "name": "type",
+     "type": {
+      "kind": "const",
+      "value": "actuators",
+      "doc": "`\"actuators\"`"
+     },
+     "required": true,
+     "since": 0,
+     "meaning": ""
+    },
+    {
+     "name": "actuators",
+     "type": {
+      "kind": "array",
+      "items": {
+       "kind": "tuple",
+       "items": [
+        {
+         "kind": "enum",
+         "values": [
+          "xr",
+          "gamepad"
+         ],
+         "doc": "`\"xr\"` \\| `\"gamepad\"`"
+        },
+        {
+         "kind": "enum",
+         "values": [
+          "left",
+          "right",
+          "none"
+         ],
+         "doc": "`\"left\"` \\| `\"right\"` \\| `\"none\"`"
+        }
+       ],
+       "doc": "`[kind, hand]`"
+      },
+      "doc": "array of `[kind, hand]`"
+     },
+     "required": true,
+     "since": 6,
+     "meaning": "each actuator the page can drive: `kind` `\"xr\"` (a WebXR input source's `gamepad.hapticActuators[0]`) or `\"gamepad\"` (a Gamepad API `vibrationActuator`); `hand` the XR controller's handedness, `\"none\"` for a gamepad; `[]`: none (the device is then disconnected)"
+    },
+    {
+     "name": "note",
+     "type": {
+      "kind": "string",
+      "max_len": 200,
+      "doc": "string ≤ 200 characters"
+     },
+     "required": false,
+     "since": 6,
+     "meaning": "why the page has none, for the console, e.g. `\"tracked hands have no actuator\"`",
+     "default": ""
+    }
+   ]
+  },
+  {
    "name": "welcome",
    "direction": "server_to_client",
    "fields": [
@@ -1014,6 +1076,44 @@ export const SCHEMA = {
      "required": false,
      "since": 4,
      "meaning": "`{\"lost\": [source, …]}`: the tracker sources lost right now (\"Tracker loss\"), each a `client_id` as in `driver`"
+    },
+    {
+     "name": "actuator",
+     "type": {
+      "kind": "tuple",
+      "items": [
+       {
+        "kind": "number",
+        "min": 0,
+        "max": 1,
+        "doc": "value"
+       },
+       {
+        "kind": "number",
+        "min": 0,
+        "doc": "on_ms"
+       },
+       {
+        "kind": "number",
+        "min": 0,
+        "doc": "off_ms"
+       },
+       {
+        "kind": "number",
+        "min": 0,
+        "doc": "duration_ms"
+       },
+       {
+        "kind": "int",
+        "min": 0,
+        "doc": "onset"
+       }
+      ],
+      "doc": "`[value, on_ms, off_ms, duration_ms, onset]`"
+     },
+     "required": false,
+     "since": 6,
+     "meaning": "what a participant page's actuators play now (only when the rig has a `browser` device; \"Browser actuators\" below): amplitude `value` (0..1, 0 = off), continuous (`off_ms` 0) or `on_ms` on and `off_ms` off repeated, for `duration_ms` from the tick `onset` (0: until the next drive); the primary tool's cues encoded by the server for the browser profile"
     }
    ]
   },

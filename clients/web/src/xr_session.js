@@ -46,8 +46,11 @@ export class XrSession {
    * @param {{get: () => Promise<object>, put: (scope: string, p: object) => Promise<object>}} o.placementApi
    * @param {() => {hud: string, health: object, lost: Array}} o.status  what the panels show
    * @param {(state: object) => void} [o.onFrame]
+   * @param {{frame: (o: object) => void}} [o.actuators]  the page's actuators (actuators.js), played each frame
    */
-  constructor({ view, conn, placementApi, status, scale = null, ttlMs = HAND_TTL_MS }) {
+  constructor({ view, conn, placementApi, status, scale = null, ttlMs = HAND_TTL_MS, actuators = null }) {
+    this.actuators = actuators;
+    this.drivingHand = null; // the hand of the controller that drives the HIP (its actuator pulses)
     this.ttlMs = ttlMs;
     this.view = view;
     this.conn = conn;
@@ -225,7 +228,7 @@ export class XrSession {
         if (pose) {
           const m = new THREE.Matrix4().fromArray(pose.transform.matrix);
           const dir = new THREE.Vector3(0, 0, -1).transformDirection(m);
-          controller = { origin: v3(pose.transform.position), dir: v3(dir) };
+          controller = { origin: v3(pose.transform.position), dir: v3(dir), hand: source.handedness || 'none' };
         }
       }
       if (source.handedness === 'right' && source.targetRaySpace) {
@@ -262,6 +265,8 @@ export class XrSession {
         sample = controllerSample(controller.origin, controller.dir, this.placement, { ttl: this.ttlMs });
         this.stats.source = sample ? 'controller' : null;
       }
+      this.drivingHand = this.stats.source === 'controller' ? controller.hand : null;
+      this.controllerRay = controller; // where the driving controller points (tests aim it)
       if (sample) {
         seq = this.conn.seq;
         if (this.conn.sendTracker(sample.pos, null, { point: sample.point, points: sample.points, ttl: sample.ttl })) {
@@ -297,6 +302,8 @@ export class XrSession {
     this._panels(head, hands, ray, local, now);
 
     renderer.render(this.view.scene, this.camera);
+    // the newest state's drive on the controller that drives the HIP (tracked hands have none)
+    this.actuators?.frame({ inputSources: this.session.inputSources, inXr: true, hand: this.drivingHand });
     const drawnAt = performance.now();
     const primary = tools[0]?.name;
     const contact = drawn.held.includes(primary) || (!!tools[0]?.contact && !(primary in local));
@@ -333,7 +340,8 @@ export class XrSession {
         'where the scene should stand, and hold it there',
         this._placeEnd ? String(countdown(this._placeEnd, now)) : 'show your hand'];
     } else {
-      lines = panelLines({ hud: s.hud, health: s.health, lost: s.lost, extra: s.extra ?? [] });
+      lines = panelLines({ hud: s.hud, health: s.health, lost: s.lost,
+        extra: [...(s.extra ?? []), this.actuators?.notice() ?? ''] });
     }
     const pos = this.phase === 'placing' ? [head[0], head[1] - 0.25, head[2] - 0.6] : origin;
     this.panel.show(lines);

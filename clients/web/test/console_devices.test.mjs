@@ -102,3 +102,13 @@ test('API refusals in the console\'s words', () => {
   assert.doesNotMatch(consoleWords('session s1 has no controlling console; take control first'), /take control first/);
   assert.doesNotMatch(consoleWords('a study id (GET /api/studies) is needed'), /\/api\//);
 });
+
+test('a missing browser device is the participant\'s page, not a cable', () => {
+  const capability = { scenario: 'contact-angle-v1', requires: ['macro_roughness'], devices: [
+    { name: 'browser', usable: false, dimensions: { macro_roughness: { shown: true, how: 'as vibration' } } }] };
+  const v = deviceView({ devices: [{ name: 'browser', status: 'disconnected', profile: { model: 'browser' }, counters: {},
+    last_error: 'client 3: tracked hands have no actuator' }], host: { alive: true } }, { capability }, new DeviceWatch(), 1000);
+  assert.deepEqual(v.trouble.map((t) => t.code), ['device_missing']);
+  assert.match(v.trouble[0].text, /Device 'browser' is disconnected: the participant's page offers no actuator \(hold the controllers/);
+  assert.doesNotMatch(v.trouble[0].text, /cable/);
+});

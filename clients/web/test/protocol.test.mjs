@@ -29,6 +29,7 @@ function build(msg) {
       { point: msg.point ?? null, points: msg.points ?? null, ttl: msg.ttl ?? null });
     case 'input': return P.input(msg.key, msg.action, msg.value);
     case 'answer': return P.answer(msg.seq, msg.question, msg.value);
+    case 'actuators': return P.actuators(msg.actuators, msg.note ?? '');
     default: throw new Error(`no builder for ${msg.type}`);
   }
 }
@@ -293,7 +294,7 @@ const invalidFile = loadVectors('invalid.json');
 
 describe('the declaration drives the checks (src/schema.js)', () => {
   test('every message type is declared and has vectors of its direction', () => {
-    assert.deepStrictEqual([...P.MESSAGE_TYPES], ['hello', 'tracker', 'input', 'answer', 'welcome', 'scene', 'state', 'error', 'health', 'lease', 'ask']);
+    assert.deepStrictEqual([...P.MESSAGE_TYPES], ['hello', 'tracker', 'input', 'answer', 'actuators', 'welcome', 'scene', 'state', 'error', 'health', 'lease', 'ask']);
     for (const m of P.SCHEMA.messages) {
       const vectors = messageFile.vectors.filter((v) => v.type === m.name);
       assert.ok(vectors.length > 0, `no vector for ${m.name}`);

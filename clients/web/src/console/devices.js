@@ -116,6 +116,12 @@ export function deviceView(snapshot, scenario, watch, nowMs, { offsetMs = 0 } = 
     trouble: deviceTrouble(rows, hostDown) };
 }
 
+/** What to do about a device that is not connected (devices/capability.py device_advice). */
+function advice(r) {
+  return r.model === 'browser' ? "the participant's page offers no actuator (hold the controllers: tracked hands have none)"
+    : 'check its cable and power';
+}
+
 /** Banner items ({code, device, text}) for device trouble. */
 export function deviceTrouble(rows, hostDown) {
   const out = [];
@@ -127,7 +133,7 @@ export function deviceTrouble(rows, hostDown) {
     if (!hostDown && !r.connected) {
       out.push(r.need.needed
         ? { code: 'device_missing', device: r.name,
-          text: `Device '${r.name}' is ${r.status}: check its cable and power; ${r.need.text}.` }
+          text: `Device '${r.name}' is ${r.status}: ${advice(r)}; ${r.need.text}.` }
         : { code: 'device_disconnected', device: r.name,
           text: `Device '${r.name}' is ${r.status} (${r.need.text}).` });
     }
