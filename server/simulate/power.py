@@ -32,6 +32,7 @@ import math
 import os
 import tempfile
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
@@ -52,23 +53,31 @@ def replication_seed(seed: int, n: int, rep: int) -> int:
     return seed_from("power-replication", seed, n, rep) >> 65
 
 
+@contextmanager
+def simulated(study_text: str, study_name: str, n: int, seed: int, settings: Sequence[Sequence[str]], prefix: str):
+    """One simulated study of `n` participants in a temporary directory: yields (people, result)
+    while its data still exist. Everything comes in the arguments (it runs on a Dask worker)."""
+    from server.simulate.study_run import simulate_study
+
+    people = population(dict(settings))
+    with tempfile.TemporaryDirectory(prefix=prefix) as tmp:
+        path = Path(tmp) / "studies" / study_name
+        path.parent.mkdir()
+        path.write_text(study_text, encoding="utf-8")
+        yield people, simulate_study(path, participants=n, seed=seed, out_dir=Path(tmp) / "run",
+                                     make_participant=people.participant, agent_params=people.agent,
+                                     settings=people.settings)
+
+
 def run_replication(study_text: str, study_name: str, n: int, seed: int, settings: Sequence[Sequence[str]]) -> dict:
     """One simulated study of `n` participants, analysed: {"p": {test: p}, trials, aborted,
     virtual_s, wall_s}. Runs on a Dask worker: everything it needs comes in its arguments."""
     from server.analysis.load import load
     from server.analysis.pvalues import p_values
     from server.analysis.run import compute
-    from server.simulate.study_run import simulate_study
 
-    people = population(dict(settings))
     started = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="viestac-power-") as tmp:
-        path = Path(tmp) / "studies" / study_name
-        path.parent.mkdir()
-        path.write_text(study_text, encoding="utf-8")
-        result = simulate_study(path, participants=n, seed=seed, out_dir=Path(tmp) / "run",
-                                make_participant=people.participant, agent_params=people.agent,
-                                settings=people.settings)
+    with simulated(study_text, study_name, n, seed, settings, "viestac-power-") as (_, result):
         stats, _ = compute(load(result.data_dir))
     return {"p": p_values(stats), "trials": result.trials, "aborted": len(result.aborted),
             "virtual_s": round(result.virtual_s, 3), "wall_s": round(time.perf_counter() - started, 3)}

@@ -27,7 +27,6 @@ import hashlib
 import json
 import math
 import sqlite3
-import tempfile
 import time
 import tomllib
 from dataclasses import dataclass
@@ -35,10 +34,10 @@ from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
 from server.experiment.study import load_study
-from server.simulate.effects import parse_settings, population
-from server.simulate.power import dask_client, replication_seed
+from server.simulate.effects import parse_settings
+from server.simulate.power import dask_client, replication_seed, simulated
 from server.simulate.power_store import ReplicationStore
-from server.simulate.study_run import simulate_study, stimulus_of
+from server.simulate.study_run import stimulus_of
 from server.synthetic.psychometric import AMPLITUDE_PARAMETERS, PsyAnswerError
 
 TARGET_SE_DB = 1.0
@@ -65,15 +64,8 @@ def run_threshold_replication(study_text: str, study_name: str, n: int, seed: in
                               settings: Sequence[Sequence[str]]) -> dict:
     """One simulated study of `n` participants: every psychophysics track with its true
     threshold. Runs on a Dask worker: everything it needs comes in its arguments."""
-    people = population(dict(settings))
     started = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="viestac-threshold-power-") as tmp:
-        path = Path(tmp) / "studies" / study_name
-        path.parent.mkdir()
-        path.write_text(study_text, encoding="utf-8")
-        result = simulate_study(path, participants=n, seed=seed, out_dir=Path(tmp) / "run",
-                                make_participant=people.participant, agent_params=people.agent,
-                                settings=people.settings)
+    with simulated(study_text, study_name, n, seed, settings, "viestac-threshold-power-") as (people, result):
         observers = tracks(result.data_dir / "viestac.sqlite", lambda index: people.participant(seed, index))
     return {"observers": observers, "trials": result.trials, "aborted": len(result.aborted),
             "virtual_s": round(result.virtual_s, 3), "wall_s": round(time.perf_counter() - started, 3)}
