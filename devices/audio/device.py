@@ -3,7 +3,11 @@
 
 Its stream runs in an audio worker process (devices/audio/worker.py): `set_commands` turns the
 encoder's commands into each output channel's `Stimulus` (devices/audio/mapping.py) and sends them
-in one datagram, without waiting for anything. A supervisor thread starts the worker, reads its
+in one datagram, without waiting for anything. A timed stimulus (a cue with `duration_ms`) is
+numbered with an onset of its own when its cue appears; the same cue sent again (another cue of
+the set changed) keeps that onset and goes on, and the off that follows it (no cue) is not sent
+at all: the stimulus ends on the audio clock after exactly its samples, however late or early the
+off arrives (contracts C6). A Stop cue cuts it; a new cue starts a new onset. A supervisor thread starts the worker, reads its
 status and counters, and starts another when it exits: at once after the stream died (the audio
 server went away; `disconnected` meanwhile, so health says `device_missing` when the scenario needs
 the device), and every `reopen_interval_s` (doubling up to 4 s) while the output is absent. A
@@ -29,11 +33,11 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from devices.audio.config import AudioConfig, AudioConfigError
-from devices.audio.mapping import stimuli_for
+from devices.audio.mapping import is_cut, stimuli_for
 from devices.audio.synth import OFF, Stimulus
 from devices.audio.worker import EXIT_ABSENT, EXIT_REFUSED, EXIT_STOPPED, is_permanent
 from devices.protocol import StatusChanged
@@ -64,7 +68,9 @@ class AudioDevice:
         self.reopen_interval_s = reopen_interval_s
         self.on_event = on_event
         self._index = {c.actuator: c.channel - 1 for c in config.channels}
-        self.stimuli: tuple[Stimulus, ...] = (OFF,) * config.outputs
+        self.stimuli: tuple[Stimulus, ...] = (OFF,) * config.outputs  # as sent to the worker
+        self._cued: list[Stimulus] = [OFF] * config.outputs  # as the cues last asked (no onset numbers)
+        self._onsets = 0
         self.generation = 0
         self.submitted: deque[tuple[int, int]] = deque(maxlen=4096)  # (generation, monotonic ns when sent)
         self.took: deque[tuple[int, int]] = deque(maxlen=4096)       # (generation, first sample) from the worker
@@ -119,11 +125,25 @@ class AudioDevice:
 
     def set_commands(self, commands: Iterable[object], *, write_now: bool = False) -> None:
         """The encoder's newest commands (devices/encoder.py) → every actuator's stimulus."""
-        by_channel = stimuli_for(tuple(commands), self.config, self.carrier_hz)
-        stimuli = [OFF] * self.config.outputs
-        for c, stim in zip(self.config.channels, by_channel):
-            stimuli[c.channel - 1] = stim
-        self._publish(tuple(stimuli))
+        commands = tuple(commands)
+        by_channel = stimuli_for(commands, self.config, self.carrier_hz)
+        cut = is_cut(commands)
+        with self._send_lock:
+            stimuli = list(self.stimuli)
+            for c, stim in zip(self.config.channels, by_channel):
+                k = c.channel - 1
+                asked, self._cued[k] = self._cued[k], stim
+                if stim == asked and not cut:
+                    continue  # the same cue again: a timed stimulus goes on, its onset unchanged
+                if stim.silent and asked.duration is not None and not cut:
+                    continue  # the off after a timed stimulus: it ends on the audio clock, not here
+                if stim.duration is not None:
+                    self._onsets += 1
+                    stim = replace(stim, onset=self._onsets)
+                stimuli[k] = stim
+            changed = tuple(stimuli) != self.stimuli
+        if changed or cut:
+            self._publish(tuple(stimuli))
 
     def play(self, actuator: str, stimulus: Stimulus) -> int:
         """One actuator's stimulus, given directly (e.g. a 2IFC interval with `start`, a sample of
@@ -216,8 +236,9 @@ class AudioDevice:
         proc.stdin.close()
         with self._send_lock:
             self._sock = mine
-            # where the last worker left off
-            self._send_locked(AudioStimuli(self.generation, [s.to_wire() for s in self.stimuli]))
+            # where the last worker left off (a timed stimulus belonged to its moment: not again)
+            self._send_locked(AudioStimuli(self.generation, [(OFF if s.duration is not None else s).to_wire()
+                                                             for s in self.stimuli]))
         self._worker_underruns = 0
         silent = False
         try:
