@@ -7,12 +7,13 @@ in one datagram, without waiting for anything. A timed stimulus (a cue with `dur
 numbered with an onset of its own when its cue appears; the same cue sent again (another cue of
 the set changed) keeps that onset and goes on, and the off that follows it (no cue) is not sent
 at all: the stimulus ends on the audio clock after exactly its samples, however late or early the
-off arrives (contracts C6). A Stop cue cuts it; a new cue starts a new onset. A supervisor thread starts the worker, reads its
-status and counters, and starts another when it exits: at once after the stream died (the audio
-server went away; `disconnected` meanwhile, so health says `device_missing` when the scenario needs
-the device), and every `reopen_interval_s` (doubling up to 4 s) while the output is absent. A
-configuration that cannot work is `refused` with the worker's message, for good; the rest of the
-rig runs.
+off arrives (contracts C6). A Stop cue cuts it; a new cue starts a new onset.
+
+A supervisor thread starts the worker, reads its status and counters, and starts another when it
+exits: at once after the stream died (the audio server went away; `disconnected` meanwhile, so
+health says `device_missing` when the scenario needs the device), and every `reopen_interval_s`
+(doubling up to 4 s) while the output is absent. A configuration that cannot work is `refused`
+with the worker's message, for good; the rest of the rig runs.
 
 A worker's records are read to the end even when the socket reports a reset: a worker that exits
 (a refusal, a death) with stimuli of ours still unread in its socket makes Linux report
