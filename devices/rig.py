@@ -146,7 +146,7 @@ def emulator_command(model: str, link: Path, timeline: Path, *, append_timeline:
     restarts so the device finds it again)."""
     if model == AUDIO_MODEL:
         return [sys.executable, "-m", "devices.audio.emulator", "--link", str(link), "--timeline", str(timeline),
-                *(["--server", jack_server] if jack_server else []),
+                "--realtime", *(["--server", jack_server] if jack_server else []),
                 *(["--append-timeline"] if append_timeline else []), *(["--exit-with-parent"] if exit_with_parent else [])]
     # --realtime: an emulator stamps a frame when it reads it; starved by a loaded machine for more
     # than the watchdog's 45 ms it trips the watchdog although the host wrote on time (thousands of

@@ -561,7 +561,8 @@ def _bench_audio(args: argparse.Namespace) -> int:
         return 2
     from server.bench.audio_bench import run_audio_bench
 
-    result = run_audio_bench(blocks=tuple(args.block or (32, 64, 128, 256)), cues=args.cues)
+    result = run_audio_bench(blocks=tuple(args.block or (32, 64, 128, 256)), cues=args.cues,
+                             realtime=False if args.no_realtime else None)
     return _print_bench(result, args.json)
 
 
@@ -932,6 +933,8 @@ def build_parser() -> argparse.ArgumentParser:
     audio.add_argument("--block", type=int, action="append", default=None, metavar="FRAMES",
                        help="block sizes (repeatable; default 32 64 128 256)")
     audio.add_argument("--cues", type=int, default=1000, help="cues per block size (default 1000)")
+    audio.add_argument("--no-realtime", action="store_true",
+                       help="jackd without real-time priority (default: with it when allowed)")
     audio.add_argument("--json", action="store_true", help="print one JSON object")
     audio.set_defaults(func=_bench_audio, block=None)
     latency = bench_sub.add_parser("latency", help="tracker message sent -> device command written on an emulated "

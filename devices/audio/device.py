@@ -3,12 +3,24 @@
 
 Its stream runs in an audio worker process (devices/audio/worker.py): `set_commands` turns the
 encoder's commands into each output channel's `Stimulus` (devices/audio/mapping.py) and sends them
-in one datagram, without waiting for anything. A supervisor thread starts the worker, reads its
-status and counters, and starts another when it exits: at once after the stream died (the audio
-server went away; `disconnected` meanwhile, so health says `device_missing` when the scenario needs
-the device), and every `reopen_interval_s` (doubling up to 4 s) while the output is absent. A
-configuration that cannot work is `refused` with the worker's message, for good; the rest of the
-rig runs.
+in one datagram, without waiting for anything. A timed stimulus (a cue with `duration_ms`) is
+numbered with an onset of its own when its cue appears; the same cue sent again (another cue of
+the set changed) keeps that onset and goes on, and the off that follows it (no cue) is not sent
+at all: the stimulus ends on the audio clock after exactly its samples, however late or early the
+off arrives (contracts C6). A Stop cue cuts it; a new cue starts a new onset.
+
+A supervisor thread starts the worker, reads its status and counters, and starts another when it
+exits: at once after the stream died (the audio server went away; `disconnected` meanwhile, so
+health says `device_missing` when the scenario needs the device), and every `reopen_interval_s`
+(doubling up to 4 s) while the output is absent. A configuration that cannot work is `refused`
+with the worker's message, for good; the rest of the rig runs.
+
+A worker's records are read to the end even when the socket reports a reset: a worker that exits
+(a refusal, a death) with stimuli of ours still unread in its socket makes Linux report
+ECONNRESET on our end *before* the records it sent last, and only once; stopping there lost its
+refusal (the device stayed `connecting` for ever). A worker that says nothing within
+`start_timeout_s` (PortAudio waiting on an audio server that does not answer) is killed and
+counted as an output that is not there: the device says so and tries again.
 """
 
 from __future__ import annotations
@@ -22,11 +34,11 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from devices.audio.config import AudioConfig, AudioConfigError
-from devices.audio.mapping import stimuli_for
+from devices.audio.mapping import is_cut, stimuli_for
 from devices.audio.synth import OFF, Stimulus
 from devices.audio.worker import EXIT_ABSENT, EXIT_REFUSED, EXIT_STOPPED, is_permanent
 from devices.protocol import StatusChanged
@@ -38,6 +50,7 @@ log = logging.getLogger("viestac.devices")
 CONNECTED, CONNECTING, DISCONNECTED, REFUSED = "connected", "connecting", "disconnected", "refused"
 _ROOT = Path(__file__).resolve().parents[2]
 UNDERRUN_REPORT_S = 1.0  # underruns are announced at most this often (health shows them as a note)
+START_TIMEOUT_S = 30.0   # a worker's first report (PortAudio's start takes ~1 s, several s on a busy machine)
 
 
 @dataclass(frozen=True)
@@ -48,14 +61,17 @@ class UnderrunsCounted:
 
 class AudioDevice:
     def __init__(self, name: str, config: AudioConfig, carrier_hz: float, *, reopen_interval_s: float = 0.5,
-                 on_event: Callable[[str, object], None] | None = None):
+                 start_timeout_s: float = START_TIMEOUT_S, on_event: Callable[[str, object], None] | None = None):
         self.name = name
+        self.start_timeout_s = start_timeout_s
         self.config = config
         self.carrier_hz = carrier_hz
         self.reopen_interval_s = reopen_interval_s
         self.on_event = on_event
         self._index = {c.actuator: c.channel - 1 for c in config.channels}
-        self.stimuli: tuple[Stimulus, ...] = (OFF,) * config.outputs
+        self.stimuli: tuple[Stimulus, ...] = (OFF,) * config.outputs  # as sent to the worker
+        self._cued: list[Stimulus] = [OFF] * config.outputs  # as the cues last asked (no onset numbers)
+        self._onsets = 0
         self.generation = 0
         self.submitted: deque[tuple[int, int]] = deque(maxlen=4096)  # (generation, monotonic ns when sent)
         self.took: deque[tuple[int, int]] = deque(maxlen=4096)       # (generation, first sample) from the worker
@@ -110,11 +126,25 @@ class AudioDevice:
 
     def set_commands(self, commands: Iterable[object], *, write_now: bool = False) -> None:
         """The encoder's newest commands (devices/encoder.py) → every actuator's stimulus."""
-        by_channel = stimuli_for(tuple(commands), self.config, self.carrier_hz)
-        stimuli = [OFF] * self.config.outputs
-        for c, stim in zip(self.config.channels, by_channel):
-            stimuli[c.channel - 1] = stim
-        self._publish(tuple(stimuli))
+        commands = tuple(commands)
+        by_channel = stimuli_for(commands, self.config, self.carrier_hz)
+        cut = is_cut(commands)
+        with self._send_lock:
+            stimuli = list(self.stimuli)
+            for c, stim in zip(self.config.channels, by_channel):
+                k = c.channel - 1
+                asked, self._cued[k] = self._cued[k], stim
+                if stim == asked and not cut:
+                    continue  # the same cue again: a timed stimulus goes on, its onset unchanged
+                if stim.silent and asked.duration is not None and not cut:
+                    continue  # the off after a timed stimulus: it ends on the audio clock, not here
+                if stim.duration is not None:
+                    self._onsets += 1
+                    stim = replace(stim, onset=self._onsets)
+                stimuli[k] = stim
+            changed = tuple(stimuli) != self.stimuli
+        if changed or cut:
+            self._publish(tuple(stimuli))
 
     def play(self, actuator: str, stimulus: Stimulus) -> int:
         """One actuator's stimulus, given directly (e.g. a 2IFC interval with `start`, a sample of
@@ -188,11 +218,14 @@ class AudioDevice:
             self._wake.wait(wait)
             wait = min(4.0, wait * 2) if code == EXIT_ABSENT else self.reopen_interval_s
 
+    def worker_command(self, fd: int) -> list[str]:
+        return [sys.executable, "-m", "devices.audio.worker", "--fd", str(fd)]
+
     def _run_worker(self) -> int | None:
         mine, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         try:
-            proc = subprocess.Popen([sys.executable, "-m", "devices.audio.worker", "--fd", str(theirs.fileno())],
-                                    stdin=subprocess.PIPE, pass_fds=(theirs.fileno(),), cwd=_ROOT)
+            proc = subprocess.Popen(self.worker_command(theirs.fileno()), stdin=subprocess.PIPE,
+                                    pass_fds=(theirs.fileno(),), cwd=_ROOT)
         except OSError as exc:
             self._set_status(REFUSED, f"cannot start the audio worker: {exc}")
             return EXIT_REFUSED
@@ -204,17 +237,17 @@ class AudioDevice:
         proc.stdin.close()
         with self._send_lock:
             self._sock = mine
-            # where the last worker left off
-            self._send_locked(AudioStimuli(self.generation, [s.to_wire() for s in self.stimuli]))
+            # where the last worker left off (a timed stimulus belonged to its moment: not again)
+            self._send_locked(AudioStimuli(self.generation, [(OFF if s.duration is not None else s).to_wire()
+                                                             for s in self.stimuli]))
         self._worker_underruns = 0
+        silent = False
         try:
-            while True:
-                try:
-                    data = mine.recv(1 << 20)
-                except OSError:
-                    data = b""
-                if not data:
-                    break
+            for data in worker_records(mine, self.start_timeout_s):
+                if data is None:  # no first report in time: kill it, the loop below sees it exit
+                    silent = True
+                    proc.kill()
+                    continue
                 try:
                     self._on_record(ipc.unpack(data, FROM_AUDIO_WORKER))
                 except ValueError:
@@ -225,6 +258,12 @@ class AudioDevice:
             mine.close()
         code = proc.wait()
         self._proc = None
+        if silent:
+            reason = (f"the audio worker did not report within {self.start_timeout_s:g} s (is the audio server "
+                      f"of {self.config.describe()} answering?); trying again")
+            log.warning("%s: %s", self.name, reason)
+            self.last_error = reason
+            return EXIT_ABSENT
         if self.status == CONNECTED and self._running:  # it died without a word (killed)
             self.disconnects += 1
             self._set_status(DISCONNECTED, f"the audio worker exited with {code}")
@@ -266,3 +305,30 @@ class AudioDevice:
         self.events.append({"t": time.time(), "event": "StatusChanged", "old": old, "new": new, "reason": reason})
         if self.on_event is not None:
             self.on_event(self.name, StatusChanged(old, new, reason))
+
+
+def worker_records(sock: socket.socket, start_timeout_s: float):
+    """Each datagram the worker sent, to its end: None once if nothing came within
+    `start_timeout_s` (then keep reading: the caller kills the worker, and its end closes)."""
+    sock.settimeout(start_timeout_s)
+    reset = answered = False
+    while True:
+        try:
+            data = sock.recv(1 << 20)
+        except TimeoutError:
+            sock.settimeout(None)
+            yield None
+            continue
+        except ConnectionResetError:
+            if reset:  # reported once per close: a second one is no worker's doing
+                return
+            reset = True  # the worker left with stimuli of ours unread: its last records still follow
+            continue
+        except OSError:
+            return
+        if not data:
+            return
+        if not answered:  # from now on it reports every 50 ms until it exits
+            answered = True
+            sock.settimeout(None)
+        yield data

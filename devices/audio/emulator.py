@@ -3,12 +3,14 @@ dummy driver (the sound interface) and a capture client that writes what arrives
 the actuator timeline (devices/audio/capture.py `Timeline`), like the serial emulators' edges.
 
     viestac emulate audio [--server NAME] [--link FILE] [--timeline FILE.csv] [--outputs 2]
-                          [--rate 48000] [--period 64]
+                          [--rate 48000] [--period 64] [--realtime]
 
 Once the server answers, it writes the server's name to `--link` (the simulated rig waits for that
 file, as for a serial emulator's link) and prints it; ViESTac reaches it through PortAudio's JACK
 host API (`jack_server = NAME` in a rig file's [device.audio]). Stops on SIGTERM/SIGINT, and with
-its parent under `--exit-with-parent`; the link file goes with it.
+its parent under `--exit-with-parent`; the link file goes with it. `--realtime`: jackd with
+real-time priority when this process may use SCHED_FIFO (a sound card keeps its clock whatever the
+computer does; the simulated rig asks for it, as for the serial emulators).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import threading
 from pathlib import Path
 
 from devices.audio.capture import Capture, Timeline
-from devices.audio.jack_server import JackError, JackServer, jack_module, unique_name
+from devices.audio.jack_server import JackError, JackServer, jack_module, realtime_allowed, unique_name
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -34,6 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rate", type=int, default=48_000)
     parser.add_argument("--period", type=int, default=64, help="frames per JACK cycle (default 64)")
     parser.add_argument("--exit-with-parent", action="store_true", help="stop when the parent process dies")
+    parser.add_argument("--realtime", action="store_true", help="jackd at SCHED_FIFO 20 when allowed")
     args = parser.parse_args(argv)
     if args.exit_with_parent:
         try:
@@ -47,7 +50,7 @@ def main(argv: list[str] | None = None) -> int:
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: done.set())
     server = JackServer(args.server or unique_name("viestac-audio"), rate=args.rate, period=args.period,
-                        outputs=args.outputs)
+                        outputs=args.outputs, realtime=args.realtime and realtime_allowed())
     for attempt in range(20):  # a restart: the last server of this name may still be shutting down
         try:
             server.start()

@@ -15,14 +15,40 @@ and the encoder's pattern command becomes each channel's `Stimulus` here:
 The drive level is intensity/100 · the channel's gain, never above its `peak`. A carrier outside a
 channel's `frequency_hz` is refused (`AudioCueEncoder`, code `out_of_range`) rather than played at
 a frequency nobody asked for.
+
+Timed stimuli (contracts C6): a Vibration or PulseTrain with `duration_ms` is the pattern command
+wrapped in a `TimedPattern`, which becomes a stimulus of exactly round(duration_ms · rate / 1000)
+samples on the audio clock (the attack and release inside). SetPattern, the serial wire message,
+has no field for it and is left as it is: only the audio encoder wraps, and the wrapper never
+leaves the device host. A Stop cue is `CUT` (silence now, a timed stimulus included); no cue is
+plain silence, which a timed stimulus outlasts (devices/audio/device.py: the off that follows it
+never shortens it, however late or early it comes).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from devices.audio.config import AudioConfig
 from devices.audio.synth import OFF, Stimulus
-from devices.encoder import CueEncoder, Refusal
+from devices.encoder import CueEncoder, Encoding, Refusal
 from devices.messages import PatternMode, SetPattern
+from server.core.cues import PulseTrain, Stop, Vibration
+
+
+@dataclass(frozen=True)
+class TimedPattern:
+    """A pattern command that lasts exactly `duration_ms` from its onset (the audio encoder's)."""
+    pattern: SetPattern
+    duration_ms: float
+
+
+@dataclass(frozen=True)
+class Cut:
+    """A Stop cue's pattern on an audio tactor: silence now, a timed stimulus cut short."""
+
+
+CUT = Cut()
 
 
 def carrier_of(command: SetPattern, default_hz: float) -> float:
@@ -32,7 +58,11 @@ def carrier_of(command: SetPattern, default_hz: float) -> float:
 def stimuli_for(commands, config: AudioConfig, default_hz: float) -> tuple[Stimulus, ...]:
     """The stimulus of each configured channel (in config.channels order) for one encoding's
     commands; layers other than the pattern have no audio meaning and are ignored."""
-    pattern = next((c for c in commands if isinstance(c, SetPattern)), None)
+    pattern = next((c for c in commands if isinstance(c, (SetPattern, TimedPattern))), None)
+    duration = None
+    if isinstance(pattern, TimedPattern):
+        duration = round(pattern.duration_ms * config.sample_rate / 1000)
+        pattern = pattern.pattern if duration >= 1 else None  # 0 ms: nothing to play
     if pattern is None or pattern.mode == PatternMode.OFF or pattern.intensity == 0 or \
             (pattern.mode != PatternMode.CONTINUOUS and pattern.on_us == 0):  # on_us 0: never on
         return (OFF,) * len(config.channels)
@@ -45,10 +75,16 @@ def stimuli_for(commands, config: AudioConfig, default_hz: float) -> tuple[Stimu
             continue
         hz = carrier_of(pattern, default_hz)
         if pattern.mode == PatternMode.CONTINUOUS or pattern.off_us == 0:
-            out.append(Stimulus("sine", amplitude, hz))
+            out.append(Stimulus("sine", amplitude, hz, duration=duration))
         else:
-            out.append(Stimulus("pulse", amplitude, hz, on_s=pattern.on_us / 1e6, off_s=pattern.off_us / 1e6))
+            out.append(Stimulus("pulse", amplitude, hz, on_s=pattern.on_us / 1e6, off_s=pattern.off_us / 1e6,
+                                duration=duration))
     return tuple(out)
+
+
+def is_cut(commands) -> bool:
+    """A Stop cue's encoding: silence now, a timed stimulus cut short."""
+    return any(isinstance(c, Cut) for c in commands)
 
 
 class AudioCueEncoder(CueEncoder):
@@ -58,6 +94,12 @@ class AudioCueEncoder(CueEncoder):
     def __init__(self, profile, device: str | None, config: AudioConfig):
         super().__init__(profile, device)
         self.config = config
+
+    def encode(self, cues) -> Encoding:
+        encoding = super().encode(cues)
+        if any(isinstance(c, Stop) for c in cues) and "pattern" in encoding.commands:
+            return Encoding({**encoding.commands, "pattern": CUT}, encoding.refusals)
+        return encoding
 
     def _encode_one(self, cue):
         result = super()._encode_one(cue)
@@ -71,4 +113,6 @@ class AudioCueEncoder(CueEncoder):
                 c = refused[0]
                 return self._refuse(cue, "out_of_range", f"its carrier {hz:g} Hz is outside {c.actuator}'s "
                                     f"{c.frequency_hz[0]:g}-{c.frequency_hz[1]:g} Hz")
+            if isinstance(cue, (Vibration, PulseTrain)) and cue.duration_ms is not None:
+                return layer, TimedPattern(command, cue.duration_ms)
         return result

@@ -4,7 +4,9 @@ which the device host starts for each audio device (devices/audio/device.py); ne
 
 Cue hand-over is lock-free: `publish` puts `(generation, stimuli)` in one slot with a single
 reference assignment (atomic in CPython); the callback compares the generation with the one it
-last took and, when newer, hands the stimuli to the synth before rendering that block. The
+last took and, when newer, hands the synth the stimuli that changed before rendering that block
+(`publish` keeps the very object of a channel whose stimulus is equal to the last one, so the
+callback compares by identity: a timed stimulus handed over again is not started again). The
 callback never allocates arrays, takes a lock or logs: it renders straight into PortAudio's buffer,
 counts underruns and blocks in plain integers and notes, in preallocated arrays, the sample at
 which each generation started.
@@ -57,6 +59,7 @@ class AudioOutput:
         self.synth = Synth(config.sample_rate, config.outputs, max(config.block, 8192), ramp_s=config.ramp_ms / 1000)
         self._slot: tuple[int, tuple[Stimulus, ...]] = (0, (OFF,) * config.outputs)
         self._taken = 0
+        self._given = self._slot[1]  # the stimuli the callback last handed to the synth
         self.blocks = 0
         self.underruns = 0
         self.took_generation = np.zeros(TOOK, np.int64)
@@ -88,6 +91,9 @@ class AudioOutput:
             return False
 
     def publish(self, generation: int, stimuli: tuple[Stimulus, ...]) -> None:
+        last = self._slot[1]
+        if len(last) == len(stimuli):
+            stimuli = tuple(old if old == new else new for old, new in zip(last, stimuli))
         self._slot = (generation, stimuli)  # one reference: the callback sees all of it or none
 
     @property
@@ -111,8 +117,11 @@ class AudioOutput:
         synth = self.synth
         if generation != self._taken:
             self._taken = generation
+            given = self._given
             for i in range(len(stimuli)):
-                synth.set(i, stimuli[i])
+                if stimuli[i] is not given[i]:
+                    synth.set(i, stimuli[i])
+            self._given = stimuli
             k = self.took_count % TOOK
             self.took_generation[k] = generation
             self.took_sample[k] = synth.sample

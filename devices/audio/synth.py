@@ -16,14 +16,17 @@ A `Stimulus` is one channel's waveform:
   exact length, for the intervals of a 2IFC trial: nothing before `start`, nothing from
   `start + duration` on, the attack and release ramps inside. Without `start` it begins with the
   next block; without `duration` it lasts until the next stimulus.
+- `onset`: which onset of its channel a timed stimulus is (the device host numbers them): the same
+  stimulus handed over again (another channel changed) is equal and goes on; a new onset of the
+  same waveform (the next 2IFC interval) differs, and starts again.
 
 Clicks: the output's envelope never steps. A new stimulus of the same kind (sine or pulse after
 sine or pulse) keeps the carrier's phase and glides from the current level to its own over the
-attack ramp; another kind (texture after sine, or any stimulus with a `start`) first releases the
-sounding one to zero over the release ramp and then starts from silence, with the carrier at
-phase 0 (so every 2IFC interval is the same waveform). Pulse trains ramp each burst in and out
-(half of `on_s` at most). Ramps are linear: the envelope changes by at most amplitude/ramp per
-second (amplitude/(ramp·rate) per sample), which the tests check.
+attack ramp; another kind (texture after sine, or any stimulus with a `start` or a `duration`)
+first releases the sounding one to zero over the release ramp and then starts from silence, with
+the carrier at phase 0 (so every 2IFC interval is the same waveform). Pulse trains ramp each
+burst in and out (half of `on_s` at most). Ramps are linear: the envelope changes by at most
+amplitude/ramp per second (amplitude/(ramp·rate) per sample), which the tests check.
 """
 
 from __future__ import annotations
@@ -50,6 +53,7 @@ class Stimulus:
     sweep_s: float = 0.0
     start: int | None = None            # absolute sample (Synth.sample clock); None: the next block
     duration: int | None = None         # samples; None: until the next stimulus
+    onset: int = 0                      # a timed stimulus's onset number on its channel
 
     def __post_init__(self) -> None:
         if self.shape not in SHAPES:
@@ -68,6 +72,8 @@ class Stimulus:
             raise ValueError("a pulse stimulus needs on_s > 0")
         if self.duration is not None and self.duration < 1:
             raise ValueError(f"stimulus duration must be >= 1 sample, got {self.duration!r}")
+        if self.onset < 0:
+            raise ValueError(f"stimulus onset must be >= 0, got {self.onset!r}")
 
     def to_wire(self) -> dict:
         """The stimulus as a plain map (the audio worker's records, server/ipc/records.py)."""
@@ -157,7 +163,8 @@ class Synth:
     def _take(self, v: _Voice, new: Stimulus, ramp: int) -> None:
         old = v.stimulus
         sounding = v.level > 0.0 or (v.begun and not old.silent) or v.releasing
-        restart = new.start is not None or not (old.shape in _CARRIER and new.shape in _CARRIER) or not v.begun
+        restart = new.start is not None or new.duration is not None or \
+            not (old.shape in _CARRIER and new.shape in _CARRIER) or not v.begun
         if sounding and restart and not new.silent:
             # a different waveform: fade the sounding one out first, then start from silence
             if not v.releasing:

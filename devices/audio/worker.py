@@ -6,7 +6,10 @@ SEQPACKET socket pair. Its records (server/ipc/records.py, docs/architecture.md 
 `AudioStimuli` (every output channel's newest stimulus) and `Stop` from the host; `AudioStatus`
 and `AudioCounters` (every 50 ms and after a hand-over) to it.
 
-A receiving thread publishes each stimuli message to the stream's single slot. The main thread
+A receiving thread publishes each stimuli message to the stream's single slot; it asks for
+SCHED_FIFO below the loop when allowed (devices/realtime.py), like the serial writers: a cue that
+wakes it while both cores are busy otherwise waited for a CPU long enough to miss the next audio
+cycle, or several (docs/performance.md "Audio tactor"). The main thread
 watches the stream: when it stops (the audio server died: the callbacks cease and PortAudio marks
 it inactive) it reports `disconnected` and leaves with os._exit, without touching PortAudio, whose
 stop and terminate would wait for ever on a dead JACK server. Exit codes: 0 stopped, 3 the stream
@@ -28,6 +31,7 @@ import time
 from devices.audio.config import AudioConfigError
 from devices.audio.shell import AudioOutput, portaudio
 from devices.audio.synth import Stimulus
+from devices.realtime import fifo_this_thread
 from server import ipc
 from server.ipc.records import TO_AUDIO_WORKER, AudioCounters, AudioStatus, AudioStimuli, Record, Stop
 
@@ -68,6 +72,7 @@ def run(config, sock: socket.socket, *, stall_s: float = 1.5) -> int:
     kick = threading.Event()
 
     def receive() -> None:
+        fifo_this_thread()
         while True:
             try:
                 data = sock.recv(1 << 20)
