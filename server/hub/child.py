@@ -147,7 +147,7 @@ class ChildProcess:
     def _readable(self) -> None:
         try:
             records = ipc.drain(self._sock, self.channel)
-        except (ipc.PeerClosed, ConnectionResetError):  # reset: it died with records of ours unread
+        except ipc.PeerClosed:  # it is gone; drain handed over the records it sent last first
             asyncio.get_running_loop().remove_reader(self._sock.fileno())
             self._died()
             return

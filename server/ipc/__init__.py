@@ -75,12 +75,19 @@ def drain(sock: socket.socket, channel: Channel, limit: int = DRAIN_LIMIT) -> li
     """Every record waiting now (at most `limit`: with exactly `limit` waiting, no `recv` finds
     the socket empty), without blocking. One that is no record of `channel` comes out as
     `Malformed` for the receiver to report: the records after it still arrive."""
-    records = []
+    records, reset = [], False
     for _ in range(limit):
         try:
             data = sock.recv(MAX_RECORD_BYTES)
         except (BlockingIOError, InterruptedError):
             break
+        except ConnectionResetError:
+            # A peer that exits with records of ours unread: Linux reports the reset once, before
+            # the records it sent last; those still follow, then the close
+            if reset:
+                raise PeerClosed() from None
+            reset = True
+            continue
         if not data:
             if records:  # hand over what came before the close; the next call raises
                 break

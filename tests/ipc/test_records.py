@@ -86,6 +86,20 @@ def test_a_bad_record_in_a_drain_is_handed_on_as_malformed_and_the_rest_arrive()
     assert "unknown record 'nonsense'" in got[1].error and "not msgpack" in got[2].error
 
 
+def test_a_peer_that_exits_with_our_records_unread_still_delivers_its_last_records():
+    """Linux reports the reset before the records the peer sent last: they arrive, then the close."""
+    ours, theirs = ipc.channel_pair()
+    with ours:
+        ipc.send_record(ours, Stop())  # never read by the peer
+        ipc.send_record(theirs, Input(1, "a", "down"))
+        ipc.send_record(theirs, Input(2, "a", "up"))
+        theirs.close()
+        ours.setblocking(False)
+        assert ipc.drain(ours, TO_LOOP) == [Input(1, "a", "down"), Input(2, "a", "up")]
+        with pytest.raises(ipc.PeerClosed):
+            ipc.drain(ours, TO_LOOP)
+
+
 def test_records_are_frozen_and_slotted():
     record = Cues(1, 2, [])
     with pytest.raises(AttributeError):
