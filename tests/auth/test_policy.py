@@ -40,8 +40,9 @@ def test_state_changes_need_the_lease_and_reads_do_not():
         if method in ("POST", "PUT", "DELETE", "PATCH") and rule.roles:
             exempt = key.startswith(("POST /api/lease", "DELETE /api/lease", "POST /api/auth/", "POST /api/tokens",
                                      "DELETE /api/tokens"))
-            # a session's own records are the site's data, not the rig: only a trial start runs on the rig
-            site_data = "/api/sessions" in key and not key.endswith("/start")
+            # a session's own records are the site's data, not the rig: only a trial start runs on the
+            # rig, and a paced task's resume (it starts the next trial)
+            site_data = "/api/sessions" in key and not key.endswith(("/start", "/pacing/resume"))
             # the caller's own things: a participant's own session placement (the handler finds
             # whose; staff only for the session their lease opened)
             own = key == "PUT /api/placement/session" and rule.scope == "self"
@@ -50,6 +51,7 @@ def test_state_changes_need_the_lease_and_reads_do_not():
         if method == "GET":
             assert not rule.lease, key
     assert POLICY["POST /api/sessions/{session_id}/trials/{seq}/start"].lease
+    assert POLICY["POST /api/sessions/{session_id}/pacing/resume"].lease
     assert POLICY["GET /api/health"].roles == frozenset()
     assert all(POLICY[k].scope == "site" for k in POLICY if "/sessions" in k)
     assert all(POLICY[k].roles == {"admin"} for k in POLICY if "/tokens" in k)
