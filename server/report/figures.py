@@ -112,7 +112,8 @@ def information(stats: dict) -> Figure | None:
         ax.hlines(m["maximum"], i - 0.3, i + 0.3, color="grey", ls="--", lw=1)
     ax.set_xticks(range(len(rows)), [r[0] for r in rows])
     ax.set(xlim=(-0.6, len(rows) - 0.4), ylim=(0, None), ylabel="bits (Miller–Madow corrected)",
-           title="Contact-angle identification: information transfer (dashed: log2 of the stimuli)")
+           title="Contact-angle identification")
+    ax.set_title("dashed: log2 of the stimuli", fontsize=8, loc="right")
     return fig
 
 

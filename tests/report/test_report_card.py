@@ -240,3 +240,16 @@ def test_a_part_with_no_analysed_trials_is_no_data_not_missing():
 
     c = card.device_card("devkit", plans, empty, pd.DataFrame())
     assert [p["status"] for p in c["parts"]] == ["skipped" if not p.runs else "no data" for p in plans]
+
+
+def test_a_singular_sphericity_test_is_a_skip_not_a_crash():
+    """Two participants, three levels: pingouin's Mauchly test divides by zero; `viestac analyze`
+    (which the card runs per battery) must skip the ANOVA with a reason rather than stop."""
+    import pandas as pd
+
+    from server.analysis.stats import Skip, rm_anova
+
+    frame = pd.DataFrame({"participant": ["a"] * 3 + ["b"] * 3, "object": [1, 2, 3] * 2,
+                          "x": [1.0, 2.0, 4.0, 2.0, 3.0, 3.5]})
+    with pytest.raises(Skip, match="sphericity"):
+        rm_anova(frame, "x", "object")
