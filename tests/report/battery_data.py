@@ -25,10 +25,10 @@ def _toml(value) -> str:
     return "{ " + ", ".join(f"{json.dumps(str(k))} = {_toml(v)}" for k, v in dict(value).items()) + " }"
 
 
-def _shrink(task: dict, trials: int, carriers: tuple[str, ...] | None) -> dict:
+def _shrink(task: dict, trials: int | None, carriers: tuple[str, ...] | None) -> dict:
     task = json.loads(json.dumps(task, default=dict))
     psy = task.get("psychophysics")
-    if psy is None:
+    if psy is None or trials is None:
         return task
     proc = psy["procedure"]
     if proc["kind"] == "interleaved":
@@ -45,9 +45,10 @@ def _shrink(task: dict, trials: int, carriers: tuple[str, ...] | None) -> dict:
     return task
 
 
-def battery_file(model: str, parts: tuple[str, ...], trials: int, participants: int, directory: Path,
+def battery_file(model: str, parts: tuple[str, ...], trials: int | None, participants: int, directory: Path,
                  carriers: tuple[str, ...] | None = None) -> Path:
-    """battery-<model>.toml with `parts` (part ids of plan_for(model) that run), `trials` each."""
+    """battery-<model>.toml with `parts` (part ids of plan_for(model) that run), `trials` each
+    (None: the catalogue's own counts)."""
     lines = [f'id = "battery-{model}"', f'title = "Battery (test) {model}"', "seed = 38",
              f"participants = {participants}", ""]
     for plan in plan_for(model):
