@@ -14,6 +14,9 @@ calibration. Output: stats.json's content. Every number the page prints is read 
   turned the same way. Information transfer is the mean of the participants' Miller–Madow corrected
   estimates with its t interval (the pooled matrix's estimate beside it). Positioning: task 4's per-device
   description (mean and t interval over the participants' means).
+- A fitted α outside the range of levels tested (e.g. a detection staircase pinned at 100 % at a
+  carrier the device barely renders) is kept but flagged (`within_tested_range` false): the page
+  marks it and the figures leave it out.
 - Paired comparisons: per measure, for two devices worn by the same participants (the
   participant code), the per-participant values compared with the Wilcoxon signed-rank test (the
   verdict: thresholds and Weber fractions from short staircases are skewed, and the groups are
@@ -164,6 +167,11 @@ def _psy_measures(part_id: str, task: dict, calibration, own_carrier_hz: float |
         if fit is None:
             continue
         boot = cond["pooled"]["bootstrap"]
+        levels = [pt["level"] for pt in cond["pooled"]["points"]]
+        tested = [min(levels), max(levels)] if levels else None
+        # a threshold beyond every level tested (a staircase pinned at the device's maximum) is an
+        # extrapolation of the fit, not a measurement: kept, flagged, left out of the figures
+        within = tested is not None and tested[0] <= fit["threshold"] <= tested[1]
         for key, unit, f in _transform(part_id, sign):
             value = f(fit["threshold"])
             if not math.isfinite(value):
@@ -174,7 +182,8 @@ def _psy_measures(part_id: str, task: dict, calibration, own_carrier_hz: float |
             row = {"measure": key, "label": MEASURES[key], "condition": cond["condition"], "value": num(value),
                    "ci95": ci, "unit": task["unit"] if unit is None else unit,
                    "n_participants": cond["n_participants"], "n_trials": cond["n_trials"],
-                   "alpha": fit["threshold"], "per_participant": per, "physical": None}
+                   "alpha": fit["threshold"], "tested_range": tested, "within_tested_range": within,
+                   "per_participant": per, "physical": None}
             if key == "threshold":
                 row["carrier_hz"] = carrier_of(cond["condition"]) or own_carrier_hz
                 row["physical"] = physical(calibration, row["carrier_hz"], value, ci)

@@ -44,9 +44,14 @@ def _errorbar(ax, x, m: dict, colour, label=None, marker="o"):
     ax.errorbar([x], [m["value"]], yerr=err, fmt=marker, color=colour, capsize=4, label=label)
 
 
-def detection(stats: dict) -> Figure | None:
+def detection_rows(stats: dict) -> list[tuple[str, str, dict]]:
+    """The detection thresholds the figure draws: those with a carrier, within the tested levels."""
     rows = _measures(stats, ("threshold",)).get("threshold", [])
-    rows = [r for r in rows if r[1] == "detection" and r[2].get("carrier_hz")]
+    return [r for r in rows if r[1] == "detection" and r[2].get("carrier_hz") and r[2]["within_tested_range"]]
+
+
+def detection(stats: dict) -> Figure | None:
+    rows = detection_rows(stats)
     if not rows:
         return None
     fig = Figure(figsize=SIZE, layout="constrained")
@@ -90,7 +95,7 @@ def discrimination(stats: dict) -> Figure | None:
         if band:
             ax.axhspan(band["low"], band["high"], **BAND, label="literature")
         for model, p, m in found[key]:
-            if p == part:
+            if p == part and m.get("within_tested_range", True):
                 _errorbar(ax, models.index(model), m, COLOURS[models.index(model) % len(COLOURS)])
         unit = next(m["unit"] for _, p, m in found[key] if p == part)
         ax.set_xticks(range(len(models)), models)

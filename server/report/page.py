@@ -13,7 +13,7 @@ from server.analysis.report import CSS, fmt
 
 EXTRA_CSS = """
 .status-skipped td { color: #8a5a00; } .status-nodata td { color: #777; }
-.sources { font-size: 12px; color: #444; } .sources li { margin: .2em 0; }
+.beyond { color: #a00; font-size: 12px; } .sources { font-size: 12px; color: #444; } .sources li { margin: .2em 0; }
 """
 
 
@@ -45,7 +45,10 @@ def _measure_cell(path: str, m: dict) -> list[str]:
                 f"{interval(path + '.physical.ci95', physical.get('ci95'))}")
     elif physical:
         phys = escape(physical["reason"] or "—")
-    return [escape(m["label"]), escape(m["condition"]), stat(path + ".value", m["value"]),
+    flag = ("" if m.get("within_tested_range", True) else
+            ' <span class="beyond" title="the fitted threshold lies beyond every level tested: an '
+            'extrapolation, left out of the figures">(beyond the tested levels)</span>')
+    return [escape(m["label"]), escape(m["condition"]), stat(path + ".value", m["value"]) + flag,
             interval(path + ".ci95", m["ci95"]), escape(m["unit"] or "—"),
             stat(path + ".n_participants", m["n_participants"]), stat(path + ".n_trials", m["n_trials"]), phys]
 

@@ -253,3 +253,29 @@ def test_a_singular_sphericity_test_is_a_skip_not_a_crash():
                           "x": [1.0, 2.0, 4.0, 2.0, 3.0, 3.5]})
     with pytest.raises(Skip, match="sphericity"):
         rm_anova(frame, "x", "object")
+
+
+def test_a_threshold_beyond_the_tested_levels_is_flagged_and_kept_out_of_the_figures():
+    import pandas as pd
+
+    from server.report import figures, page
+
+    def condition(name, alpha):
+        cell = {"points": [{"level": 10.0}, {"level": 100.0}], "fit": {"threshold": alpha},
+                "bootstrap": {"threshold_ci95": [alpha * 0.8, alpha * 1.2]}, "participant": None}
+        return {"condition": name, "n_trials": 40, "n_participants": 1, "pooled": cell,
+                "participants": [{**cell, "participant": "P1"}]}
+
+    analysis = {"psychophysics": {"tasks": [{"task": "detection", "unit": "%", "conditions": [
+        condition("f40", 187077.0), condition("f250", 20.0)]}]}, "task4": {},
+        "provenance": {"n_participants": 1, "sessions": [{"participant": "P1"}]}}
+    c = card.device_card("audio", plan_for("audio"), analysis, pd.DataFrame())
+    measures = {m["condition"]: m for m in c["parts"][0]["measures"]}
+    assert measures["f40"]["within_tested_range"] is False and measures["f40"]["tested_range"] == [10.0, 100.0]
+    assert measures["f250"]["within_tested_range"] is True
+    stats = card.card_stats([c], {"studies": []})
+    drawn = figures.all_figures(stats)
+    assert [m["condition"] for _, _, m in figures.detection_rows(stats)] == ["f250"]
+    assert "detection" in [f["name"] for f in drawn]
+    html = page.render(stats, drawn)
+    assert html.count("(beyond the tested levels)") == 1
