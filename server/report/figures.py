@@ -99,8 +99,8 @@ def discrimination(stats: dict) -> Figure | None:
                 _errorbar(ax, models.index(model), m, COLOURS[models.index(model) % len(COLOURS)])
         unit = next(m["unit"] for _, p, m in found[key] if p == part)
         ax.set_xticks(range(len(models)), models)
-        ax.set(xlim=(-0.6, len(models) - 0.4), title=f"{part}: {found[key][0][2]['label']}",
-               ylabel=unit or "fraction")
+        ax.set(xlim=(-0.6, len(models) - 0.4), ylabel=unit or "fraction")
+        ax.set_title(f"{part}: {found[key][0][2]['label']}", fontsize=9)
         if band:
             ax.legend(fontsize=7)
     return fig
@@ -114,11 +114,12 @@ def information(stats: dict) -> Figure | None:
     ax = fig.add_subplot()
     for i, (_, _, m) in enumerate(rows):
         _errorbar(ax, i, m, COLOURS[i % len(COLOURS)])
-        ax.hlines(m["maximum"], i - 0.3, i + 0.3, color="grey", ls="--", lw=1)
+        ax.hlines(m["maximum"], i - 0.3, i + 0.3, color="grey", ls="--", lw=1,
+                  label="log2 of the stimuli" if i == 0 else None)
     ax.set_xticks(range(len(rows)), [r[0] for r in rows])
     ax.set(xlim=(-0.6, len(rows) - 0.4), ylim=(0, None), ylabel="bits (Miller–Madow corrected)",
            title="Contact-angle identification")
-    ax.set_title("dashed: log2 of the stimuli", fontsize=8, loc="right")
+    ax.legend(fontsize=8, loc="lower right")
     return fig
 
 
