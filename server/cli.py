@@ -359,6 +359,26 @@ def _analyze(args: argparse.Namespace) -> int:
     return 0
 
 
+def _report_devices(args: argparse.Namespace) -> int:
+    if _without_extra("viestac report devices", "analysis"):
+        return 2
+    from server.analysis.load import AnalysisError
+    from server.report.run import PAGE, STATS, report_devices
+
+    try:
+        stats = report_devices(args.data, args.out, rig=args.rig)
+    except AnalysisError as exc:
+        print(f"viestac report devices: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"viestac report devices: cannot write to {args.out}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    for card in stats["devices"]:
+        print(f"{card['model']}: " + ", ".join(f"{p['part']} {p['status']}" for p in card["parts"]))
+    print(f"report card: {Path(args.out) / PAGE}, {Path(args.out) / STATS}")
+    return 0
+
+
 def _study(args: argparse.Namespace) -> int:
     if args.simulate == args.power:
         print("viestac study: give --simulate (one simulated study) or --power (power analysis); a real study "
@@ -842,6 +862,16 @@ def build_parser() -> argparse.ArgumentParser:
     ana.add_argument("--workers", type=int, metavar="N", help="processes drawing the figures (default: the usable "
                                                               "CPUs); the files are the same whatever N")
     ana.set_defaults(func=_analyze)
+
+    report = sub.add_parser("report", help="reports across studies (docs/report-card.md)")
+    kinds = report.add_subparsers(dest="kind", required=True)
+    card = kinds.add_parser("devices", help="the device report card of the battery studies in DATA: "
+                                            "report-card.html, stats.json")
+    card.add_argument("data", metavar="DATA", nargs="+", help="data directories (serve --data-dir) or viestac.sqlite "
+                                                              "files holding battery studies (battery-<model>)")
+    card.add_argument("--out", required=True, metavar="DIR", help="where report-card.html and stats.json go")
+    card.add_argument("--rig", metavar="FILE", help="a rig file whose audio channel's calibration gives physical units")
+    card.set_defaults(func=_report_devices)
 
     study = sub.add_parser("study", help="run a study file with synthetic participants on the virtual clock "
                                          "(--simulate), then the analysis")

@@ -123,9 +123,13 @@ def rm_anova(frame: pd.DataFrame, dv: str, within: str | list[str], subject: str
                    + (f" ({dropped} incomplete dropped)" if dropped else ""))
     if cells[dv].nunique() < 2:
         raise Skip(f"{dv} does not vary")
-    with quiet():
-        table = pg.rm_anova(data=cells, dv=dv, within=within if len(within) > 1 else within[0], subject=subject,
-                            correction=True, detailed=False)
+    try:
+        with quiet():
+            table = pg.rm_anova(data=cells, dv=dv, within=within if len(within) > 1 else within[0],
+                                subject=subject, correction=True, detailed=False)
+    except ZeroDivisionError:  # pingouin's sphericity test on a singular covariance (few participants)
+        raise Skip(f"the sphericity test cannot be computed on these {n} participants' cells "
+                   f"(a singular covariance)") from None
     effects = []
     for row in table.to_dict("records"):
         if row["Source"] == "Error":

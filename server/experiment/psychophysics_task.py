@@ -184,22 +184,32 @@ def _level_extremes(spec) -> list[tuple[str, float]]:
 
 
 def _check_device(f: Fields, psy: PsyTask, params: Mapping, device: str, where: str) -> None:
+    refused = device_refusal(psy.parameter, params, device)
+    if refused is not None:
+        field, reason = refused
+        raise f.error(field, where + reason)
+
+
+def device_refusal(parameter: str, params: Mapping, device: str) -> tuple[str, str] | None:
+    """(the field at fault, why) when device `device` cannot present `parameter` with these
+    scenario params, else None (an unknown model too: that is the task's `device` field's error).
+    The one answer to "can this device show this psychophysics task" (the battery asks it too)."""
     profile = PROFILES.get(device) or AUDIO_PROFILES.get(device)
     if profile is None:
-        return  # an unknown model is the task's `device` field's error
+        return None
     cue = params.get("cue", "vibration")
     fixed_carrier = profile.protocol != "audio"  # an LRA's resonance; a voice coil on a sound interface has a range
-    if psy.parameter == "carrier_hz" and fixed_carrier:
-        raise f.error("parameter", f"{where}device {device} has a fixed carrier ({profile.carrier_hz} Hz), no carrier "
-                                   "range for carrier_hz levels (a broadband tactor on a sound interface has one)")
+    if parameter == "carrier_hz" and fixed_carrier:
+        return "parameter", (f"device {device} has a fixed carrier ({profile.carrier_hz} Hz), no carrier "
+                             "range for carrier_hz levels (a broadband tactor on a sound interface has one)")
     carrier = params.get("carrier_hz")
     if fixed_carrier and carrier is not None and carrier != profile.carrier_hz:
-        raise f.error("carrier_hz", f"{where}device {device} has a fixed carrier ({profile.carrier_hz} Hz); it cannot "
-                                    f"play {carrier:g} Hz")
+        return "carrier_hz", f"device {device} has a fixed carrier ({profile.carrier_hz} Hz); it cannot play {carrier:g} Hz"
     cap = CUE_CAPS.get(cue)
     shown = profile.dimensions.get("stiffness") != Display.NONE if cue == "stiffness" else cap in profile.caps
     if not shown:
-        raise f.error("parameter", f"device {device} cannot show a {cue} cue (it accepts {', '.join(sorted(profile.caps))})")
+        return "parameter", f"device {device} cannot show a {cue} cue (it accepts {', '.join(sorted(profile.caps))})"
+    return None
 
 
 # ---- trials ----------------------------------------------------------------------------------
