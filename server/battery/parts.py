@@ -32,7 +32,7 @@ TIMING = MappingProxyType({"lead_ms": 400, "duration_ms": 300, "isi_ms": 400})  
 # threshold SE of about 1 dB or a tenth of the Weber fraction, see there); the sum stays within
 # about an hour per participant on every built-in device.
 TRIALS = MappingProxyType({
-    "detection": 40, "detection_fixed": 60, "amplitude_jnd": 60, "frequency_jnd": 60, "tilt_direction": 50,
+    "detection": 50, "detection_fixed": 60, "amplitude_jnd": 60, "frequency_jnd": 60, "tilt_direction": 50,
     "temperature_change": 50, "texture_period": 60, "stiffness": 60, "angle_identification": 40,
     "positioning": 3,
 })
