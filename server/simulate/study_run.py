@@ -319,7 +319,9 @@ def _perform(hub: VirtualHub, devices: dict[str, VirtualDevice], trial: dict, pe
         return ""
     if trial["scenario"] == "positioning-v1" and kind in ("trial", "main"):
         cue = params.get("cue") or trial["scenario_params"].get("cue")
-        device = devices.get(trial.get("device") or "") or devices["ferrovibe" if cue == "3dof" else "fingertac"]
+        # the task's own device feels the guidance (a battery's devkit or audio tactor); 3-DoF is the FerroVibe's
+        own = devices.get(trial.get("device") or "") if cue != "3dof" else None
+        device = own or devices["ferrovibe" if cue == "3dof" else "fingertac"]
         if isinstance(agent_params, Mapping):
             agent_params = agent_params.get(device.name, AgentParams())
         try:
