@@ -420,6 +420,26 @@ def _study(args: argparse.Namespace) -> int:
     return _analyze_after_simulation(result.data_dir, Path(args.out) / "report")
 
 
+def _battery(args: argparse.Namespace) -> int:
+    from devices.profiles import ProfileError
+    from server.battery.parts import plan_for
+    from server.battery.study_file import battery_study, extra_tasks
+
+    try:
+        extra = extra_tasks(Path(args.add_parts).read_text(encoding="utf-8"), args.add_parts) if args.add_parts else ()
+        text = battery_study(args.device, extra, participants=args.participants)
+    except (ProfileError, ValueError, OSError) as exc:  # StudyError is a ValueError: it names the field
+        print(f"viestac battery: {exc}", file=sys.stderr)
+        return 2
+    Path(args.out).write_text(text, encoding="utf-8")
+    plans = plan_for(args.device)
+    for plan in plans:
+        print(f"  {plan.part.id:<22} " + (f"{plan.trials:>4} trials {plan.minutes:>5.1f} min" if plan.runs
+                                           else f"skipped: {plan.reason}"))
+    print(f"{sum(p.minutes for p in plans if p.runs):.1f} min per participant; written to {args.out}")
+    return 0
+
+
 def _participant_list(text: str) -> list[int]:
     """"13" or "8,12,16": whole numbers >= 1."""
     try:
@@ -872,6 +892,15 @@ def build_parser() -> argparse.ArgumentParser:
     card.add_argument("--out", required=True, metavar="DIR", help="where report-card.html and stats.json go")
     card.add_argument("--rig", metavar="FILE", help="a rig file whose audio channel's calibration gives physical units")
     card.set_defaults(func=_report_devices)
+
+    battery = sub.add_parser("battery", help="the device battery as a study file for one device: every part the "
+                                             "device can show, the rest listed as skipped with why (docs/battery.md)")
+    battery.add_argument("--device", required=True, metavar="MODEL", help="a built-in or audio device model")
+    battery.add_argument("--out", required=True, metavar="FILE", help="the study file to write")
+    battery.add_argument("--add", dest="add_parts", metavar="FILE", help="a TOML file of [[tasks]] tables: a lab's own parts, "
+                         "appended and counterbalanced with the rest")
+    battery.add_argument("--participants", type=int, default=12, metavar="N")
+    battery.set_defaults(func=_battery)
 
     study = sub.add_parser("study", help="run a study file with synthetic participants on the virtual clock "
                                          "(--simulate), then the analysis")

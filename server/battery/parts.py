@@ -32,7 +32,7 @@ TIMING = MappingProxyType({"lead_ms": 400, "duration_ms": 300, "isi_ms": 400})  
 # threshold SE of about 1 dB or a tenth of the Weber fraction, see there); the sum stays within
 # about an hour per participant on every built-in device.
 TRIALS = MappingProxyType({
-    "detection": 40, "detection_fixed": 60, "amplitude_jnd": 60, "frequency_jnd": 60, "tilt_direction": 50,
+    "detection": 60, "amplitude_jnd": 60, "frequency_jnd": 60, "tilt_direction": 50,
     "temperature_change": 50, "texture_period": 60, "stiffness": 60, "angle_identification": 40,
     "positioning": 3,
 })
@@ -96,8 +96,8 @@ def _psy_task(part: Part, model: str, can_vary_carrier: bool) -> dict:
     timing = dict(TIMING)
     if part.id == "detection":
         carriers = CARRIERS_HZ if can_vary_carrier else (profile_by_model(model).carrier_hz,)
-        per = TRIALS["detection"] if can_vary_carrier else TRIALS["detection_fixed"]
-        staircase = _staircase(50, 0.5, 100, per, "db", [6, 3])
+        per = TRIALS["detection"]
+        staircase = _staircase(10, 0.2, 100, per, "db", [8, 4])
         return {"params": {"cue": "vibration", **timing},
                 "psychophysics": {
                     "design": "2ifc", "parameter": part.parameter, "max_trials": per * len(carriers),

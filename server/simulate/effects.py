@@ -9,6 +9,9 @@ the positioning agent (server/simulate/agent.py: movements). A setting changes o
 - `agent.DEVICE.FIELD=VALUE`: the agent's with one device only (fingertac, ferrovibe): a device
   effect, e.g. `agent.ferrovibe.duration_scale=1.3` makes every movement with the FerroVibe take
   30 % longer, so its positioning trials take longer than the FingerTac's.
+- `psychometric=NAME`: the psychophysics observers' population (server/synthetic/psychometric.py
+  PRESETS: `default`, or `literature`, the battery's: docs/battery.md); its fields may follow,
+  e.g. `psychometric.minimum_db=-30`.
 
 docs/synthetic.md ("Effect settings") lists them. Settings are kept as sorted text pairs, so the
 same settings in any order describe the same population (the power store compares them).
@@ -56,6 +59,8 @@ def population(settings: Mapping[str, str]) -> Population:
     fields = {f.name for f in dataclasses.fields(AgentParams)}
     for key, value in settings.items():
         parts = key.split(".")
+        if key == "psychometric":  # a named population of psychometric observers (psychometric.PRESETS)
+            continue
         if parts[0] != "agent":
             models[key] = value
             continue
@@ -77,6 +82,17 @@ def population(settings: Mapping[str, str]) -> Population:
             agent[device][name] = number
     try:
         params = {device: AgentParams(**changes) for device, changes in agent.items()}
-        return Population(ObserverModels().with_overrides(models), params, tuple(sorted(settings.items())))
+        base = ObserverModels()
+        if "psychometric" in settings:
+            base = dataclasses.replace(base, psychometric=_psychometric_preset(settings["psychometric"]))
+        return Population(base.with_overrides(models), params, tuple(sorted(settings.items())))
     except ValueError as exc:
         raise ValueError(f"--set: {exc}") from None
+
+
+def _psychometric_preset(name: str):
+    from server.synthetic.psychometric import PRESETS
+
+    if name not in PRESETS:
+        raise ValueError(f"psychometric={name}: no such population (known: {', '.join(PRESETS)})")
+    return PRESETS[name]

@@ -31,13 +31,13 @@ from server.experiment.plan import PlannedTrial, plan_session
 from server.experiment.store import Store
 from server.experiment.study import load_study
 from server.simulate.agent import AgentParams, GaveUp, PositioningAgent
-from server.simulate.virtual_device import VirtualDevice
+from server.simulate.virtual_device import VirtualDevice, virtual_device
 from server.simulate.virtual_hub import VirtualHub
 from server.synthetic.participant import scenario_name
 from server.synthetic.rng import derive_rng
 
 EPOCH = datetime(2026, 1, 5, 9, 0, tzinfo=timezone.utc)  # virtual sessions start here, one day apart
-RIG = ("fingertac", "ferrovibe")
+RIG = ("fingertac", "ferrovibe")  # the thesis's rig; a study's other task devices join it (rig_for)
 EXPOSURE_S = 0.5          # a trial's stimulus is felt this long before the answer
 TRAINING_CAP_S = 5.0      # training is free exploration: a few virtual seconds stand for it
 RESPONSE_S = 0.3          # a psychophysics answer follows the last interval after this long
@@ -105,7 +105,7 @@ def simulate_study(study_path: str | Path, *, participants: int, seed: int, out_
         raise ValueError(f"workers must be >= 1, got {workers}")
     clock = VirtualClock()
     store = Store(db, clock)
-    config = {"simulated": True, "seed": seed, "rig": list(RIG), "tick_hz": 1000}
+    config = {"simulated": True, "seed": seed, "rig": list(rig_for(study)), "tick_hz": 1000}
     if settings:  # only then: without settings the config is what it always was
         config["settings"] = [list(pair) for pair in settings]
     run = _Run(study_path, seed, config, make_participant, agent_params)
@@ -148,13 +148,14 @@ class _Run:
 def _participant(run: _Run, study, store: Store, clock: VirtualClock, index: int,
                  trial_done: Callable[[str], None]) -> tuple[str, int, list, float]:
     """One participant's session on a fresh virtual rig: (session id, trials, aborted, virtual s)."""
-    devices = {model: VirtualDevice(model, profile_by_model(model)) for model in RIG}
+    rig = tuple(run.config["rig"])
+    devices = {model: virtual_device(model, profile_by_model(model)) for model in rig}
     hub = VirtualHub(devices, seed=run.seed)
     clock.hub, clock.day = hub, index
     experiment = Experiment(store, hub, studies_dir=run.study_path.parent, software_version=__version__,
                             config=run.config, record_every=10)
     session = experiment.create_session(study_id=study.id, participant=f"SIM{index:02d}",
-                                        experimenter="simulator", device="+".join(RIG),
+                                        experimenter="simulator", device="+".join(rig),
                                         participant_index=index)
     person = run.make_participant(run.seed, index)
     sid, token = session["id"], session["token"]
@@ -184,6 +185,13 @@ def _participant(run: _Run, study, store: Store, clock: VirtualClock, index: int
         trial_done(session["participant"])
     hub.listeners.clear()
     return sid, trials, aborted, hub.t_s
+
+
+def rig_for(study) -> tuple[str, ...]:
+    """The simulated rig of a study: the thesis's devices, then every other device model its tasks
+    name (a battery for the devkit or an audio tactor runs on that device), in file order."""
+    extra = [t.device for t in study.tasks if t.device and t.device not in RIG]
+    return RIG + tuple(dict.fromkeys(extra))
 
 
 def psychophysics_record(started: dict) -> dict | None:
@@ -311,7 +319,9 @@ def _perform(hub: VirtualHub, devices: dict[str, VirtualDevice], trial: dict, pe
         return ""
     if trial["scenario"] == "positioning-v1" and kind in ("trial", "main"):
         cue = params.get("cue") or trial["scenario_params"].get("cue")
-        device = devices["ferrovibe" if cue == "3dof" else "fingertac"]
+        # the task's own device feels the guidance (a battery's devkit or audio tactor); 3-DoF is the FerroVibe's
+        own = devices.get(trial.get("device") or "") if cue != "3dof" else None
+        device = own or devices["ferrovibe" if cue == "3dof" else "fingertac"]
         if isinstance(agent_params, Mapping):
             agent_params = agent_params.get(device.name, AgentParams())
         try:

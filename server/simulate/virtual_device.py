@@ -14,8 +14,12 @@ scene's true positions.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+from devices.audio.config import AudioChannel, AudioConfig
+from devices.audio.mapping import AudioCueEncoder, stimuli_for
+from devices.audio.synth import OFF
 from devices.encoder import CueEncoder
 from devices.simulated_link import SimulatedLink
 from devices.firmware_binding import Edge, Firmware
@@ -158,3 +162,76 @@ class VirtualDevice:
         if edges:
             self.feel.apply(edges)
             self._edges.extend(edges)
+
+
+class VirtualAudioDevice:
+    """An audio tactor (a voice coil on a sound interface) on the virtual clock: the audio path's
+    own encoder (AudioCueEncoder: the profile and the channels' frequency limits) and cue →
+    stimulus mapping (devices/audio/mapping.py), with the synth's gating (a sine is on, a pulse
+    stimulus on for on_s and off for off_s from its start, a texture on) turned into actuator
+    edges. An audio device has no byte line and no firmware: a stimulus starts when it is handed
+    over (the sound interface's block of latency is below a tick of the study's clock)."""
+
+    def __init__(self, name: str, profile: DeviceProfile, config: AudioConfig | None = None):
+        self.name, self.profile = name, profile
+        self.config = config or AudioConfig(output="virtual", host_api="virtual", channels=tuple(
+            AudioChannel(actuator, i + 1) for i, actuator in enumerate(profile.channels)))
+        self.encoder = AudioCueEncoder(profile, name, self.config)
+        self.feel = Feel(len(self.config.channels), self.catch_up)
+        self._edges: list[Edge] = []
+        self.refusals: tuple = ()
+        self._playing = [(OFF, 0.0)] * len(self.config.channels)  # (stimulus, start s) per channel
+        self._due_s = self._done_s = 0.0
+
+    status = "connected"  # no line to lose: the device host's supervisor owns a real stream's status
+
+    @property
+    def edges(self) -> list[Edge]:
+        self.catch_up()
+        return self._edges
+
+    def submit(self, cues) -> None:
+        self.catch_up()
+        encoding = self.encoder.encode(tuple(cues))
+        self.refusals = encoding.refusals
+        stimuli = stimuli_for(encoding.commands.values(), self.config, self.profile.carrier_hz)
+        for ch, stimulus in enumerate(stimuli):
+            if stimulus != self._playing[ch][0]:
+                self._playing[ch] = (stimulus, self._done_s)
+                self._emit(ch, self._done_s, "command")
+
+    def run_until(self, t_s: float) -> None:
+        self._due_s = t_s
+
+    def catch_up(self) -> None:
+        """A pulse stimulus's bursts up to where the device is due, as edges."""
+        t_end, start_s = self._due_s, self._done_s
+        if t_end == start_s:
+            return
+        self._done_s = t_end
+        for ch, (s, t0) in enumerate(self._playing):
+            if s.shape != "pulse" or s.silent:
+                continue
+            period = s.on_s + s.off_s
+            k = math.floor((start_s - t0) / period)
+            while True:  # the burst boundaries in (start_s, t_end]
+                for t, gate in ((t0 + k * period, True), (t0 + k * period + s.on_s, False)):
+                    if start_s < t <= t_end:
+                        self._emit(ch, t, "schedule", gate)
+                if t0 + (k + 1) * period > t_end:
+                    break
+                k += 1
+
+    def _emit(self, ch: int, t_s: float, cause: str, gate: bool | None = None) -> None:
+        s = self._playing[ch][0]
+        on = (not s.silent) if gate is None else gate
+        mode = {"off": 0, "pulse": 1, "sine": 2, "texture": 3}.get(s.shape, 2)
+        edge = Edge(_us(t_s), ch, on, mode if not s.silent else 0, round(min(s.amplitude, 1.0) * 100) if on else 0,
+                    round(s.frequency_hz) if s.shape in ("sine", "pulse") else 0, 0, 0, cause)
+        self._edges.append(edge)
+        self.feel.apply([edge])
+
+
+def virtual_device(name: str, profile: DeviceProfile):
+    """The virtual device of a profile: an audio tactor's audio path, or the serial byte path."""
+    return VirtualAudioDevice(name, profile) if profile.protocol == "audio" else VirtualDevice(name, profile)

@@ -85,6 +85,23 @@ class PsychometricModel:
         return PsychometricObserverModel(self, seed, participant)
 
 
+# The battery's simulated observers (docs/battery.md): population values from the literature
+# where it has them, the rest the defaults above.
+# - Detection: the U over carrier frequency, lowest near 250 Hz and about 25–30 dB higher at 40 Hz
+#   (Verrillo 1963, Pacinian channel): a parabola in log frequency of 4 dB per squared octave gives
+#   28 dB at 40 Hz. The minimum, −40 dB re the device's full scale, is ours (a device's full scale
+#   is its own).
+# - Amplitude JND 1.65–2.98 dB at the fingerpad (Israr, Tan & Reed, JASA 2006): the middle,
+#   2.3 dB, is a Weber fraction of 10^(2.3/20) − 1 = 0.30.
+# - Frequency Weber fractions 0.13–0.38 (Israr, Tan & Reed 2006): the middle, 0.25.
+# - Stiffness Weber fraction 0.15–0.22 (Tan et al. 1995; Bergmann Tiest & Kappers 2009): 0.185.
+LITERATURE_WEBER = MappingProxyType({**WEBER, "intensity_pct": 0.30, "carrier_hz": 0.25, "relative": 0.185})
+LITERATURE_RANGES = MappingProxyType({"intensity_pct": (10 ** (1.65 / 20) - 1, 10 ** (2.98 / 20) - 1),
+                                      "carrier_hz": (0.13, 0.38), "relative": (0.15, 0.22)})
+LITERATURE = PsychometricModel(minimum_db=-40.0, curvature_db=4.0, weber=LITERATURE_WEBER)
+PRESETS = MappingProxyType({"default": PsychometricModel(), "literature": LITERATURE})
+
+
 class PsychometricObserverModel:
     """One participant's observer: the population model with this participant's own draws."""
 

@@ -1,0 +1,278 @@
+"""The battery simulated (issue 38 point 3, docs/battery.md "The simulated battery"): 12 synthetic
+participants with the literature's psychometric parameters (server/synthetic/psychometric.py
+LITERATURE) run each built-in device's battery study file through the real engine
+(`viestac study --simulate`'s simulate_study: the virtual rig, the engine picks every level), and
+every recovered threshold, JND, Weber fraction and information transfer lies within its simulated
+truth's 95 % interval.
+
+- Thresholds, JNDs, Weber fractions (staircases): per part and condition, the recovered values
+  (each participant's procedure estimate after the last trial) against the participants' own true
+  values (the level where their own psychometric function gives 79.4 % correct, the point a
+  1-up/3-down staircase converges on, Levitt 1971): the 95 % interval of the group's mean recovery error
+  (t on 11 degrees of freedom) contains 0, and the group's mean recovered value lies within the
+  truth's 95 % interval (mean true value ± that interval's half width).
+- Information transfer (identification): the pooled confusion matrix's Miller–Madow IT lies
+  within the 95 % interval of the same estimate from the same observers over REPLICATIONS repeated
+  experiments of the same size (the truth's sampling interval); the exact IT of those observers
+  (information.from_distribution) is reported with it.
+
+One module-scoped simulation per device, seeded, two worker processes. What runs in the default
+suite is reduced (REDUCED_FACTOR of every staircase's trials, no positioning part: its agent is
+tested in tests/simulate and has no threshold to recover); `-m slow` runs the battery files as
+they are (test_the_full_battery_recovers_its_truths). Wall times: docs/performance.md "Battery".
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import sqlite3
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.stats import t as student_t
+
+from devices.profiles import profile_by_model
+from server.battery.parts import PARTS, plan_for
+from server.battery.study_file import BUILT_IN, battery_study
+from server.experiment.study import parse_study
+from server.psychophysics import information
+from server.psychophysics.procedures import start
+from server.simulate.effects import population
+from server.simulate.study_run import simulate_study
+from server.simulate.threshold_power import AMPLITUDE_PARAMETERS, tracks
+from server.synthetic.rng import derive_rng
+
+PARTICIPANTS = 12
+SEED = 38
+WORKERS = 2
+REDUCED_FACTOR = 0.5
+REPLICATIONS = 400
+BIAS_RUNS = 30  # procedure-only runs per participant for the procedure's own bias
+TARGET_P = 0.5 ** (1 / 3)  # a 1-up/3-down staircase's convergence point (Levitt 1971)
+WALL_S: dict[str, float] = {}
+
+
+def reduced(text: str, factor: float = REDUCED_FACTOR) -> str:
+    """The battery file with every discrimination and identification part's trials scaled by
+    `factor` (staircases, the tasks' reserved trials, identification repeats), detection as it is
+    (its staircases descend from their start first: shorter ones would not converge), and the
+    positioning task left out of the file and its block."""
+    body, blocks = text.split("\n[[blocks]]\n")
+    head, *tasks = body.split("\n[[tasks]]\n")
+    kept = []
+    for task in tasks:
+        if task.startswith('id = "positioning"'):
+            continue
+        if not task.startswith('id = "detection"'):
+            task = re.sub(r"^(max_trials|repeats) = (\d+)$",
+                          lambda m: f"{m[1]} = {max(2, round(int(m[2]) * factor))}", task, flags=re.M)
+        kept.append(task)
+    return "\n[[tasks]]\n".join([head, *kept]) + "\n[[blocks]]\n" + blocks.replace(', "positioning"]', "]")
+
+
+def simulate(model: str, text: str, root: Path):
+    path = root / "studies" / f"battery-{model}.toml"
+    path.parent.mkdir(parents=True)
+    path.write_text(text, encoding="utf-8")
+    people = population({"psychometric": "literature"})
+    started = time.perf_counter()
+    result = simulate_study(path, participants=PARTICIPANTS, seed=SEED, out_dir=root / "run",
+                            make_participant=people.participant, workers=WORKERS)
+    WALL_S[model] = time.perf_counter() - started
+    assert not result.aborted, result.aborted
+    observers = tracks(result.data_dir / "viestac.sqlite", lambda index: people.participant(SEED, index))
+    return result, observers, people
+
+
+@pytest.fixture(scope="module", params=BUILT_IN)
+def battery(request, tmp_path_factory):
+    model = request.param
+    text = reduced(battery_study(model))
+    result, observers, people = simulate(model, text, tmp_path_factory.mktemp(model))
+    return model, text, result, observers, people
+
+
+def target_truth(observers_of, o: dict, part, model: str) -> float:
+    """The participant's own true value at the performance its staircase converges on: a 1-up/3-down
+    track settles where p = 0.5 ** (1/3) = 79.4 % correct (Levitt 1971), on its own psychometric
+    function (threshold, slope, guess and lapse: server/synthetic/psychometric.py). For detection the
+    level in dB re full scale at the condition's carrier; for discrimination the comparison level."""
+    observer = observers_of(o["participant"])
+    carrier = float(o["condition"][1:]) if o["condition"].startswith("f") else profile_by_model(model).carrier_hz
+    psy = {"parameter": o["parameter"], "level": 1.0, "reference": part.reference}
+    function, _ = observer.observer(psy, 0.5, {"carrier_hz": carrier})
+    x = function.level_at(TARGET_P)
+    if part.reference is None:
+        return 100 * 10 ** (x / 20)  # detection: dB re full scale → %
+    return part.reference + x
+
+
+def on_scale(part, parameter: str, level: float) -> float:
+    """A level on the part's measure scale: dB re full scale for a detection amplitude, the Weber
+    fraction (level / reference − 1) for a Weber part, the level itself otherwise."""
+    if part.reference is None and parameter in AMPLITUDE_PARAMETERS:
+        return 20 * math.log10(level / 100)
+    if part.measure == "weber":
+        return level / part.reference - 1
+    return level
+
+
+def recovered(observers, observers_of, model: str) -> dict[tuple[str, str], dict]:
+    """Per (task, condition): each participant's recovered value (its procedure's estimate after
+    the last trial) and true value (target_truth), on the part's measure scale (on_scale)."""
+    by_id = {p.id: p for p in PARTS}
+    groups: dict[tuple[str, str], dict] = {}
+    for o in observers:
+        if o["design"] == "identification":
+            continue
+        estimates = [row[3] for row in o["track"] if row[3] is not None]
+        assert estimates, f"{o['task']}/{o['condition']}: participant {o['participant']} has no estimate"
+        part = by_id[o["task"]]
+        group = groups.setdefault((o["task"], o["condition"]), {"values": [], "truths": [], "part": part})
+        group["values"].append(on_scale(part, o["parameter"], estimates[-1]))
+        group["truths"].append(on_scale(part, o["parameter"], target_truth(observers_of, o, part, model)))
+    return groups
+
+
+def within_truth(values, truths, method_bias: float = 0.0) -> tuple[bool, str]:
+    """The group's mean recovery error against the truth's 95 % interval: t on n − 1 degrees of
+    freedom of the errors' SD, widened by the procedure's own bias (`method_bias`, measured by
+    procedure_bias: what a fixed-step staircase gives these observers on average, engine or not)."""
+    values, truths = np.asarray(values, float), np.asarray(truths, float)
+    n = len(values)
+    errors = values - truths
+    half = student_t.ppf(0.975, n - 1) * errors.std(ddof=1) / math.sqrt(n) + abs(method_bias)
+    ok = abs(errors.mean()) <= half and abs(values.mean() - truths.mean()) <= half
+    return ok, (f"recovered {values.mean():.3f}, true {truths.mean():.3f} ± {half:.3f} (95 %, the procedure's "
+                f"own bias {method_bias:+.3f} included), mean error {errors.mean():+.3f}, n {n}")
+
+
+def procedure_bias(text: str, task: str, condition: str, observers_of, part, model: str, runs: int = BIAS_RUNS) -> float:
+    """The procedure's own mean error on these observers: the task's procedure (as in the simulated
+    file) run `runs` times per participant without the engine (the engine's level is a pure
+    function of the answers: the same procedure), each answered by the participant's own observer,
+    the estimate against the same truth as the simulated battery's (target_truth)."""
+    psy = parse_study(text, "battery").task(task).psychophysics
+    spec = dict(psy.procedure.conditions)[condition] if condition != "main" else psy.procedure
+    carrier = float(condition[1:]) if condition.startswith("f") else profile_by_model(model).carrier_hz
+    errors = []
+    for index in range(PARTICIPANTS):
+        observer = observers_of(index)
+        truth = target_truth(observers_of, {"participant": index, "condition": condition, "parameter": psy.parameter},
+                             part, model)
+        rng = derive_rng("battery-procedure-bias", SEED, task, condition, index)
+        for _ in range(runs):
+            procedure = start(spec, int(rng.integers(2 ** 31)))
+            while not procedure.finished:
+                target = int(rng.integers(1, 3))
+                record = {"design": "2ifc", "parameter": psy.parameter, "level": procedure.level,
+                          "reference": part.reference, "target": target, "choices": ["1", "2"]}
+                procedure.update(observer.answer(record, rng, {"carrier_hz": carrier}) == str(target))
+            errors.append(on_scale(part, psy.parameter, procedure.estimate()) - on_scale(part, psy.parameter, truth))
+    return float(np.mean(errors))
+
+
+def check_staircase_parts(model, text, observers, people) -> list[str]:
+    def observers_of(index):
+        return people.participant(SEED, index).psychometric
+
+    groups = recovered(observers, observers_of, model)
+    plans = {p.part.id: p for p in plan_for(model) if p.runs and p.part.measure != "it_bits"
+             and p.part.id != "positioning"}
+    expected = {(pid, c) for pid, p in plans.items() for c in (p.conditions or ("main",))}
+    assert set(groups) == expected, f"parts recovered {sorted(groups)} != planned {sorted(expected)}"
+    failures = []
+    for key, group in sorted(groups.items()):
+        assert len(group["values"]) == PARTICIPANTS, key
+        bias = procedure_bias(text, key[0], key[1], observers_of, group["part"], model)
+        ok, summary = within_truth(group["values"], group["truths"], bias)
+        print(f"{model} {key[0]}/{key[1]}: {summary}")
+        if not ok:
+            failures.append(f"{key[0]}/{key[1]}: {summary}")
+    return failures
+
+
+def identification_check(db: Path, people) -> tuple[float, float, tuple[float, float]]:
+    """(the recovered pooled IT, the observers' exact IT (mean), the estimate's 95 % interval over
+    REPLICATIONS experiments of the same size by the same observers)."""
+    from server.battery.parts import ANGLES_DEG
+
+    con = sqlite3.connect(db)
+    try:
+        rows = con.execute("""SELECT s.participant_index, t.metrics_json FROM trials t JOIN sessions s
+                              ON s.id = t.session_id WHERE t.status = 'answered' AND t.kind = 'main'
+                              AND t.task = 'angle_identification'""").fetchall()
+    finally:
+        con.close()
+    k = len(ANGLES_DEG)
+    confusion = np.zeros((k, k))
+    trials: dict[int, int] = {}
+    for index, metrics in rows:
+        psy = json.loads(metrics)["psy"]
+        confusion[psy["stimulus_index"], psy["answer_index"]] += 1
+        trials[index] = trials.get(index, 0) + 1
+    assert len(trials) == PARTICIPANTS
+    got = information.information_transfer(confusion).corrected
+    # the truth: each observer's confusion probabilities (many draws of its identify) ...
+    observers_ = {i: people.participant(SEED, i).psychometric for i in trials}
+    psy = {"parameter": "contact_angle_deg", "choices": [f"{a:g}" for a in ANGLES_DEG],
+           "stimuli": list(ANGLES_DEG)}
+    rng = derive_rng("battery-it-truth", SEED)
+    p = {}
+    for i, observer in observers_.items():
+        q = np.zeros((k, k))
+        for s in range(k):
+            for _ in range(2000):
+                q[s, observer.identify({**psy, "stimulus_index": s}, rng)] += 1
+        p[i] = q / q.sum(axis=1, keepdims=True)
+    exact = float(np.mean([information.from_distribution(q) for q in p.values()]))
+    # ... and the estimate over repeated experiments of the same size (per observer, its trials spread evenly)
+    sampled = []
+    for _ in range(REPLICATIONS):
+        c = np.zeros((k, k))
+        for i, n in trials.items():
+            for s in range(k):
+                c[s] += rng.multinomial(n // k, p[i][s])
+        sampled.append(information.information_transfer(c).corrected)
+    low, high = np.percentile(sampled, [2.5, 97.5])
+    return got, exact, (float(low), float(high))
+
+
+def test_the_reduced_battery_recovers_every_devices_truths(battery):
+    model, text, result, observers, people = battery
+    print(f"{model}: {result.trials} trials of {PARTICIPANTS} participants in {WALL_S[model]:.0f} s wall "
+          f"({result.virtual_s:.0f} s virtual), {WORKERS} workers")
+    failures = check_staircase_parts(model, text, observers, people)
+    assert not failures, "\n".join(failures)
+
+
+def test_information_transfer_within_its_truths_interval(battery):
+    model, text, result, observers, people = battery
+    plan = {p.part.id: p for p in plan_for(model)}["angle_identification"]
+    if not plan.runs:
+        assert plan.reason and not any(o["design"] == "identification" for o in observers)
+        return
+    got, exact, (low, high) = identification_check(result.data_dir / "viestac.sqlite", people)
+    print(f"{model} angle_identification: IT {got:.3f} bits; truth {exact:.3f} bits, its estimate's 95 % "
+          f"interval at this size [{low:.3f}, {high:.3f}]")
+    assert low <= got <= high
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", BUILT_IN)
+def test_the_full_battery_recovers_its_truths(model, tmp_path):
+    """The checked-in battery file as it is (every part at its full trial count, positioning too)."""
+    text = battery_study(model)
+    result, observers, people = simulate(model, text, tmp_path)
+    print(f"{model} (full): {result.trials} trials of {PARTICIPANTS} participants in {WALL_S[model]:.0f} s wall "
+          f"({result.virtual_s:.0f} s virtual), {WORKERS} workers")
+    failures = check_staircase_parts(model, text, observers, people)
+    assert not failures, "\n".join(failures)
+    if any(p.runs for p in plan_for(model) if p.part.id == "angle_identification"):
+        got, exact, (low, high) = identification_check(result.data_dir / "viestac.sqlite", people)
+        print(f"{model} angle_identification (full): IT {got:.3f} bits; truth {exact:.3f}, [{low:.3f}, {high:.3f}]")
+        assert low <= got <= high
