@@ -38,3 +38,13 @@ def live_server():
 def own_server():
     """A server of the test module's own, for tests that kill, stall or flood it."""
     yield from serve()
+
+
+@pytest.fixture(scope="session")
+def report_card_battery(tmp_path_factory):
+    """model → data directory of the report card's small simulated batteries (tests/report,
+    tests/browser/test_report_card.py), simulated once per test run: never reused from an earlier
+    run, so the data always come from the code under test."""
+    from tests.report.battery_data import battery_data
+
+    return battery_data(tmp_path_factory.mktemp("report-card-battery"))

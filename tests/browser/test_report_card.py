@@ -15,7 +15,6 @@ import pytest
 from server.analysis.report import fmt
 from server.report.run import PAGE, STATS, report_devices
 from tests.browser.conftest import ARTIFACTS
-from tests.report.battery_data import battery_data
 
 pytestmark = pytest.mark.browser
 
@@ -29,8 +28,8 @@ NUMBERS_JS = """() => [...document.querySelectorAll('[data-stat]')].map(e =>
 
 
 @pytest.fixture(scope="module")
-def card(request, tmp_path_factory) -> Path:
-    data = battery_data(request.config.cache.mkdir("report-card-battery"))
+def card(report_card_battery, tmp_path_factory) -> Path:
+    data = report_card_battery
     out = tmp_path_factory.mktemp("card")
     report_devices(list(data.values()), out)
     return out

@@ -83,8 +83,8 @@ CARRIERS = ("f80", "f250")
 
 
 def battery_data(directory: Path) -> dict[str, Path]:
-    """model → data directory of its simulated battery; reused while the study files are the same
-    (the simulation is seeded, so the same file gives the same data)."""
+    """model → data directory of its simulated battery in `directory` (seeded: the same file gives
+    the same data; a directory that already holds a model's run for the same file reuses it)."""
     import hashlib
 
     out = {}

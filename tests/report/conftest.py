@@ -1,9 +1,7 @@
 import pytest
 
-from tests.report.battery_data import battery_data
-
 
 @pytest.fixture(scope="session")
-def battery(request):
-    """model → data directory of the small simulated batteries (kept in pytest's cache)."""
-    return battery_data(request.config.cache.mkdir("report-card-battery"))
+def battery(report_card_battery):
+    """model → data directory of the small simulated batteries (tests/conftest.py)."""
+    return report_card_battery
