@@ -135,17 +135,23 @@ def test_render_allocates_no_arrays():
     synth.set(1, Stimulus("texture", 0.5, 100.0, duty=0.3))
     for _ in range(5):
         synth.render(out)
-    synth.set(0, Stimulus("sine", 0.2, 250.0, start=synth.sample + 100, duration=5000))
-    tracemalloc.start()
-    try:
-        before = tracemalloc.get_traced_memory()[0]
-        for _ in range(200):
-            synth.render(out)
-        current, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
-    assert peak - before < 8 * frames
-    assert current - before < 1024
+    # tracemalloc sees every thread: another test's leftover thread may allocate in the window now
+    # and then, a temporary array in render would show in every window; so the least of three,
+    # each window the same work (a timed sine starting in it, the texture going on)
+    grown = []
+    for _ in range(3):
+        synth.set(0, Stimulus("sine", 0.2, 250.0, start=synth.sample + 100, duration=5000))
+        tracemalloc.start()
+        try:
+            before = tracemalloc.get_traced_memory()[0]
+            for _ in range(200):
+                synth.render(out)
+            current, peak = tracemalloc.get_traced_memory()
+        finally:
+            tracemalloc.stop()
+        grown.append((peak - before, current - before))
+    assert min(p for p, _ in grown) < 8 * frames, grown
+    assert min(c for _, c in grown) < 1024, grown
 
 
 def test_bad_stimuli_and_oversized_blocks_are_refused():
