@@ -457,7 +457,6 @@ def _study_power(args: argparse.Namespace, participants: list[int]) -> int:
     import functools
 
     from server.simulate.power import run_power, text_table
-    from server.simulate.study_run import progress_bar
     from server.simulate.threshold_power import psychophysics_tasks
 
     try:
@@ -470,17 +469,11 @@ def _study_power(args: argparse.Namespace, participants: list[int]) -> int:
         print("viestac study: --trials and --target-se-db are for a psychophysics study (a task with "
               "[tasks.psychophysics]); this one's power is over --participants", file=sys.stderr)
         return 2
-    try:
-        result = run_power(args.study, participants, args.replications, out=args.out, seed=args.seed,
-                           settings=args.set, alpha=args.alpha, workers=args.workers, scheduler=args.scheduler,
-                           progress=None if args.quiet else functools.partial(progress_bar, unit="replications"))
-    except (ValueError, OSError) as exc:  # bad settings or grid, another configuration in --out (StudyError too)
-        print(f"viestac study: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"\nviestac study: interrupted; the finished replications are stored in {args.out}: the same command "
-              "continues", file=sys.stderr)
-        return 130
+    result = _replications(args, functools.partial(
+        run_power, args.study, participants, args.replications, out=args.out, seed=args.seed, settings=args.set,
+        alpha=args.alpha, workers=args.workers, scheduler=args.scheduler))
+    if isinstance(result, int):
+        return result
     print(f"power at alpha = {args.alpha:g} over {args.replications} replications per N "
           f"({result.computed} run now, {result.reused} stored) in {result.wall_s:.0f} s:")
     print(text_table(result.table, sorted(set(participants))))
@@ -488,11 +481,27 @@ def _study_power(args: argparse.Namespace, participants: list[int]) -> int:
     return 0
 
 
+def _replications(args: argparse.Namespace, run):
+    """A power analysis's run (`run(progress=…)`), or the exit code of its refusal or interruption."""
+    import functools
+
+    from server.simulate.study_run import progress_bar
+
+    try:
+        return run(progress=None if args.quiet else functools.partial(progress_bar, unit="replications"))
+    except (ValueError, OSError) as exc:  # bad settings or grid, another configuration in --out (StudyError too)
+        print(f"viestac study: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"\nviestac study: interrupted; the finished replications are stored in {args.out}: the same command "
+              "continues", file=sys.stderr)
+        return 130
+
+
 def _threshold_power(args: argparse.Namespace, participants: list[int]) -> int:
     """--power on a psychophysics study: the threshold's SE per trial count (docs/power.md)."""
     import functools
 
-    from server.simulate.study_run import progress_bar
     from server.simulate.threshold_power import TARGET_SE_DB, run_threshold_power, text_table
 
     if len(participants) != 1:
@@ -504,20 +513,12 @@ def _threshold_power(args: argparse.Namespace, participants: list[int]) -> int:
     except ValueError:
         print(f"viestac study: --trials takes whole numbers separated by commas, got {args.trials!r}", file=sys.stderr)
         return 2
-    try:
-        result = run_threshold_power(args.study, participants[0], args.replications, out=args.out, trials=trials,
-                                     target_se_db=TARGET_SE_DB if args.target_se_db is None else args.target_se_db,
-                                     seed=args.seed,
-                                     settings=args.set, workers=args.workers, scheduler=args.scheduler,
-                                     progress=None if args.quiet else functools.partial(progress_bar,
-                                                                                        unit="replications"))
-    except (ValueError, OSError) as exc:
-        print(f"viestac study: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"\nviestac study: interrupted; the finished replications are stored in {args.out}: the same command "
-              "continues", file=sys.stderr)
-        return 130
+    result = _replications(args, functools.partial(
+        run_threshold_power, args.study, participants[0], args.replications, out=args.out, trials=trials,
+        target_se_db=TARGET_SE_DB if args.target_se_db is None else args.target_se_db, seed=args.seed,
+        settings=args.set, workers=args.workers, scheduler=args.scheduler))
+    if isinstance(result, int):
+        return result
     print(f"threshold standard error over {args.replications} × {participants[0]} simulated participants "
           f"({result.computed} replications run now, {result.reused} stored) in {result.wall_s:.0f} s:")
     print(text_table(result.table, result.trials))
