@@ -426,18 +426,58 @@ def _battery(args: argparse.Namespace) -> int:
     from server.battery.study_file import battery_study, extra_tasks
 
     try:
+        targets = _part_assignments(args.target_se, "--target-se", float)
+        trials = _part_assignments(args.trials, "--trials", int)
+        if args.trial_counts:
+            return _battery_trial_counts(targets, args.observers, args.seed)
+        if not args.device or not args.out:
+            raise ValueError("--device and --out are required (or --trial-counts for the power analysis alone)")
+        if targets:
+            from server.battery.trial_counts import counts_for_targets
+            trials = {**counts_for_targets(targets, args.observers, args.seed), **trials}
         extra = extra_tasks(Path(args.add_parts).read_text(encoding="utf-8"), args.add_parts) if args.add_parts else ()
-        text = battery_study(args.device, extra, participants=args.participants)
+        text = battery_study(args.device, extra, participants=args.participants, trials=trials)
     except (ProfileError, ValueError, OSError) as exc:  # StudyError is a ValueError: it names the field
         print(f"viestac battery: {exc}", file=sys.stderr)
         return 2
     Path(args.out).write_text(text, encoding="utf-8")
-    plans = plan_for(args.device)
+    plans = plan_for(args.device, trials)
     for plan in plans:
         print(f"  {plan.part.id:<22} " + (f"{plan.trials:>4} trials {plan.minutes:>5.1f} min" if plan.runs
                                            else f"skipped: {plan.reason}"))
     print(f"{sum(p.minutes for p in plans if p.runs):.1f} min per participant; written to {args.out}")
     return 0
+
+
+def _battery_trial_counts(targets: dict, observers: int, seed: int) -> int:
+    """Print the battery's power analysis; say whether parts.TRIALS is what it derives."""
+    from server.battery import trial_counts
+    from server.battery.parts import TRIALS
+
+    counts, rows = trial_counts.derive(observers=observers, seed=seed, targets=targets)
+    print(trial_counts.report(counts, rows, observers, seed))
+    differ = {k: (TRIALS[k], c.trials) for k, c in counts.items() if TRIALS[k] != c.trials}
+    if differ:
+        print("differs from the battery's defaults (server/battery/parts.py TRIALS): "
+              + ", ".join(f"{k} {old} -> {new}" for k, (old, new) in differ.items()))
+    else:
+        print("the battery's defaults (server/battery/parts.py TRIALS) are these counts")
+    return 0
+
+
+def _part_assignments(values: list[str] | None, option: str, kind: type) -> dict:
+    """["stiffness=0.05", ...] as {"stiffness": 0.05}; ValueError naming the bad one."""
+    out = {}
+    for value in values or ():
+        name, sep, number = value.partition("=")
+        try:
+            if not sep or not name.strip():
+                raise ValueError
+            out[name.strip()] = kind(number)
+        except ValueError:
+            raise ValueError(f"{option} takes PART={'N' if kind is int else 'VALUE'} (e.g. stiffness="
+                             f"{'40' if kind is int else '0.05'}), got {value!r}") from None
+    return out
 
 
 def _participant_list(text: str) -> list[int]:
@@ -896,8 +936,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     battery = sub.add_parser("battery", help="the device battery as a study file for one device: every part the "
                                              "device can show, the rest listed as skipped with why (docs/battery.md)")
-    battery.add_argument("--device", required=True, metavar="MODEL", help="a built-in or audio device model")
-    battery.add_argument("--out", required=True, metavar="FILE", help="the study file to write")
+    battery.add_argument("--device", metavar="MODEL", help="a built-in or audio device model (required unless "
+                                                           "--trial-counts)")
+    battery.add_argument("--out", metavar="FILE", help="the study file to write (required unless --trial-counts)")
+    battery.add_argument("--trials", action="append", metavar="PART=N", help="a part's main trials instead of the "
+                         "power analysis's default (repeatable)")
+    battery.add_argument("--target-se", action="append", metavar="PART=VALUE", help="a part's trial count from the "
+                         "power analysis for this per-participant SE instead of the part's own target (repeatable)")
+    battery.add_argument("--trial-counts", action="store_true", help="print the power analysis behind the trial "
+                         "counts (per-participant SE of every part against its trials) and exit")
+    battery.add_argument("--observers", type=int, default=500, metavar="N", help="synthetic observers of the power "
+                         "analysis (default 500)")
+    battery.add_argument("--seed", type=int, default=38, metavar="S", help="the power analysis's seed (default 38)")
     battery.add_argument("--add", dest="add_parts", metavar="FILE", help="a TOML file of [[tasks]] tables: a lab's own parts, "
                          "appended and counterbalanced with the rest")
     battery.add_argument("--participants", type=int, default=12, metavar="N")

@@ -20,6 +20,7 @@ from typing import Any, Mapping
 from devices.capability import check as capability_check
 from devices.profiles import profile_by_model
 from scenarios import registry
+from server.core.did_you_mean import did_you_mean
 from server.experiment.psychophysics_task import device_refusal
 
 CARRIERS_HZ = (40, 80, 160, 250, 320, 400)  # detection vs carrier where the device can vary it (issue 38)
@@ -27,15 +28,16 @@ RESPONSE_S = 1.5           # per trial after the last interval: the answer and t
 POSITIONING_TRIAL_S = 40.0  # one positioning trial: reach, hold 2 s at the target, insert (ours; docs/battery.md)
 TIMING = MappingProxyType({"lead_ms": 400, "duration_ms": 300, "isi_ms": 400})  # short, realistic 2IFC timing
 
-# Main trials per participant (per interleaved condition for detection). Chosen with the power
-# analysis (docs/battery.md "Trial counts": `viestac study --power` on the generated battery for a
-# threshold SE of about 1 dB or a tenth of the Weber fraction, see there); the sum stays within
-# about an hour per participant on every built-in device.
+# Main trials per participant (per interleaved condition for detection): the power analysis's
+# (server/battery/trial_counts.py: the smallest count whose per-participant SE meets each part's
+# target_se below; `viestac battery --trial-counts` prints it, tests/battery/test_trial_counts.py
+# fails when this table is not what it derives). Positioning: the thesis's three objects.
 TRIALS = MappingProxyType({
-    "detection": 60, "amplitude_jnd": 60, "frequency_jnd": 60, "tilt_direction": 50,
-    "temperature_change": 50, "texture_period": 60, "stiffness": 60, "angle_identification": 40,
+    "detection": 60, "amplitude_jnd": 40, "frequency_jnd": 60, "tilt_direction": 80,
+    "temperature_change": 100, "texture_period": 50, "stiffness": 80, "angle_identification": 80,
     "positioning": 3,
 })
+MIN_TRIALS = 10  # fewer main trials cannot estimate anything (a staircase's first reversals)
 PRACTICE = 2  # practice trials per psychophysics part (at an easy level, not analysed)
 
 
@@ -48,6 +50,7 @@ class Part:
     parameter: str     # the stimulus scenario parameter the level drives ("" for positioning)
     unit: str
     reference: float | None = None  # the reference level of a discrimination part (None: detection, IT)
+    target_se: float = 0.0  # the per-participant standard error its trial count aims at (trial_counts.py)
 
 
 @dataclass(frozen=True)
@@ -61,16 +64,24 @@ class PartPlan:
     conditions: tuple[str, ...] = ()  # interleaved conditions (detection: f40, f80, …)
 
 
+# target_se: the per-participant standard error each part's trial count aims at (trial_counts.py):
+# detection 2 dB (a group of 12 then has about 0.6 dB from the measurement, well under the 3 dB
+# between participants); a discrimination part a fifth of the literature population's value
+# (amplitude JND 2.3 dB, Weber fractions 0.25 and 0.185, tilt 20°, temperature 0.5 °C; docs/battery.md);
+# identification 0.15 bits, a tenth of the population's IT. Ours.
 PARTS: tuple[Part, ...] = (
-    Part("detection", "Detection threshold against carrier frequency", "threshold", "intensity_pct", "%"),
-    Part("amplitude_jnd", "Amplitude discrimination (JND)", "jnd", "intensity_pct", "%", 40.0),
-    Part("frequency_jnd", "Frequency discrimination (Weber fraction)", "weber", "carrier_hz", "Hz", 160.0),
-    Part("tilt_direction", "Tilt-direction discrimination", "jnd", "direction_deg", "deg", 90.0),
-    Part("temperature_change", "Temperature-change detection", "threshold", "celsius", "°C", 32.0),
-    Part("texture_period", "Texture period discrimination (Weber fraction)", "weber", "period_us", "µs", 4000.0),
-    Part("stiffness", "Stiffness discrimination (Weber fraction)", "weber", "relative", "", 0.5),
+    Part("detection", "Detection threshold against carrier frequency", "threshold", "intensity_pct", "%",
+         target_se=2.0),
+    Part("amplitude_jnd", "Amplitude discrimination (JND)", "jnd", "intensity_pct", "%", 40.0, target_se=0.46),
+    Part("frequency_jnd", "Frequency discrimination (Weber fraction)", "weber", "carrier_hz", "Hz", 160.0,
+         target_se=0.05),
+    Part("tilt_direction", "Tilt-direction discrimination", "jnd", "direction_deg", "deg", 90.0, target_se=4.0),
+    Part("temperature_change", "Temperature-change detection", "threshold", "celsius", "°C", 32.0, target_se=0.1),
+    Part("texture_period", "Texture period discrimination (Weber fraction)", "weber", "period_us", "µs", 4000.0,
+         target_se=0.05),
+    Part("stiffness", "Stiffness discrimination (Weber fraction)", "weber", "relative", "", 0.5, target_se=0.037),
     Part("angle_identification", "Contact-angle identification (information transfer)", "it_bits",
-         "contact_angle_deg", "deg"),
+         "contact_angle_deg", "deg", target_se=0.15),
     Part("positioning", "Positioning with the device's guidance (thesis task 4)", "positioning", "", ""),
 )
 BY_ID = MappingProxyType({p.id: p for p in PARTS})
@@ -91,12 +102,13 @@ def _discrimination(part: Part, params: dict, procedure: dict, trials: int, prac
                               "procedure": procedure}}
 
 
-def _psy_task(part: Part, model: str, can_vary_carrier: bool) -> dict:
-    """The [[tasks]] table's part-specific fields (id, scenario, device, titles added by the caller)."""
+def psy_task(part: Part, model: str, can_vary_carrier: bool, trials: int | None = None) -> dict:
+    """The [[tasks]] table's part-specific fields (id, scenario, device, titles added by the caller),
+    with `trials` main trials (per carrier for detection; default TRIALS)."""
     timing = dict(TIMING)
     if part.id == "detection":
         carriers = CARRIERS_HZ if can_vary_carrier else (profile_by_model(model).carrier_hz,)
-        per = TRIALS["detection"]
+        per = TRIALS["detection"] if trials is None else trials
         staircase = _staircase(10, 0.2, 100, per, "db", [8, 4])
         return {"params": {"cue": "vibration", **timing},
                 "psychophysics": {
@@ -104,7 +116,7 @@ def _psy_task(part: Part, model: str, can_vary_carrier: bool) -> dict:
                     "practice_levels": [80],
                     "procedure": {"kind": "interleaved", "conditions": {f"f{c:g}": dict(staircase) for c in carriers}},
                     "conditions": {f"f{c:g}": {"carrier_hz": c} for c in carriers} if can_vary_carrier else {}}}
-    n = TRIALS[part.id]
+    n = TRIALS[part.id] if trials is None else trials
     ref = part.reference
     if part.id == "amplitude_jnd":
         return _discrimination(part, {"cue": "vibration", **timing},
@@ -159,8 +171,9 @@ def _trial_s(task: Mapping[str, Any]) -> float:
     return (lead + n * duration + (n - 1) * isi) / 1000.0 + RESPONSE_S
 
 
-def plan_part(part: Part, model: str) -> PartPlan:
-    """`part` on device `model`: its task table, trials and minutes, or skipped with the check's reason."""
+def plan_part(part: Part, model: str, trials: int | None = None) -> PartPlan:
+    """`part` on device `model`: its task table, trials and minutes, or skipped with the check's
+    reason. `trials`: main trials instead of TRIALS (per carrier for detection)."""
     if part.id == "positioning":
         reason = _positioning_refusal(model)
         if reason:
@@ -170,7 +183,7 @@ def plan_part(part: Part, model: str) -> PartPlan:
         return PartPlan(part, True, None, trials, round((trials + task["practice"]) * POSITIONING_TRIAL_S / 60.0, 1),
                         MappingProxyType(task))
     can_vary_carrier = device_refusal("carrier_hz", {"cue": "vibration"}, model) is None
-    task = _psy_task(part, model, can_vary_carrier)
+    task = psy_task(part, model, can_vary_carrier, trials)
     fixed = [dict(task["params"], **c) for c in task["psychophysics"].get("conditions", {}).values()] or [task["params"]]
     for params in fixed:
         refused = device_refusal(part.parameter, params, model)
@@ -185,8 +198,27 @@ def plan_part(part: Part, model: str) -> PartPlan:
                     MappingProxyType(task), conditions)
 
 
-def plan_for(device_model: str) -> tuple[PartPlan, ...]:
+def plan_for(device_model: str, trials: Mapping[str, int] | None = None) -> tuple[PartPlan, ...]:
     """Every part on `device_model` (a built-in or audio profile): runnable, or skipped with the
-    capability check's reason. ProfileError for an unknown model."""
+    capability check's reason. `trials`: {part id: main trials} instead of TRIALS for those parts.
+    ProfileError for an unknown model, ValueError naming a bad override."""
     profile_by_model(device_model)
-    return tuple(plan_part(part, device_model) for part in PARTS)
+    trials = dict(trials or {})
+    check_trial_overrides(trials)
+    return tuple(plan_part(part, device_model, trials.get(part.id)) for part in PARTS)
+
+
+def check_trial_overrides(trials: Mapping[str, Any]) -> None:
+    """ValueError naming the part or the count: a psychophysics part's id, a whole number of
+    trials at least MIN_TRIALS (an identification part's a multiple of its stimuli)."""
+    for part_id, count in trials.items():
+        if part_id not in BY_ID or part_id == "positioning":
+            known = [p.id for p in PARTS if p.id != "positioning"]
+            hint = " (positioning runs the thesis's three objects once each)" if part_id == "positioning" else \
+                did_you_mean(str(part_id), known)
+            raise ValueError(f"trials: {part_id!r} is not a psychophysics part of the battery{hint}")
+        if isinstance(count, bool) or not isinstance(count, int) or count < MIN_TRIALS:
+            raise ValueError(f"trials: {part_id} = {count!r}: a whole number of at least {MIN_TRIALS} expected")
+        if part_id == "angle_identification" and count % len(ANGLES_DEG):
+            raise ValueError(f"trials: angle_identification = {count}: a multiple of its {len(ANGLES_DEG)} "
+                             f"angles expected (each shown equally often)")

@@ -202,21 +202,39 @@ class PsychometricObserverModel:
         index = psy.get("stimulus_index")
         if not isinstance(index, int) or not 0 <= index < len(choices):
             raise PsyAnswerError(f"psy.stimulus_index: an index into {len(choices)} stimuli expected, got {index!r}")
-        values = _stimulus_values(psy, choices)
-        parameter = psy.get("parameter")
-        if values is not None and parameter in self.model.weber and min(values) > 0:
-            axis = np.log(values)
-            sd = self.model.weber[parameter] * self.weber_factor
-        elif values is not None and parameter in self.model.difference:
-            axis = np.asarray(values, dtype=float)
-            sd = self.model.difference[parameter] * self.weber_factor
-        else:
-            axis = np.arange(len(choices), dtype=float)
-            sd = self.model.index_sd * self.weber_factor
+        axis, sd = self._identification_axis(psy, choices)
         if self.lapse and rng.random() < self.lapse:
             return int(rng.integers(len(choices)))
         perceived = axis[index] + rng.normal(0.0, sd)
         return int(np.argmin(np.abs(axis - perceived)))
+
+    def confusion(self, psy: Mapping[str, Any]) -> np.ndarray:
+        """p[s, j]: the probability that `identify` answers j to stimulus s (each row sums to 1):
+        the Gaussian noise's mass between the midpoints around stimulus j, mixed with the lapse's
+        uniform guess. For an identification experiment's exact information transfer."""
+        from scipy.stats import norm
+
+        choices = _choices(psy)
+        k = len(choices)
+        axis, sd = self._identification_axis(psy, choices)
+        order = np.argsort(axis)
+        sorted_axis = axis[order]
+        edges = np.concatenate(([-np.inf], (sorted_axis[1:] + sorted_axis[:-1]) / 2.0, [np.inf]))
+        p = np.empty((k, k))
+        for s in range(k):
+            mass = np.diff(norm.cdf(edges, loc=axis[s], scale=sd))
+            p[s, order] = mass
+        return (1.0 - self.lapse) * p + self.lapse / k
+
+    def _identification_axis(self, psy: Mapping[str, Any], choices: Sequence) -> tuple[np.ndarray, float]:
+        """The axis `identify` puts its noise on and the noise's SD (see there)."""
+        values = _stimulus_values(psy, choices)
+        parameter = psy.get("parameter")
+        if values is not None and parameter in self.model.weber and min(values) > 0:
+            return np.log(values), self.model.weber[parameter] * self.weber_factor
+        if values is not None and parameter in self.model.difference:
+            return np.asarray(values, dtype=float), self.model.difference[parameter] * self.weber_factor
+        return np.arange(len(choices), dtype=float), self.model.index_sd * self.weber_factor
 
 
 def _choices(psy: Mapping[str, Any]) -> list:

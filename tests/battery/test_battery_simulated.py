@@ -30,6 +30,7 @@ import os
 import re
 import sqlite3
 import time
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -37,14 +38,14 @@ import pytest
 from scipy.stats import t as student_t
 
 from devices.profiles import profile_by_model
+from server.battery import trial_counts
 from server.battery.parts import PARTS, plan_for
 from server.battery.study_file import BUILT_IN, battery_study
 from server.experiment.study import parse_study
 from server.psychophysics import information
-from server.psychophysics.procedures import start
 from server.simulate.effects import population
 from server.simulate.study_run import simulate_study
-from server.simulate.threshold_power import AMPLITUDE_PARAMETERS, tracks
+from server.simulate.threshold_power import tracks
 from server.synthetic.rng import derive_rng
 
 PARTICIPANTS = 12
@@ -101,30 +102,14 @@ def target_truth(observers_of, o: dict, part, model: str) -> float:
     """The participant's own true value at the performance its staircase converges on: a 1-up/3-down
     track settles where p = 0.5 ** (1/3) = 79.4 % correct (Levitt 1971), on its own psychometric
     function (threshold, slope, guess and lapse: server/synthetic/psychometric.py). For detection the
-    level in dB re full scale at the condition's carrier; for discrimination the comparison level."""
-    observer = observers_of(o["participant"])
+    amplitude (%) at the condition's carrier; for discrimination the comparison level."""
     carrier = float(o["condition"][1:]) if o["condition"].startswith("f") else profile_by_model(model).carrier_hz
-    psy = {"parameter": o["parameter"], "level": 1.0, "reference": part.reference}
-    function, _ = observer.observer(psy, 0.5, {"carrier_hz": carrier})
-    x = function.level_at(TARGET_P)
-    if part.reference is None:
-        return 100 * 10 ** (x / 20)  # detection: dB re full scale → %
-    return part.reference + x
-
-
-def on_scale(part, parameter: str, level: float) -> float:
-    """A level on the part's measure scale: dB re full scale for a detection amplitude, the Weber
-    fraction (level / reference − 1) for a Weber part, the level itself otherwise."""
-    if part.reference is None and parameter in AMPLITUDE_PARAMETERS:
-        return 20 * math.log10(level / 100)
-    if part.measure == "weber":
-        return level / part.reference - 1
-    return level
+    return trial_counts.truth(part, observers_of(o["participant"]), {"carrier_hz": carrier}, TARGET_P)
 
 
 def recovered(observers, observers_of, model: str) -> dict[tuple[str, str], dict]:
     """Per (task, condition): each participant's recovered value (its procedure's estimate after
-    the last trial) and true value (target_truth), on the part's measure scale (on_scale)."""
+    the last trial) and true value (target_truth), on the part's measure scale (trial_counts.measure_of: dB for detection and the amplitude JND)."""
     by_id = {p.id: p for p in PARTS}
     groups: dict[tuple[str, str], dict] = {}
     for o in observers:
@@ -134,8 +119,8 @@ def recovered(observers, observers_of, model: str) -> dict[tuple[str, str], dict
         assert estimates, f"{o['task']}/{o['condition']}: participant {o['participant']} has no estimate"
         part = by_id[o["task"]]
         group = groups.setdefault((o["task"], o["condition"]), {"values": [], "truths": [], "part": part})
-        group["values"].append(on_scale(part, o["parameter"], estimates[-1]))
-        group["truths"].append(on_scale(part, o["parameter"], target_truth(observers_of, o, part, model)))
+        group["values"].append(trial_counts.measure_of(part, estimates[-1]))
+        group["truths"].append(trial_counts.measure_of(part, target_truth(observers_of, o, part, model)))
     return groups
 
 
@@ -155,26 +140,17 @@ def within_truth(values, truths, method_bias: float = 0.0) -> tuple[bool, str]:
 def procedure_bias(text: str, task: str, condition: str, observers_of, part, model: str, runs: int = BIAS_RUNS) -> float:
     """The procedure's own mean error on these observers: the task's procedure (as in the simulated
     file) run `runs` times per participant without the engine (the engine's level is a pure
-    function of the answers: the same procedure), each answered by the participant's own observer,
-    the estimate against the same truth as the simulated battery's (target_truth)."""
+    function of the answers: the same procedure; server/battery/trial_counts.py runs it), each
+    answered by the participant's own observer, against the same truth as target_truth's."""
     psy = parse_study(text, "battery").task(task).psychophysics
-    spec = dict(psy.procedure.conditions)[condition] if condition != "main" else psy.procedure
+    table = tomllib.loads(text)
+    procedure = next(t for t in table["tasks"] if t["id"] == task)["psychophysics"]["procedure"]
+    if condition != "main":
+        procedure = procedure["conditions"][condition]
     carrier = float(condition[1:]) if condition.startswith("f") else profile_by_model(model).carrier_hz
-    errors = []
-    for index in range(PARTICIPANTS):
-        observer = observers_of(index)
-        truth = target_truth(observers_of, {"participant": index, "condition": condition, "parameter": psy.parameter},
-                             part, model)
-        rng = derive_rng("battery-procedure-bias", SEED, task, condition, index)
-        for _ in range(runs):
-            procedure = start(spec, int(rng.integers(2 ** 31)))
-            while not procedure.finished:
-                target = int(rng.integers(1, 3))
-                record = {"design": "2ifc", "parameter": psy.parameter, "level": procedure.level,
-                          "reference": part.reference, "target": target, "choices": ["1", "2"]}
-                procedure.update(observer.answer(record, rng, {"carrier_hz": carrier}) == str(target))
-            errors.append(on_scale(part, psy.parameter, procedure.estimate()) - on_scale(part, psy.parameter, truth))
-    return float(np.mean(errors))
+    errors = trial_counts.staircase_errors(part, procedure, {"carrier_hz": carrier}, (psy.max_trials,), observers_of,
+                                           PARTICIPANTS, SEED, condition, runs=runs)
+    return float(np.nanmean(errors))
 
 
 def check_staircase_parts(model, text, observers, people) -> list[str]:
@@ -218,18 +194,11 @@ def identification_check(db: Path, people) -> tuple[float, float, tuple[float, f
         trials[index] = trials.get(index, 0) + 1
     assert len(trials) == PARTICIPANTS
     got = information.information_transfer(confusion).corrected
-    # the truth: each observer's confusion probabilities (many draws of its identify) ...
-    observers_ = {i: people.participant(SEED, i).psychometric for i in trials}
+    # the truth: each observer's confusion probabilities (the exact ones its identify draws from) ...
     psy = {"parameter": "contact_angle_deg", "choices": [f"{a:g}" for a in ANGLES_DEG],
            "stimuli": list(ANGLES_DEG)}
+    p = {i: people.participant(SEED, i).psychometric.confusion(psy) for i in trials}
     rng = derive_rng("battery-it-truth", SEED)
-    p = {}
-    for i, observer in observers_.items():
-        q = np.zeros((k, k))
-        for s in range(k):
-            for _ in range(2000):
-                q[s, observer.identify({**psy, "stimulus_index": s}, rng)] += 1
-        p[i] = q / q.sum(axis=1, keepdims=True)
     exact = float(np.mean([information.from_distribution(q) for q in p.values()]))
     # ... and the estimate over repeated experiments of the same size (per observer, its trials spread evenly)
     sampled = []
