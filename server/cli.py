@@ -433,7 +433,7 @@ def _battery(args: argparse.Namespace) -> int:
         if not args.device or not args.out:
             raise ValueError("--device and --out are required (or --trial-counts for the power analysis alone)")
         if targets:
-            from server.battery.trial_counts import counts_for_targets
+            from server.simulate.battery_trial_counts import counts_for_targets
             trials = {**counts_for_targets(targets, args.observers, args.seed), **trials}
         extra = extra_tasks(Path(args.add_parts).read_text(encoding="utf-8"), args.add_parts) if args.add_parts else ()
         text = battery_study(args.device, extra, participants=args.participants, trials=trials)
@@ -451,7 +451,7 @@ def _battery(args: argparse.Namespace) -> int:
 
 def _battery_trial_counts(targets: dict, observers: int, seed: int) -> int:
     """Print the battery's power analysis; say whether parts.TRIALS is what it derives."""
-    from server.battery import trial_counts
+    from server.simulate import battery_trial_counts as trial_counts
     from server.battery.parts import TRIALS
 
     counts, rows = trial_counts.derive(observers=observers, seed=seed, targets=targets)

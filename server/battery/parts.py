@@ -29,12 +29,12 @@ POSITIONING_TRIAL_S = 40.0  # one positioning trial: reach, hold 2 s at the targ
 TIMING = MappingProxyType({"lead_ms": 400, "duration_ms": 300, "isi_ms": 400})  # short, realistic 2IFC timing
 
 # Main trials per participant (per interleaved condition for detection): the power analysis's
-# (server/battery/trial_counts.py: the smallest count whose per-participant SE meets each part's
+# (server/simulate/battery_trial_counts.py: the smallest count whose per-participant SE meets each part's
 # target_se below; `viestac battery --trial-counts` prints it, tests/battery/test_trial_counts.py
 # fails when this table is not what it derives). Positioning: the thesis's three objects.
 TRIALS = MappingProxyType({
-    "detection": 60, "amplitude_jnd": 40, "frequency_jnd": 60, "tilt_direction": 80,
-    "temperature_change": 100, "texture_period": 50, "stiffness": 80, "angle_identification": 80,
+    "detection": 60, "amplitude_jnd": 40, "frequency_jnd": 50, "tilt_direction": 80,
+    "temperature_change": 120, "texture_period": 50, "stiffness": 80, "angle_identification": 80,
     "positioning": 3,
 })
 MIN_TRIALS = 10  # fewer main trials cannot estimate anything (a staircase's first reversals)
@@ -50,7 +50,7 @@ class Part:
     parameter: str     # the stimulus scenario parameter the level drives ("" for positioning)
     unit: str
     reference: float | None = None  # the reference level of a discrimination part (None: detection, IT)
-    target_se: float = 0.0  # the per-participant standard error its trial count aims at (trial_counts.py)
+    target_se: float = 0.0  # the per-participant standard error its trial count aims at (server/simulate/battery_trial_counts.py)
 
 
 @dataclass(frozen=True)
@@ -64,7 +64,7 @@ class PartPlan:
     conditions: tuple[str, ...] = ()  # interleaved conditions (detection: f40, f80, …)
 
 
-# target_se: the per-participant standard error each part's trial count aims at (trial_counts.py):
+# target_se: the per-participant standard error each part's trial count aims at (server/simulate/battery_trial_counts.py):
 # detection 2 dB (a group of 12 then has about 0.6 dB from the measurement, well under the 3 dB
 # between participants); a discrimination part a fifth of the literature population's value
 # (amplitude JND 2.3 dB, Weber fractions 0.25 and 0.185, tilt 20°, temperature 0.5 °C; docs/battery.md);

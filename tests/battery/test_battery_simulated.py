@@ -10,7 +10,10 @@ truth's 95 % interval.
   values (the level where their own psychometric function gives 79.4 % correct, the point a
   1-up/3-down staircase converges on, Levitt 1971): the 95 % interval of the group's mean recovery error
   (t on 11 degrees of freedom) contains 0, and the group's mean recovered value lies within the
-  truth's 95 % interval (mean true value ± that interval's half width).
+  truth's 95 % interval (mean true value ± that interval's half width). And the spread of the
+  engine's recovery errors is the spread the power analysis behind the trial counts predicts (the
+  same procedure run without the engine by the same observers: an F test of the variances), so
+  the counts' standard errors hold for the engine.
 - Information transfer (identification): the pooled confusion matrix's Miller–Madow IT lies
   within the 95 % interval of the same estimate from the same observers over REPLICATIONS repeated
   experiments of the same size (the truth's sampling interval); the exact IT of those observers
@@ -35,10 +38,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.stats import f as f_dist
 from scipy.stats import t as student_t
 
 from devices.profiles import profile_by_model
-from server.battery import trial_counts
+from server.simulate import battery_trial_counts as trial_counts
 from server.battery.parts import PARTS, plan_for
 from server.battery.study_file import BUILT_IN, battery_study
 from server.experiment.study import parse_study
@@ -53,7 +57,8 @@ SEED = 38
 WORKERS = 2
 REDUCED_FACTOR = 0.5
 REPLICATIONS = 400
-BIAS_RUNS = 30  # procedure-only runs per participant for the procedure's own bias
+BIAS_RUNS = 30  # procedure-only runs per participant for the procedure's own bias and spread
+COMPARISONS = 24  # parts and conditions over the four devices (4 + 5 + 5 + 10) (Bonferroni for the spread test)
 TARGET_P = 0.5 ** (1 / 3)  # a 1-up/3-down staircase's convergence point (Levitt 1971)
 WALL_S: dict[str, float] = {}
 
@@ -127,7 +132,7 @@ def recovered(observers, observers_of, model: str) -> dict[tuple[str, str], dict
 def within_truth(values, truths, method_bias: float = 0.0) -> tuple[bool, str]:
     """The group's mean recovery error against the truth's 95 % interval: t on n − 1 degrees of
     freedom of the errors' SD, widened by the procedure's own bias (`method_bias`, measured by
-    procedure_bias: what a fixed-step staircase gives these observers on average, engine or not)."""
+    procedure_errors: what a fixed-step staircase gives these observers on average, engine or not)."""
     values, truths = np.asarray(values, float), np.asarray(truths, float)
     n = len(values)
     errors = values - truths
@@ -137,10 +142,11 @@ def within_truth(values, truths, method_bias: float = 0.0) -> tuple[bool, str]:
                 f"own bias {method_bias:+.3f} included), mean error {errors.mean():+.3f}, n {n}")
 
 
-def procedure_bias(text: str, task: str, condition: str, observers_of, part, model: str, runs: int = BIAS_RUNS) -> float:
-    """The procedure's own mean error on these observers: the task's procedure (as in the simulated
+def procedure_errors(text: str, task: str, condition: str, observers_of, part, model: str,
+                     runs: int = BIAS_RUNS) -> np.ndarray:
+    """The procedure's own errors on these observers: the task's procedure (as in the simulated
     file) run `runs` times per participant without the engine (the engine's level is a pure
-    function of the answers: the same procedure; server/battery/trial_counts.py runs it), each
+    function of the answers: the same procedure; server/simulate/battery_trial_counts.py runs it), each
     answered by the participant's own observer, against the same truth as target_truth's."""
     psy = parse_study(text, "battery").task(task).psychophysics
     table = tomllib.loads(text)
@@ -149,8 +155,18 @@ def procedure_bias(text: str, task: str, condition: str, observers_of, part, mod
         procedure = procedure["conditions"][condition]
     carrier = float(condition[1:]) if condition.startswith("f") else profile_by_model(model).carrier_hz
     errors = trial_counts.staircase_errors(part, procedure, {"carrier_hz": carrier}, (psy.max_trials,), observers_of,
-                                           PARTICIPANTS, SEED, condition, runs=runs)
-    return float(np.nanmean(errors))
+                                           PARTICIPANTS, SEED, condition, runs=runs)[:, 0]
+    return errors[np.isfinite(errors)]
+
+
+def same_spread(engine_errors, free_errors, comparisons: int) -> tuple[bool, str]:
+    """The engine's per-participant error SD against the engine-free run's (the power analysis's
+    SE, server/simulate/battery_trial_counts.py): a two-sided F test of the two variances at
+    0.05 / comparisons (Bonferroni over every part and condition of the module)."""
+    a, b = np.asarray(engine_errors, float), np.asarray(free_errors, float)
+    f = a.var(ddof=1) / b.var(ddof=1)
+    p = 2 * min(f_dist.cdf(f, len(a) - 1, len(b) - 1), f_dist.sf(f, len(a) - 1, len(b) - 1))
+    return p > 0.05 / comparisons, f"engine SD {a.std(ddof=1):.3f}, engine-free SE {b.std(ddof=1):.3f} (F test p {p:.3g})"
 
 
 def check_staircase_parts(model, text, observers, people) -> list[str]:
@@ -165,11 +181,12 @@ def check_staircase_parts(model, text, observers, people) -> list[str]:
     failures = []
     for key, group in sorted(groups.items()):
         assert len(group["values"]) == PARTICIPANTS, key
-        bias = procedure_bias(text, key[0], key[1], observers_of, group["part"], model)
-        ok, summary = within_truth(group["values"], group["truths"], bias)
-        print(f"{model} {key[0]}/{key[1]}: {summary}")
-        if not ok:
-            failures.append(f"{key[0]}/{key[1]}: {summary}")
+        free = procedure_errors(text, key[0], key[1], observers_of, group["part"], model)
+        ok, summary = within_truth(group["values"], group["truths"], float(free.mean()))
+        spread_ok, spread = same_spread(np.subtract(group["values"], group["truths"]), free, COMPARISONS)
+        print(f"{model} {key[0]}/{key[1]}: {summary}; {spread}")
+        if not (ok and spread_ok):
+            failures.append(f"{key[0]}/{key[1]}: {summary}; {spread}")
     return failures
 
 

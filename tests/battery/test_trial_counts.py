@@ -1,5 +1,5 @@
 """The battery's default trial counts come from the power analysis (issue 38 point 1,
-docs/battery.md "Trial counts"): server/battery/trial_counts.py runs each part's procedure
+docs/battery.md "Trial counts"): server/simulate/battery_trial_counts.py runs each part's procedure
 without the engine for the literature's synthetic observers, and parts.TRIALS is what it derives;
 a lab changes a count or a target from the command line, and bad values are refused by name."""
 
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.stats import chisquare
 
-from server.battery import trial_counts
+from server.simulate import battery_trial_counts as trial_counts
 from server.battery.parts import BY_ID, PARTS, TRIALS, plan_for
 from server.battery.study_file import battery_study
 from server.synthetic.psychometric import LITERATURE

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from types import SimpleNamespace
 from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
@@ -28,7 +29,8 @@ import numpy as np
 from server.battery.parts import ANGLES_DEG, PARTS, Part, psy_task
 from server.core.did_you_mean import did_you_mean
 from server.psychophysics import information
-from server.psychophysics.procedures import parse_procedure, start
+from server.psychophysics import simulate
+from server.psychophysics.procedures import parse_procedure
 from server.synthetic.psychometric import LITERATURE
 from server.synthetic.rng import derive_rng
 
@@ -107,23 +109,23 @@ def staircase_errors(part: Part, procedure_table: Mapping[str, Any], stimulus: M
     spec = parse_procedure(dict(procedure_table))
     p = target_p(spec)
     errors = np.full((observers * runs, len(grid)), np.nan)
+    at = {count: i for i, count in enumerate(grid)}
+    record = {"design": "2ifc", "parameter": part.parameter, "reference": part.reference, "choices": ["1", "2"]}
     for index in range(observers):
         person = person_of(index)
         true = measure_of(part, truth(part, person, stimulus, p))
+        answering = SimpleNamespace(probability=lambda level, person=person: person.probability(
+            {**record, "level": level}, stimulus))
         rng = derive_rng("battery-trial-counts", seed, part.id, condition, index)
-        record = {"design": "2ifc", "parameter": part.parameter, "reference": part.reference, "choices": ["1", "2"]}
         for run in range(runs):
-            procedure = start(spec, int(rng.integers(2 ** 31)))
-            done = 0
-            for i, count in enumerate(grid):
-                while done < count and not procedure.finished:
-                    target = int(rng.integers(1, 3))
-                    answer = person.answer({**record, "level": procedure.level, "target": target}, rng, stimulus)
-                    procedure.update(answer == str(target))
-                    done += 1
-                estimate = procedure.estimate()
+            row = index * runs + run
+
+            def after(procedure, trials, row=row, true=true):
+                estimate = procedure.estimate() if trials in at else None
                 if estimate is not None and math.isfinite(estimate):
-                    errors[index * runs + run, i] = measure_of(part, estimate) - true
+                    errors[row, at[trials]] = measure_of(part, estimate) - true
+
+            simulate.run(spec, answering, rng, seed=int(rng.integers(2 ** 31)), max_trials=grid[-1], after=after)
     return errors
 
 
@@ -228,7 +230,7 @@ def report(counts: dict[str, Count], rows: list[Precision], observers: int = OBS
                      + (f", set by {count.worst}" if count.worst not in ("", "main") else ""))
         for condition in dict.fromkeys(r.condition for r in rows if r.part == part_id):
             mine = [r for r in rows if r.part == part_id and r.condition == condition]
-            lines.append(f"  {condition:>6}  trials " + "".join(f"{r.trials:>8}" for r in mine))
-            lines.append(f"  {'':>6}  SE     " + "".join(f"{r.se:>8.3g}" for r in mine))
-            lines.append(f"  {'':>6}  bias   " + "".join(f"{r.bias:>8.2g}" for r in mine))
+            lines.append(f"  {condition:>6}  trials " + "".join(f"{r.trials:>9}" for r in mine))
+            lines.append(f"  {'':>6}  SE     " + "".join(f"{r.se:>9.3g}" for r in mine))
+            lines.append(f"  {'':>6}  bias   " + "".join(f"{r.bias:>9.2g}" for r in mine))
     return "\n".join(lines)
