@@ -9,7 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from server.battery.parts import plan_for
+from server.battery.parts import ANGLES_DEG, plan_for
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -25,36 +25,35 @@ def _toml(value) -> str:
     return "{ " + ", ".join(f"{json.dumps(str(k))} = {_toml(v)}" for k, v in dict(value).items()) + " }"
 
 
-def _shrink(task: dict, trials: int | None, carriers: tuple[str, ...] | None) -> dict:
+def _only_carriers(task: dict, carriers: tuple[str, ...] | None) -> dict:
+    """The task with its interleaved detection conditions cut to `carriers` (all where none match)."""
     task = json.loads(json.dumps(task, default=dict))
     psy = task.get("psychophysics")
-    if psy is None or trials is None:
+    if psy is None or psy["procedure"]["kind"] != "interleaved" or carriers is None:
         return task
     proc = psy["procedure"]
-    if proc["kind"] == "interleaved":
-        keep = [c for c in proc["conditions"] if carriers is None or c in carriers] or list(proc["conditions"])
-        proc["conditions"] = {c: {**proc["conditions"][c], "max_trials": trials} for c in keep}
-        if psy.get("conditions"):
-            psy["conditions"] = {c: psy["conditions"][c] for c in keep}
-        psy["max_trials"] = trials * len(keep)
-    elif proc["kind"] == "constant":
-        proc["repeats"] = max(1, trials // len(proc["levels"]))
-        psy["max_trials"] = proc["repeats"] * len(proc["levels"])
-    else:
-        proc["max_trials"] = psy["max_trials"] = trials
+    keep = [c for c in proc["conditions"] if c in carriers] or list(proc["conditions"])
+    per = psy["max_trials"] // len(proc["conditions"])
+    proc["conditions"] = {c: proc["conditions"][c] for c in keep}
+    if psy.get("conditions"):
+        psy["conditions"] = {c: psy["conditions"][c] for c in keep}
+    psy["max_trials"] = per * len(keep)
     return task
 
 
 def battery_file(model: str, parts: tuple[str, ...], trials: int | None, participants: int, directory: Path,
                  carriers: tuple[str, ...] | None = None) -> Path:
-    """battery-<model>.toml with `parts` (part ids of plan_for(model) that run), `trials` each
-    (None: the catalogue's own counts)."""
+    """battery-<model>.toml with `parts` (part ids of plan_for(model) that run), `trials` main trials
+    each (an identification part's rounded down to whole repeats; None: the catalogue's own counts)."""
     lines = [f'id = "battery-{model}"', f'title = "Battery (test) {model}"', "seed = 38",
              f"participants = {participants}", ""]
-    for plan in plan_for(model):
+    counts = {} if trials is None else {
+        p: trials - trials % len(ANGLES_DEG) if p == "angle_identification" else trials
+        for p in parts if p != "positioning"}
+    for plan in plan_for(model, counts):
         if plan.part.id not in parts or not plan.runs:
             continue
-        task = _shrink(dict(plan.task), trials, carriers)
+        task = _only_carriers(dict(plan.task), carriers)
         lines += ["[[tasks]]", f'id = "{plan.part.id}"', f"title = {_toml(plan.part.title)}",
                   f'scenario = "{"positioning" if plan.part.id == "positioning" else "stimulus"}"',
                   f'device = "{model}"']
