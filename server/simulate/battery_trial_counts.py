@@ -125,7 +125,11 @@ def staircase_errors(part: Part, procedure_table: Mapping[str, Any], stimulus: M
                 if estimate is not None and math.isfinite(estimate):
                     errors[row, at[trials]] = measure_of(part, estimate) - true
 
-            simulate.run(spec, answering, rng, seed=int(rng.integers(2 ** 31)), max_trials=grid[-1], after=after)
+            procedure, track = simulate.run(spec, answering, rng, seed=int(rng.integers(2 ** 31)),
+                                            max_trials=grid[-1], after=after)
+            for count in grid:  # a procedure that stopped early (its own max_trials): its final estimate
+                if count > len(track):
+                    after(procedure, count)
     return errors
 
 

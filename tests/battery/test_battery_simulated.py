@@ -44,7 +44,6 @@ from devices.profiles import profile_by_model
 from server.simulate import battery_trial_counts as trial_counts
 from server.battery.parts import PARTS, plan_for
 from server.battery.study_file import BUILT_IN, battery_study
-from server.experiment.study import parse_study
 from server.psychophysics import information
 from server.simulate.effects import population
 from server.simulate.study_run import simulate_study
@@ -147,15 +146,14 @@ def procedure_errors(text: str, task: str, condition: str, observers_of, part, m
     file) run `runs` times per participant without the engine (the engine's level is a pure
     function of the answers: the same procedure; server/simulate/battery_trial_counts.py runs it), each
     answered by the participant's own observer, against the same truth as target_truth's."""
-    psy = parse_study(text, "battery").task(task).psychophysics
     table = tomllib.loads(text)
     procedure = next(t for t in table["tasks"] if t["id"] == task)["psychophysics"]["procedure"]
     if condition != "main":
         procedure = procedure["conditions"][condition]
     carrier = float(condition[1:]) if condition.startswith("f") else profile_by_model(model).carrier_hz
-    errors = trial_counts.staircase_errors(part, procedure, {"carrier_hz": carrier}, (psy.max_trials,), observers_of,
-                                           PARTICIPANTS, SEED, condition, runs=runs)[:, 0]
-    return errors  # [participant · runs + run]: each participant's runs together
+    errors = trial_counts.staircase_errors(part, procedure, {"carrier_hz": carrier}, (procedure["max_trials"],),
+                                           observers_of, PARTICIPANTS, SEED, condition, runs=runs)
+    return errors[:, 0]  # [participant · runs + run]: each participant's runs together
 
 
 def same_spread(engine_errors, free_errors, comparisons: int, draws: int = 4000) -> tuple[bool, str]:
