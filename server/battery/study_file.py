@@ -122,6 +122,8 @@ def _plural(n: int, word: str) -> str:
 
 
 def _breaks(plan: PartPlan) -> str:
+    if "pacing" not in plan.task:
+        return ", experimenter-paced"
     return f", {plan.breaks} {_plural(plan.breaks, 'break')}" if plan.breaks else ""
 
 
