@@ -7,12 +7,19 @@ psychophysics part asks the study loader's own device check
 (server/experiment/psychophysics_task.device_refusal), the positioning part the scenarios'
 capability check (devices/capability.py), and a skipped part carries their words.
 
+Every psychophysics part is participant-paced (PACING, the task's `[tasks.pacing]` table): the
+participant's answer ends a trial, the next starts ITI_MS later, no feedback, a break every N trials
+with N from the part's own trial duration so that no stretch of trials is longer than STRETCH_S.
+The positioning part stays experimenter-paced (its trials end at an insertion, not an answer).
+
 Durations are computed from each task's stimulus timing (Contract C1: lead, intervals, gaps) and
-its trial counts, plus RESPONSE_S per trial for the answer and the pause before the next trial.
+its trial counts: a trial is its stimulus, ANSWER_S for the answer and the inter-trial interval;
+each break within a part counts BREAK_S.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Mapping
@@ -24,9 +31,17 @@ from server.core.did_you_mean import did_you_mean
 from server.experiment.psychophysics_task import device_refusal
 
 CARRIERS_HZ = (40, 80, 160, 250, 320, 400)  # detection vs carrier where the device can vary it (issue 38)
-RESPONSE_S = 1.5           # per trial after the last interval: the answer and the pause before the next (ours)
+ANSWER_S = 1.0             # per trial after the last interval: the participant's answer (ours)
 POSITIONING_TRIAL_S = 40.0  # one positioning trial: reach, hold 2 s at the target, insert (ours; docs/battery.md)
 TIMING = MappingProxyType({"lead_ms": 400, "duration_ms": 300, "isi_ms": 400})  # short, realistic 2IFC timing
+
+# How a psychophysics part is paced (docs/battery.md "Counterbalancing and breaks"): by the
+# participant, 1 s from an answer to the next trial's start, no feedback (feedback moves a
+# participant's criterion, and a battery compares devices measured the same way), and a break
+# (the participant continues when ready) every `break_every(...)` trials.
+PACING = MappingProxyType({"by": "participant", "iti_ms": 1000, "feedback": False})
+STRETCH_S = 300.0          # the longest stretch of trials without a break: about 5 min (ours)
+BREAK_S = 60.0             # a break within a part, as counted in the part's minutes (ours: an assumption)
 
 # Main trials per participant (per interleaved condition for detection): the power analysis's
 # (server/simulate/battery_trial_counts.py: the smallest count whose per-participant SE meets each part's
@@ -59,9 +74,10 @@ class PartPlan:
     runs: bool
     reason: str | None  # why it is skipped: the capability check's words
     trials: int         # main trials per participant (0 when skipped)
-    minutes: float      # expected duration per participant
+    minutes: float      # expected duration per participant (breaks within the part included)
     task: Mapping[str, Any] | None = field(default=None, compare=False)  # the study's [[tasks]] table (None: skipped)
     conditions: tuple[str, ...] = ()  # interleaved conditions (detection: f40, f80, …)
+    breaks: int = 0     # breaks within the part (participant-paced parts)
 
 
 # target_se: the per-participant standard error each part's trial count aims at (server/simulate/battery_trial_counts.py):
@@ -149,7 +165,8 @@ def psy_task(part: Part, model: str, can_vary_carrier: bool, trials: int | None 
 def _positioning_task(model: str) -> dict:
     """The thesis's positioning task (scenarios/positioning.py) with the device's own guidance: the
     FerroVibe's 3-DoF tilt guidance where the device tilts, else the vibration pattern P1; the three
-    objects once each, one practice trial."""
+    objects once each, one practice trial. Experimenter-paced: a trial ends at the object's insertion,
+    not at an answer the pacer could wait for, and the experimenter watches the reach and the tracking."""
     tilts = device_refusal("direction_deg", {"cue": "tilt"}, model) is None
     cue = "3dof" if tilts else "P1"
     from scenarios.positioning import ITEM_IDS
@@ -163,12 +180,18 @@ def _positioning_refusal(model: str) -> str | None:
     return None if report.ok else report.message
 
 
-def _trial_s(task: Mapping[str, Any]) -> float:
-    """One trial's duration: the stimulus (Contract C1 timing) and RESPONSE_S."""
+def trial_s(task: Mapping[str, Any]) -> float:
+    """One paced trial's duration, start to start: the stimulus (Contract C1 timing), ANSWER_S and the
+    inter-trial interval."""
     params, psy = task["params"], task["psychophysics"]
     n = 1 if psy["design"] in ("yes-no", "identification") else 2
     lead, duration, isi = (params.get(k, d) for k, d in (("lead_ms", 500), ("duration_ms", 500), ("isi_ms", 500)))
-    return (lead + n * duration + (n - 1) * isi) / 1000.0 + RESPONSE_S
+    return (lead + n * duration + (n - 1) * isi) / 1000.0 + ANSWER_S + PACING["iti_ms"] / 1000.0
+
+
+def break_every(task: Mapping[str, Any]) -> int:
+    """Trials between two breaks of a paced part: as many as fit in STRETCH_S (at least one)."""
+    return max(1, math.floor(STRETCH_S / trial_s(task)))
 
 
 def plan_part(part: Part, model: str, trials: int | None = None) -> PartPlan:
@@ -193,9 +216,13 @@ def plan_part(part: Part, model: str, trials: int | None = None) -> PartPlan:
     trials = psy["max_trials"]
     practice = len(psy.get("practice_levels", ())) and PRACTICE
     task = {**task, "practice": practice} if practice else task
+    every = break_every(task)
+    task = {**task, "pacing": {**PACING, "break_every": every}}
+    paced = trials + practice  # the pacer runs the practice trials too, and counts them towards a break
+    breaks = (paced - 1) // every  # never after the part's last trial
     conditions = tuple(psy["procedure"]["conditions"]) if psy["procedure"]["kind"] == "interleaved" else ()
-    return PartPlan(part, True, None, trials, round((trials + practice) * _trial_s(task) / 60.0, 1),
-                    MappingProxyType(task), conditions)
+    return PartPlan(part, True, None, trials, round((paced * trial_s(task) + breaks * BREAK_S) / 60.0, 1),
+                    MappingProxyType(task), conditions, breaks)
 
 
 def plan_for(device_model: str, trials: Mapping[str, int] | None = None) -> tuple[PartPlan, ...]:

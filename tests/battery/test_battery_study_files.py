@@ -1,6 +1,7 @@
 """The battery as study files (issue 38 point 1, docs/battery.md): one per device from the parts
 catalogue, what a device cannot show skipped with the capability check's words (never silently
-missing), the parts in a counterbalanced order, a lab's own part added with a study-file table, and
+missing), the parts in a counterbalanced order, every psychophysics part participant-paced with
+breaks and its minutes counting them (point 4), a lab's own part added with a study-file table, and
 the checked-in files equal to what `viestac battery` writes now."""
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import pytest
 
 from devices.capability import check
 from devices.profiles import ProfileError
-from server.battery.parts import CARRIERS_HZ, PARTS, plan_for
+from server.battery.parts import ANSWER_S, BREAK_S, CARRIERS_HZ, PACING, PARTS, POSITIONING_TRIAL_S, STRETCH_S, plan_for
 from server.battery.study_file import BUILT_IN, battery_study, extra_tasks
 from server.experiment.plan import plan_session, task_order
 from server.experiment.psychophysics_task import device_refusal
@@ -103,6 +104,32 @@ def test_the_parts_run_in_a_balanced_latin_order_and_a_battery_fits_in_about_an_
         for position in range(len(ids)):  # each part once in each position
             assert sorted(o[position] for o in orders) == sorted(ids)
         assert 10 <= sum(p.minutes for p in plan_for(model) if p.runs) <= 60
+
+
+@pytest.mark.parametrize("model", BUILT_IN)
+def test_every_psychophysics_part_is_participant_paced_with_a_break_at_least_every_five_minutes(model):
+    path = ROOT / "studies" / f"battery-{model}.toml"
+    study = load_study(path)
+    assert STRETCH_S <= 5 * 60
+    for plan in (p for p in plan_for(model) if p.runs):
+        task = study.task(plan.part.id)
+        if plan.part.id == "positioning":  # its trials end at an insertion, not an answer: the experimenter's
+            assert not task.pacing.paced and plan.breaks == 0
+            assert plan.minutes == round((plan.trials + task.practice) * POSITIONING_TRIAL_S / 60, 1)
+            continue
+        pacing, params = task.pacing, task.params
+        assert pacing.paced and not pacing.feedback and pacing.iti_ms == PACING["iti_ms"]
+        n = task.psychophysics.design.intervals
+        trial_s = ((params["lead_ms"] + n * params["duration_ms"] + (n - 1) * params["isi_ms"]) / 1000
+                   + ANSWER_S + pacing.iti_ms / 1000)  # a trial, start to start: stimulus, answer, interval
+        # the most trials that fit in the stretch: no stretch longer, one trial more would be
+        assert pacing.break_every * trial_s <= STRETCH_S < (pacing.break_every + 1) * trial_s
+        paced = plan.trials + task.practice  # the pacer paces and counts the practice trials too
+        assert plan.breaks == (paced - 1) // pacing.break_every  # never after the last trial
+        assert plan.minutes == round((paced * trial_s + plan.breaks * BREAK_S) / 60, 1)
+    text = path.read_text(encoding="utf-8")
+    assert "# waits for the experimenter to start the next part (a natural break)." in text
+    assert "# experimenter-paced: its trials end at an insertion" in text
 
 
 def test_a_lab_adds_its_own_part_with_a_study_file_table_not_code(tmp_path):
