@@ -37,9 +37,9 @@ from devices.profiles import profile_by_model
 from server.analysis.stats import num, t_interval
 from server.analysis.task4 import GUIDANCE_CUES
 from server.battery.parts import BY_ID, PARTS, PartPlan
-from server.report import literature
+from server.psychophysics import literature
 
-FORMAT, FORMAT_VERSION = "viestac-report-card", 1
+FORMAT, FORMAT_VERSION = "viestac-report-card", 2  # 2: the detection band as low and high edges
 MIN_PAIRS = 5          # fewer common participants: no paired test (said in `skipped`)
 # measure key → (label, how it is made from α and the part's reference)
 MEASURES = {

@@ -1,6 +1,6 @@
 """The report card's figures, drawn from stats.json's content only, as inline SVG text
 (matplotlib's object API, deterministic: fixed sizes, `svg.hashsalt`, no date). Each figure names
-the literature sources of the bands it draws (server/report/literature.py)."""
+the literature sources of the bands it draws (server/psychophysics/literature.py)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from server.analysis.figures import COLOURS
-from server.report import literature
+from server.psychophysics import literature
 
 SIZE = (10.0, 4.0)
 BAND = {"color": "#999999", "alpha": 0.25, "lw": 0}
@@ -57,8 +57,7 @@ def detection(stats: dict) -> Figure | None:
     fig = Figure(figsize=SIZE, layout="constrained")
     raw, rel = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
     band = stats["literature"]["detection"]
-    f, db = np.array(band["frequency_hz"], float), np.array(band["db_re_min"], float)
-    rel.fill_between(f, db - band["half_width_db"], db + band["half_width_db"], **BAND,
+    rel.fill_between(band["frequency_hz"], band["low_db"], band["high_db"], **BAND,
                      label="literature (Verrillo 1963; Gescheider et al. 2002)")
     models = sorted({r[0] for r in rows})
     for i, model in enumerate(models):

@@ -32,6 +32,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from server.psychophysics import literature
 from server.psychophysics.observer import PsychometricObserver, ThresholdCurve
 from server.synthetic.rng import derive_rng
 
@@ -86,19 +87,39 @@ class PsychometricModel:
 
 
 # The battery's simulated observers (docs/battery.md): population values from the literature
-# where it has them, the rest the defaults above.
-# - Detection: the U over carrier frequency, lowest near 250 Hz and about 25–30 dB higher at 40 Hz
-#   (Verrillo 1963, Pacinian channel): a parabola in log frequency of 4 dB per squared octave gives
-#   28 dB at 40 Hz. The minimum, −40 dB re the device's full scale, is ours (a device's full scale
-#   is its own).
-# - Amplitude JND 1.65–2.98 dB at the fingerpad (Israr, Tan & Reed, JASA 2006): the middle,
-#   2.3 dB, is a Weber fraction of 10^(2.3/20) − 1 = 0.30.
-# - Frequency Weber fractions 0.13–0.38 (Israr, Tan & Reed 2006): the middle, 0.25.
-# - Stiffness Weber fraction 0.15–0.22 (Tan et al. 1995; Bergmann Tiest & Kappers 2009): 0.185.
-LITERATURE_WEBER = MappingProxyType({**WEBER, "intensity_pct": 0.30, "carrier_hz": 0.25, "relative": 0.185})
-LITERATURE_RANGES = MappingProxyType({"intensity_pct": (10 ** (1.65 / 20) - 1, 10 ** (2.98 / 20) - 1),
-                                      "carrier_hz": (0.13, 0.38), "relative": (0.15, 0.22)})
-LITERATURE = PsychometricModel(minimum_db=-40.0, curvature_db=4.0, weber=LITERATURE_WEBER)
+# (server/psychophysics/literature.py, the numbers the report card draws as its bands) where it has
+# them, the rest the defaults above.
+# - Detection: the U over carrier frequency, lowest at 250 Hz (Verrillo 1963): ThresholdCurve's
+#   parabola in log2 frequency, its curvature the least-squares fit of the literature band's
+#   midline (literature_curvature_db). The minimum, −40 dB re the device's full scale, is ours
+#   (a device's full scale is its own).
+# - Discrimination: the middle of each literature band as a Weber fraction: the amplitude JND's
+#   middle in dB (Israr, Tan & Reed 2006) as 10^(dB/20) − 1, the frequency and stiffness Weber
+#   fractions' middles as they are.
+LITERATURE_PARAMETERS = MappingProxyType({"intensity_pct": "amplitude_jnd_db", "carrier_hz": "frequency_weber",
+                                          "relative": "stiffness_weber"})  # parameter → literature.BANDS key
+
+
+def weber_of(measure: str, value: float) -> float:
+    """A literature band's value as a Weber fraction k (a JND in dB is the ratio 1 + k)."""
+    return 10.0 ** (value / 20.0) - 1.0 if literature.BANDS[measure].unit == "dB" else value
+
+
+def literature_curvature_db(best_hz: float = literature.DETECTION_BEST_HZ) -> float:
+    """ThresholdCurve's curvature (dB per squared octave) fitted to the literature detection band's
+    midline: the least-squares c of midline(f) ≈ c · log2(f / best_hz)², the parabola with its
+    minimum (0 dB) at best_hz."""
+    x2 = np.array([math.log2(e.frequency_hz / best_hz) ** 2 for e in literature.DETECTION_BAND_DB])
+    mid = np.array([e.middle_db for e in literature.DETECTION_BAND_DB])
+    return float(x2 @ mid / (x2 @ x2))
+
+
+LITERATURE_RANGES = MappingProxyType({p: (weber_of(m, literature.BANDS[m].low), weber_of(m, literature.BANDS[m].high))
+                                      for p, m in LITERATURE_PARAMETERS.items()})
+LITERATURE_WEBER = MappingProxyType({**WEBER, **{p: weber_of(m, literature.BANDS[m].middle)
+                                                 for p, m in LITERATURE_PARAMETERS.items()}})
+LITERATURE = PsychometricModel(minimum_db=-40.0, best_hz=literature.DETECTION_BEST_HZ,
+                               curvature_db=literature_curvature_db(), weber=LITERATURE_WEBER)
 PRESETS = MappingProxyType({"default": PsychometricModel(), "literature": LITERATURE})
 
 

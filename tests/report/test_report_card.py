@@ -22,7 +22,8 @@ from server.analysis.load import AnalysisError, load
 from server.analysis.report import fmt
 from server.analysis.run import compute
 from server.battery.parts import BY_ID, plan_for
-from server.report import card, literature
+from server.psychophysics import literature
+from server.report import card
 from server.report.run import PAGE, STATS, report_devices
 from tests.report.battery_data import DEVICES, ROOT
 
@@ -216,8 +217,25 @@ def test_literature_bands_are_the_issues_numbers():
     assert (literature.BANDS["amplitude_jnd_db"].low, literature.BANDS["amplitude_jnd_db"].high) == (1.65, 2.98)
     assert (literature.BANDS["frequency_weber"].low, literature.BANDS["frequency_weber"].high) == (0.13, 0.38)
     assert (literature.BANDS["stiffness_weber"].low, literature.BANDS["stiffness_weber"].high) == (0.15, 0.22)
-    shape = dict(literature.DETECTION_SHAPE_DB)
+    shape = {e.frequency_hz: e.middle_db for e in literature.DETECTION_BAND_DB}
     assert min(shape, key=shape.get) == 250
+
+
+def test_the_detection_band_is_drawn_from_the_declared_edges(report):
+    from server.report import figures
+
+    stats = stats_of(report)
+    band = stats["literature"]["detection"]
+    declared = literature.DETECTION_BAND_DB
+    assert band["frequency_hz"] == [e.frequency_hz for e in declared]
+    assert band["low_db"] == [e.low_db for e in declared] and band["high_db"] == [e.high_db for e in declared]
+    assert all(lo < hi for lo, hi in zip(band["low_db"], band["high_db"]))
+    fig = figures.detection(stats)
+    shape = fig.axes[1]  # right: dB re each device's lowest threshold, with the band
+    (filled,) = [c for c in shape.collections if c.get_label().startswith("literature")]
+    outline = {tuple(np.round(v, 6)) for p in filled.get_paths() for v in p.vertices}
+    for e in declared:
+        assert (e.frequency_hz, e.low_db) in outline and (e.frequency_hz, e.high_db) in outline
 
 
 def test_a_jnd_below_the_reference_counts_positive():

@@ -1,10 +1,11 @@
-"""Literature reference bands of the report card, declared once with their sources
-(docs/report-card.md explains every band and number). The card draws them on its figures and
-prints each source under the figure that shows it.
+"""The literature's psychophysical numbers, declared once with their sources: the report card draws
+them as reference bands (server/report, docs/report-card.md) and the simulated battery's
+`literature` population takes its values from them (server/synthetic/psychometric.py,
+docs/battery.md "The simulated battery").
 
 Detection thresholds are compared by shape only: a device's thresholds are in its own units (% of
 its drive), the papers' in µm of skin displacement, so the card plots each device's thresholds in
-dB re its own lowest one against the papers' curve in dB re its minimum.
+dB re its own lowest one against the papers' band in dB re their minimum.
 """
 
 from __future__ import annotations
@@ -21,12 +22,28 @@ class Source:
 
 @dataclass(frozen=True)
 class Band:
-    measure: str            # the card's measure it is drawn on (a key of MEASURES in card.py)
+    measure: str            # the card's measure it is drawn on (a key of MEASURES in server/report/card.py)
     low: float
     high: float
     unit: str
     what: str
     sources: tuple[str, ...]  # keys of SOURCES
+
+    @property
+    def middle(self) -> float:
+        return (self.low + self.high) / 2.0
+
+
+@dataclass(frozen=True)
+class DetectionEdge:
+    """The detection band at one carrier: its low and high edge in dB re the curve's minimum."""
+    frequency_hz: float
+    low_db: float
+    high_db: float
+
+    @property
+    def middle_db(self) -> float:
+        return (self.low_db + self.high_db) / 2.0
 
 
 SOURCES = MappingProxyType({s.key: s for s in (
@@ -46,13 +63,26 @@ SOURCES = MappingProxyType({s.key: s for s in (
                                 "of compliance. IEEE Transactions on Haptics, 2(4), 189–199."),
 )})
 
-# The Pacinian U: detection threshold in dB re its minimum against frequency (Hz), a band of
-# ±DETECTION_HALF_WIDTH_DB around it. The shape of the large-contactor curve of Verrillo (1963)
-# and of the fingertip's P channel (Gescheider et al. 2002): lowest near 250 Hz, some 15 dB higher
-# at 40 Hz, rising again above 300 Hz. Values read off the published figures, good to a few dB
-# (hence the band's width): a plausibility check of a curve's shape, not a norm.
-DETECTION_SHAPE_DB = ((40, 16.0), (80, 8.0), (160, 2.0), (250, 0.0), (320, 1.5), (400, 4.0))
-DETECTION_HALF_WIDTH_DB = 4.0
+# The Pacinian U: the detection threshold in dB re its minimum against frequency, lowest near
+# 250 Hz. The band spans the fingertip to the large-contactor thenar eminence:
+# - high edge, Verrillo (1963), 2.9 cm² contactor on the thenar: flat up to about 40 Hz, then
+#   falling about 12 dB per octave to its minimum near 250–300 Hz (read literally some 20–28 dB
+#   between 40 Hz and the minimum), rising above it;
+# - low edge, Gescheider et al. (2002), the fingertip: shallower below the minimum (the
+#   non-Pacinian channels set the threshold there, and the contactor is smaller), roughly
+#   12–18 dB between 40 Hz and the minimum.
+# Approximate readings of the published curves (their tables were not at hand), the band wide
+# enough for contactor size and site and for a minimum anywhere in 250–300 Hz: a plausibility
+# check of a curve's shape, not a norm.
+DETECTION_BAND_DB = (
+    DetectionEdge(40, 12.0, 28.0),
+    DetectionEdge(80, 5.0, 16.0),
+    DetectionEdge(160, 0.0, 6.0),
+    DetectionEdge(250, -2.0, 2.0),
+    DetectionEdge(320, -1.0, 4.0),
+    DetectionEdge(400, 0.0, 8.0),
+)
+DETECTION_BEST_HZ = 250.0  # the Pacinian channel's best frequency, the curve's minimum (Verrillo 1963)
 DETECTION_SOURCES = ("verrillo1963", "gescheider2002")
 
 BANDS = MappingProxyType({b.measure: b for b in (
@@ -64,10 +94,12 @@ BANDS = MappingProxyType({b.measure: b for b in (
 
 
 def detection_band() -> dict:
-    """The detection-threshold shape as the card's stats.json and figure use it."""
-    return {"frequency_hz": [f for f, _ in DETECTION_SHAPE_DB], "db_re_min": [d for _, d in DETECTION_SHAPE_DB],
-            "half_width_db": DETECTION_HALF_WIDTH_DB, "sources": list(DETECTION_SOURCES),
-            "what": "vibrotactile detection threshold, dB re its minimum (U-shaped, lowest near 250 Hz)"}
+    """The detection band as the card's stats.json and figure use it."""
+    return {"frequency_hz": [e.frequency_hz for e in DETECTION_BAND_DB],
+            "low_db": [e.low_db for e in DETECTION_BAND_DB], "high_db": [e.high_db for e in DETECTION_BAND_DB],
+            "sources": list(DETECTION_SOURCES),
+            "what": "vibrotactile detection threshold, dB re its minimum (U-shaped, lowest near 250 Hz): "
+                    "fingertip (low edge) to large-contactor thenar (high edge)"}
 
 
 def bands() -> dict:
