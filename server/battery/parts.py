@@ -48,7 +48,7 @@ BREAK_S = 60.0             # a break within a part, as counted in the part's min
 # target_se below; `viestac battery --trial-counts` prints it, tests/battery/test_trial_counts.py
 # fails when this table is not what it derives). Positioning: the thesis's three objects.
 TRIALS = MappingProxyType({
-    "detection": 60, "amplitude_jnd": 40, "frequency_jnd": 50, "tilt_direction": 80,
+    "detection": 60, "amplitude_jnd": 50, "frequency_jnd": 50, "tilt_direction": 80,
     "temperature_change": 120, "texture_period": 50, "stiffness": 80, "angle_identification": 80,
     "positioning": 3,
 })
