@@ -443,7 +443,8 @@ def _battery(args: argparse.Namespace) -> int:
     Path(args.out).write_text(text, encoding="utf-8")
     plans = plan_for(args.device, trials)
     for plan in plans:
-        print(f"  {plan.part.id:<22} " + (f"{plan.trials:>4} trials {plan.minutes:>5.1f} min" if plan.runs
+        breaks = f"{plan.breaks} break{'s' if plan.breaks != 1 else ''}"
+        print(f"  {plan.part.id:<22} " + (f"{plan.trials:>4} trials {breaks:>8} {plan.minutes:>5.1f} min" if plan.runs
                                            else f"skipped: {plan.reason}"))
     print(f"{sum(p.minutes for p in plans if p.runs):.1f} min per participant; written to {args.out}")
     return 0

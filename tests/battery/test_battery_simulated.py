@@ -8,7 +8,8 @@ truth's 95 % interval.
 - Thresholds, JNDs, Weber fractions (staircases): per part and condition, the recovered values
   (each participant's procedure estimate after the last trial) against the participants' own true
   values (the level where their own psychometric function gives 79.4 % correct, the point a
-  1-up/3-down staircase converges on, Levitt 1971): the 95 % interval of the group's mean recovery error
+  1-up/3-down staircase converges on, Levitt 1971): the 95 % interval (simultaneous over the
+  module's 24 parts and conditions, Bonferroni) of the group's mean recovery error
   (t on 11 degrees of freedom) contains 0, and the group's mean recovered value lies within the
   truth's 95 % interval (mean true value ± that interval's half width). And the spread of the
   engine's recovery errors is the spread the power analysis behind the trial counts predicts (the
@@ -127,16 +128,20 @@ def recovered(observers, observers_of, model: str) -> dict[tuple[str, str], dict
     return groups
 
 
-def within_truth(values, truths, method_bias: float = 0.0) -> tuple[bool, str]:
+def within_truth(values, truths, method_bias: float = 0.0, comparisons: int = 1) -> tuple[bool, str]:
     """The group's mean recovery error against the truth's 95 % interval: t on n − 1 degrees of
     freedom of the errors' SD, widened by the procedure's own bias (`method_bias`, measured by
-    procedure_errors: what a fixed-step staircase gives these observers on average, engine or not)."""
+    procedure_errors: what a fixed-step staircase gives these observers on average, engine or not).
+    With `comparisons` > 1 the intervals are simultaneous (Bonferroni): 95 % that every one of the
+    module's parts and conditions holds its truth, where 24 separate 95 % intervals would miss one
+    by chance in most runs (1 − 0.95^24 = 71 %)."""
     values, truths = np.asarray(values, float), np.asarray(truths, float)
     n = len(values)
     errors = values - truths
-    half = student_t.ppf(0.975, n - 1) * errors.std(ddof=1) / math.sqrt(n) + abs(method_bias)
+    half = student_t.ppf(1 - 0.025 / comparisons, n - 1) * errors.std(ddof=1) / math.sqrt(n) + abs(method_bias)
     ok = abs(errors.mean()) <= half and abs(values.mean() - truths.mean()) <= half
-    return ok, (f"recovered {values.mean():.3f}, true {truths.mean():.3f} ± {half:.3f} (95 %, the procedure's "
+    return ok, (f"recovered {values.mean():.3f}, true {truths.mean():.3f} ± {half:.3f} (95 %"
+                f"{' simultaneous' if comparisons > 1 else ''}, the procedure's "
                 f"own bias {method_bias:+.3f} included), mean error {errors.mean():+.3f}, n {n}")
 
 
@@ -188,7 +193,7 @@ def check_staircase_parts(model, text, observers, people) -> list[str]:
     for key, group in sorted(groups.items()):
         assert len(group["values"]) == PARTICIPANTS, key
         free = procedure_errors(text, key[0], key[1], observers_of, group["part"], model)
-        ok, summary = within_truth(group["values"], group["truths"], float(np.nanmean(free)))
+        ok, summary = within_truth(group["values"], group["truths"], float(np.nanmean(free)), COMPARISONS)
         spread_ok, spread = same_spread(np.subtract(group["values"], group["truths"]), free, COMPARISONS)
         print(f"{model} {key[0]}/{key[1]}: {summary}; {spread}")
         if not (ok and spread_ok):
