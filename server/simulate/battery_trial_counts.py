@@ -218,7 +218,7 @@ def counts_for_targets(targets: Mapping[str, float], observers: int = OBSERVERS,
 
 
 def _unit(part: Part) -> str:
-    if part.reference is None and part.id == "detection" or part.id == "amplitude_jnd":
+    if part.id in ("detection", "amplitude_jnd"):  # measure_of's dB
         return "dB"
     return {"weber": "", "it_bits": "bits"}.get(part.measure, part.unit)
 
