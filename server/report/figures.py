@@ -97,7 +97,7 @@ def discrimination(stats: dict) -> Figure | None:
             if p == part and m.get("within_tested_range", True):
                 _errorbar(ax, models.index(model), m, COLOURS[models.index(model) % len(COLOURS)])
         unit = next(m["unit"] for _, p, m in found[key] if p == part)
-        ax.set_xticks(range(len(models)), models)
+        ax.set_xticks(range(len(models)), models, rotation=30, ha="right")  # model names would overlap
         ax.set(xlim=(-0.6, len(models) - 0.4), ylabel=unit or "fraction")
         ax.set_title(f"{part}: {found[key][0][2]['label']}", fontsize=9)
         if band:
