@@ -18,9 +18,10 @@ from dataclasses import dataclass
 
 import pytest
 
-from tests.browser.conftest import ARTIFACTS, new_context, require_web_deps
-from tests.browser.test_console import CONSOLE_VIEWPORT, Console
-from tests.browser.test_web_client import READY_TIMEOUT_MS, VIEWPORT, wait_for
+from tests.browser.conftest import ARTIFACTS
+from tests.browser.test_console import CONSOLE_VIEWPORT, Console, wait_status
+from tests.browser.test_pages import contexts  # noqa: F401  (the pages' browser-context fixture)
+from tests.browser.test_web_client import READY_TIMEOUT_MS, wait_for
 from tests.live_server import LiveServer, get_json, start_server, stop_server
 
 pytestmark = pytest.mark.browser
@@ -82,28 +83,8 @@ def paced_server(tmp_path_factory, paced_study):
         stop_server(proc)
 
 
-@pytest.fixture
-def contexts(browser):
-    require_web_deps()
-    made = []
-
-    def make(server: LiveServer, *, token=True, viewport=VIEWPORT):
-        ctx = new_context(browser, server.http_url, token=token, viewport=viewport)
-        made.append(ctx)
-        return ctx.new_page()
-
-    yield make
-    for ctx in made:
-        ctx.close()
-
-
 def trials(server: LiveServer, sid: str) -> list[dict]:
     return server.get(f"/api/sessions/{sid}")["trials"]
-
-
-def wait_status(server: LiveServer, sid: str, seq: int, status: str, timeout: float = 10) -> dict:
-    return wait_for(lambda: (t := trials(server, sid)[seq])["status"] == status and t, timeout=timeout,
-                    what=f"trial {seq} {status}")
 
 
 def console_session(page, server: LiveServer, study: PacedStudy, participant: str) -> tuple[Console, str]:
@@ -138,7 +119,7 @@ def shot(page, name: str) -> None:
     page.screenshot(path=str(ARTIFACTS / f"paced-{name}.png"))
 
 
-def test_a_paced_task_runs_from_the_participants_keys(contexts, paced_server, paced_study):
+def test_a_paced_task_runs_from_the_participants_keys(contexts, paced_server, paced_study):  # noqa: F811
     server, study = paced_server, paced_study
     console, sid = console_session(contexts(server, viewport=CONSOLE_VIEWPORT), server, study, "P11")
     participant = contexts(server, token=None)
@@ -240,7 +221,7 @@ def pinch(page, value) -> None:
     page.evaluate(PINCH, [0])
 
 
-def test_the_emulated_headset_answers_a_paced_task_by_pinch(contexts, paced_server, paced_study):
+def test_the_emulated_headset_answers_a_paced_task_by_pinch(contexts, paced_server, paced_study):  # noqa: F811
     server, study = paced_server, paced_study
     console, sid = console_session(contexts(server, viewport=CONSOLE_VIEWPORT), server, study, "P12")
     page = contexts(server, token=None)
